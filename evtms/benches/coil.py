@@ -1,0 +1,415 @@
+"""Air-to-refrigerant coil: moving-boundary effectiveness-NTU with moist air.
+
+Shared by the condenser and the evaporator benches. The coil is a single row
+of flat multiport tubes in cross flow, refrigerant in all tubes in parallel.
+Along the tubes the refrigerant passes through up to three zones (vapour,
+two-phase, liquid; in the order its enthalpy moves). Each zone covers a
+fraction ``f`` of the tube length and so of the face area and air flow; it is
+an effectiveness-NTU exchanger of ``f`` times the coil's UA, with both streams
+unmixed (Incropera et al. 2007, eq. 11.32). The fractions follow from the
+zone heat loads, solved by bisection, which is the moving-boundary method of
+Simscape's two-phase/moist-air heat exchangers (MathWorks 2024) in steady
+state.
+
+Single-phase zones use a secant heat capacity of the refrigerant over the
+zone's temperature span (to its phase boundary, or to the entering-air
+temperature for the last zone), so no zone can move more heat than the
+second law allows: the refrigerant never leaves a condenser colder, nor an
+evaporator warmer, than the entering air.
+
+Moist air (evaporator): each zone is evaluated both dry (sensible) and wet
+with the enthalpy-potential method of Threlkeld (1970) in the
+effectiveness-NTU form of Braun, Klein and Mitchell (1989), and the larger
+heat rate is taken, their recommended rule for partly wet coils. The moisture
+condensed follows from the effective surface state of the same method.
+
+Heat transfer is evaluated at the inlet pressure; the pressure drop (Haaland
+single-phase friction, Mueller-Steinhagen-Heck two-phase friction, over the
+zone lengths) sets the outlet pressure at which the outlet state is reported.
+
+References
+----------
+Braun, J. E., Klein, S. A., Mitchell, J. W. (1989). Effectiveness models for
+cooling towers and cooling coils. ASHRAE Trans. 95(2), 164-174.
+Threlkeld, J. L. (1970). Thermal Environmental Engineering, 2nd ed.,
+Prentice-Hall, ch. 13.
+Incropera, F. P. et al. (2007). Fundamentals of Heat and Mass Transfer, 6th ed.
+MathWorks (2024). Condenser Evaporator (2P-MA), Simscape Fluids reference.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from evtms.benches import correlations as corr
+from evtms.fluid import Fluid, humid_air_inlet, humid_air_temperature, quality, saturated_air, water_liquid_enthalpy
+from evtms.params import CoilParams, Environment
+
+_BISECTION_STEPS = 60
+ZONES = ("liquid", "two_phase", "vapour")
+
+
+@dataclass(frozen=True)
+class CoilGeometry:
+    """Derived coil geometry.
+
+    Attributes
+    ----------
+    D_h : float
+        Hydraulic diameter of one refrigerant channel [m].
+    flow_area : float
+        Total refrigerant flow cross-section of all channels [m2].
+    tube_length : float
+        Refrigerant path length through the coil [m].
+    area_air : float
+        Total air-side area, primary plus fins [m2].
+    eta_surface : float
+        Air-side overall surface efficiency [1].
+    D_h_air : float
+        Air-side hydraulic diameter, ``4 A_free depth / A_air`` [m].
+    R_wall : float
+        Conduction resistance of the tube wall [K/W].
+    """
+
+    D_h: float
+    flow_area: float
+    tube_length: float
+    area_air: float
+    eta_surface: float
+    D_h_air: float
+    R_wall: float
+
+
+def coil_geometry(coil: CoilParams) -> CoilGeometry:
+    """Derive channel and air-side geometry from the coil parameters.
+
+    Channels are rectangles filling the tube's inner section (the webs between
+    them are neglected): width ``(depth - 2 t_wall) / n_channels``, height
+    ``thickness - 2 t_wall``. Overall surface efficiency
+    ``eta_o = 1 - A_fin / A_air (1 - eta_fin)`` (Incropera et al. 2007, eq. 11.3).
+    """
+    width = (coil.tube_depth - 2 * coil.wall_thickness) / coil.n_channels
+    height = coil.tube_thickness - 2 * coil.wall_thickness
+    area_air = coil.area_air_primary + coil.area_air_fin
+    return CoilGeometry(
+        D_h=2 * width * height / (width + height),
+        flow_area=coil.n_tubes * coil.n_channels * width * height,
+        tube_length=coil.core_length,
+        area_air=area_air,
+        eta_surface=1.0 - coil.area_air_fin / area_air * (1.0 - coil.fin_efficiency),
+        D_h_air=4.0 * coil.area_air_free * coil.tube_depth / area_air,
+        R_wall=coil.wall_thickness / (coil.wall_conductivity * coil.area_ref),
+    )
+
+
+def _where(mask: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.where(mask, a, b)
+
+
+def _single_phase_htc(G, D, rough, props, nu_lam):
+    """Refrigerant single-phase heat-transfer coefficient [W/(m2 K)]."""
+    Re = G * D / props["MU"]
+    Pr = props["CP"] * props["MU"] / props["K"]
+    f = corr.haaland_friction_factor(Re, rough)
+    return corr.single_phase_nusselt(Re, Pr, f, nu_lam) * props["K"] / D
+
+
+def _condensation_htc(G, D, sat, nu_lam):
+    """Condensation coefficient [W/(m2 K)] averaged over quality 0..1 (Gauss-Legendre)."""
+    x = corr.GAUSS_NODES[None, :]
+    col = {k: v[:, None] for k, v in sat.items()}
+    Pr_l = col["cp_l"] * col["mu_l"] / col["k_l"]
+    nu = corr.cavallini_zecchin_nusselt(
+        x, G[:, None], D, col["mu_l"], col["mu_v"], col["rho_l"], col["rho_v"], Pr_l, nu_lam
+    )
+    return (nu @ corr.GAUSS_WEIGHTS) * sat["k_l"] / D
+
+
+def _boiling_htc(G, D, sat, q, nu_lam):
+    """Flow-boiling coefficient [W/(m2 K)] averaged over quality 0..1 at heat flux ``q``."""
+    x = corr.GAUSS_NODES[None, :]
+    col = {k: v[:, None] for k, v in sat.items()}
+    Pr_l = col["cp_l"] * col["mu_l"] / col["k_l"]
+    h = corr.gungor_winterton_htc(
+        x, G[:, None], D, q[:, None], col["h_v"] - col["h_l"], col["mu_l"], col["rho_l"], col["rho_v"],
+        col["k_l"], Pr_l, nu_lam,
+    )
+    return h @ corr.GAUSS_WEIGHTS
+
+
+def _two_phase_gradient(G, D, rough, sat, x0, x1):
+    """Mean two-phase frictional gradient [Pa/m] over quality x0..x1."""
+    x = x0[:, None] + (x1 - x0)[:, None] * corr.GAUSS_NODES[None, :]
+    col = {k: v[:, None] for k, v in sat.items()}
+    g = corr.muller_steinhagen_heck_gradient(
+        np.clip(x, 0.0, 1.0), G[:, None], D, rough, col["mu_l"], col["mu_v"], col["rho_l"], col["rho_v"]
+    )
+    return g @ corr.GAUSS_WEIGHTS
+
+
+def _bisect(func, target, hi, steps=_BISECTION_STEPS):
+    """Vectorised bisection for ``func(f) = target`` on [0, hi]; func increasing in f."""
+    lo = np.zeros_like(hi)
+    hi = hi.copy()
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        below = func(mid) < target
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+def solve_coil(
+    fluid: Fluid,
+    coil: CoilParams,
+    env: Environment,
+    p_in: np.ndarray,
+    h_in: np.ndarray,
+    mdot: np.ndarray,
+    air_fraction: np.ndarray,
+    mode: str,
+) -> dict[str, np.ndarray]:
+    """Steady-state coil response at arrays of refrigerant and air inlet conditions.
+
+    Parameters
+    ----------
+    fluid : Fluid
+        Refrigerant property source.
+    coil : CoilParams
+        Geometry and heat-transfer parameters.
+    env : Environment
+        Entering air (pressure, temperature, relative humidity).
+    p_in : numpy.ndarray
+        Refrigerant inlet pressure [Pa].
+    h_in : numpy.ndarray
+        Refrigerant inlet specific enthalpy [J/kg].
+    mdot : numpy.ndarray
+        Refrigerant mass flow [kg/s], > 0.
+    air_fraction : numpy.ndarray
+        Fan or blower fraction of the maximum air volume flow [1].
+    mode : {"condenser", "evaporator"}
+        ``"condenser"``: heat leaves the refrigerant, dry air.
+        ``"evaporator"``: heat enters the refrigerant, moist air may condense.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``Q`` heat from refrigerant to air [W], ``Q_latent`` [W] (<= 0),
+        ``h_out`` [J/kg], ``p_out`` [Pa], ``dp`` [Pa], ``T_out`` [K],
+        ``x_out`` [1], ``T_air_out`` [K], ``T_surface_min`` coldest wall
+        surface [K], ``m_condensate`` [kg/s], and the boolean masks
+        ``bad_direction`` (the air cannot take or give heat in the required
+        direction), ``bad_dp`` (pressure drop at or above inlet pressure) and
+        ``bad_props`` (a property evaluation failed).
+    """
+    if mode not in ("condenser", "evaporator"):
+        raise ValueError(f"mode must be 'condenser' or 'evaporator', not {mode!r}")
+    sign = -1.0 if mode == "condenser" else 1.0  # direction of the refrigerant's enthalpy change
+    wet = mode == "evaporator"
+    p_in, h_in, mdot, air_fraction = (np.asarray(a, float).reshape(-1) for a in (p_in, h_in, mdot, air_fraction))
+    n = p_in.size
+    geo = coil_geometry(coil)
+    rough = coil.roughness / geo.D_h
+
+    # --- air side --------------------------------------------------------
+    air = humid_air_inlet(env.T, env.p, env.RH)
+    T_air = env.T
+    volume_flow = air_fraction * coil.fan_flow_max
+    m_da = air["rho"] * volume_flow / (1.0 + air["w"])
+    C_air = m_da * air["cp"]
+    h_o = corr.air_side_htc(
+        volume_flow / coil.area_air_free, geo.D_h_air, air["rho"], air["mu"], air["k"], air["Pr"], coil.air_nu_coeffs
+    )
+    R_air = 1.0 / (geo.eta_surface * h_o * geo.area_air) + coil.fouling_air / geo.area_air
+    R_wall_ref = geo.R_wall + coil.fouling_ref / coil.area_ref
+    sat_air = saturated_air(env.p) if wet else None
+
+    # --- refrigerant states ------------------------------------------------
+    sat = fluid.saturation(p_in)
+    T_sat, h_l, h_v = sat["T"], sat["h_l"], sat["h_v"]
+    T_in = fluid.state("PH", p_in, h_in, ("T",))["T"]
+    h_air_T = fluid.state("PT", p_in, np.full(n, T_air), ("H",))["H"]  # refrigerant at air temperature
+    G = mdot / geo.flow_area
+    bad_props = ~np.isfinite(T_in + T_sat + h_air_T)
+
+    if mode == "condenser":
+        start = np.where(h_in > h_v, 2, np.where(h_in > h_l, 1, 0))
+        order = (2, 1, 0)  # vapour -> two-phase -> liquid
+    else:
+        start = np.where(h_in < h_l, 0, np.where(h_in < h_v, 1, 2))
+        order = (0, 1, 2)
+    start_pos = np.array([order.index(z) for z in range(3)])[start]  # position of the inlet zone in the march
+    bad_direction = ~(sign * (T_air - T_in) > 0)
+
+    # Two-phase refrigerant coefficient, full coil area; boiling needs the
+    # heat flux, estimated from the all-two-phase coil by fixed-point iteration.
+    if mode == "condenser":
+        h_tp = _condensation_htc(G, geo.D_h, sat, coil.nu_laminar)
+    else:
+        q = np.full(n, 1000.0)
+        for _ in range(4):
+            h_tp = _boiling_htc(G, geo.D_h, sat, q, coil.nu_laminar)
+            UA = 1.0 / (R_air + R_wall_ref + 1.0 / (h_tp * coil.area_ref))
+            q = C_air * -np.expm1(-UA / C_air) * np.abs(T_air - T_sat) / coil.area_ref
+
+    # --- march through the zones -----------------------------------------
+    f_rem = np.ones(n)
+    done = bad_props | bad_direction
+    h_cur, T_cur = h_in.copy(), T_in.copy()
+    Q = np.zeros(n)
+    dp = np.zeros(n)
+    m_cond = np.zeros(n)
+    cond_enthalpy = np.zeros(n)  # sum of m_w h_w(T_s) [W]
+    latent = np.zeros(n)
+    T_surface_min = np.full(n, np.inf)
+    for zone in order:
+        active = (start_pos <= order.index(zone)) & ~done & (f_rem > 0)
+        if not active.any():
+            continue
+        idx = np.nonzero(active)[0]
+        p, m, fr = p_in[idx], mdot[idx], f_rem[idx]
+        Ta = T_air
+        Tr0, hr0 = T_cur[idx], h_cur[idx]
+        Ts = T_sat[idx]
+        is_last = zone == order[-1]
+        two_phase = zone == 1
+        # The phase boundary ends this zone only if it lies on the refrigerant's way towards the air.
+        reachable = np.zeros(idx.size, bool) if is_last else (sign * (Ta - Ts) > 0)
+        # Liquid ends at h_l, vapour at h_v; two-phase at h_l when condensing, h_v when boiling.
+        boundary_h = (h_l if zone == 0 or (two_phase and mode == "condenser") else h_v)[idx]
+        T_end = np.where(reachable, Ts, Ta)
+        h_end = np.where(reachable, boundary_h, h_air_T[idx])
+        Q_needed = np.where(reachable, m * np.abs(boundary_h - hr0), np.inf)
+
+        if two_phase:
+            h_ref = h_tp[idx]
+            C_ref = np.full(idx.size, np.inf)
+            props = None
+        else:
+            T_mid = 0.5 * (Tr0 + T_end)
+            props = fluid.state("PT", p, T_mid, ("D", "CP", "MU", "K"))
+            phase = "v" if zone == 2 else "l"
+            for key, sk in (("D", "rho"), ("CP", "cp"), ("MU", "mu"), ("K", "k")):
+                props[key] = np.where(np.isfinite(props[key]), props[key], sat[f"{sk}_{phase}"][idx])
+            h_ref = _single_phase_htc(G[idx], geo.D_h, rough, props, coil.nu_laminar)
+            span = T_end - Tr0
+            cp_eff = np.where(np.abs(span) > 1e-9, (h_end - hr0) / np.where(span == 0, 1.0, span), props["CP"])
+            C_ref = m * cp_eff
+        R_ref = R_wall_ref + 1.0 / (h_ref * coil.area_ref)
+        R_tot = R_air[idx] + R_ref
+        C_a = C_air[idx]
+        dT = np.abs(Ta - Tr0)
+
+        def q_dry(f, C_ref=C_ref, R_tot=R_tot, C_a=C_a, dT=dT):
+            C_af = f * C_a
+            C_min = np.minimum(C_af, C_ref)
+            C_max = np.maximum(C_af, C_ref)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ntu = np.where(C_min > 0, f / R_tot / np.where(C_min > 0, C_min, 1.0), 0.0)
+                cr = np.where(np.isfinite(C_max) & (C_max > 0), C_min / np.where(C_max > 0, C_max, 1.0), 0.0)
+            return corr.crossflow_effectiveness(ntu, cr) * C_min * dT
+
+        if wet:
+            # Enthalpy potential (Braun et al. 1989): saturated-air enthalpy slope
+            # c_s as the secant between refrigerant and entering-air temperature.
+            h_s_r = sat_air.enthalpy(Tr0)
+            c_s = (sat_air.enthalpy(np.full(idx.size, Ta)) - h_s_r) / np.maximum(Ta - Tr0, 1e-9)
+            R_star = air["cp"] * R_air[idx] + c_s * R_ref  # (J/kg)/W
+            C_ref_star = C_ref / c_s
+            m_a = m_da[idx]
+            dh = np.maximum(air["h"] - h_s_r, 0.0)
+
+            def q_wet(f, C_ref_star=C_ref_star, R_star=R_star, m_a=m_a, dh=dh):
+                C_af = f * m_a
+                C_min = np.minimum(C_af, C_ref_star)
+                C_max = np.maximum(C_af, C_ref_star)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    ntu = np.where(C_min > 0, f / R_star / np.where(C_min > 0, C_min, 1.0), 0.0)
+                    cr = np.where(np.isfinite(C_max) & (C_max > 0), C_min / np.where(C_max > 0, C_max, 1.0), 0.0)
+                return corr.crossflow_effectiveness(ntu, cr) * C_min * dh
+
+            def q_zone(f):
+                return np.maximum(q_dry(f), q_wet(f))
+        else:
+            q_zone = q_dry
+
+        Q_full = q_zone(fr)
+        take_all = Q_full <= Q_needed
+        f_z = np.where(take_all, fr, 0.0)
+        if (~take_all).any():
+            f_z = np.where(take_all, fr, _bisect(q_zone, Q_needed, fr))
+        Q_z = np.where(take_all, Q_full, Q_needed)
+
+        # Coldest (evaporator) or hottest (condenser) wall point of the zone: at the air inlet face.
+        T_wall = Tr0 + (Ta - Tr0) * R_ref / R_tot
+        T_surface_min[idx] = np.minimum(T_surface_min[idx], np.where(f_z > 0, T_wall, np.inf))
+
+        if wet:
+            is_wet = (q_wet(f_z) > q_dry(f_z)) & (f_z > 0)
+            if is_wet.any():
+                # Effective surface state (Braun et al. 1989, eqs. 25-28).
+                ntu_o = 1.0 / (R_air[idx] * C_air[idx])
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    h_a_out = air["h"] - Q_z / np.where(f_z > 0, f_z * m_a, 1.0)
+                    h_s_eff = air["h"] - (air["h"] - h_a_out) / -np.expm1(-ntu_o)
+                T_s_eff = sat_air.temperature(h_s_eff)
+                w_s_eff = sat_air.humidity_ratio(T_s_eff)
+                w_out = w_s_eff + (air["w"] - w_s_eff) * np.exp(-ntu_o)
+                m_w = np.where(is_wet, f_z * m_a * np.maximum(air["w"] - w_out, 0.0), 0.0)
+                m_w = np.where(np.isfinite(m_w), m_w, np.nan)
+                h_fg_w = 2.501e6 - 2369.0 * (T_s_eff - 273.15)  # ASHRAE Fundamentals, latent heat of water
+                m_cond[idx] += m_w
+                cond_enthalpy[idx] += np.where(m_w > 0, m_w * water_liquid_enthalpy(T_s_eff), 0.0)
+                latent[idx] += np.where(m_w > 0, m_w * h_fg_w, 0.0)
+
+        # Frictional pressure drop over the zone length.
+        L = f_z * geo.tube_length
+        if two_phase:
+            h_z_end = hr0 + sign * Q_z / m
+            x0 = (hr0 - h_l[idx]) / (h_v[idx] - h_l[idx])
+            x1 = (h_z_end - h_l[idx]) / (h_v[idx] - h_l[idx])
+            grad = _two_phase_gradient(G[idx], geo.D_h, rough, {k: v[idx] for k, v in sat.items()}, x0, x1)
+        else:
+            grad = corr.single_phase_gradient(G[idx], geo.D_h, rough, props["MU"], props["D"])
+        dp[idx] += grad * L
+
+        Q[idx] += Q_z
+        h_cur[idx] = hr0 + sign * Q_z / m
+        T_cur[idx] = np.where(take_all, np.nan, Ts)
+        f_rem[idx] = np.where(take_all, 0.0, fr - f_z)
+        done[idx] |= take_all
+
+    # --- outlet states -----------------------------------------------------
+    h_out = h_in + sign * Q / mdot
+    p_out = p_in - dp
+    bad_dp = ~(p_out > fluid.p_triple)
+    p_ok = np.where(bad_dp, np.nan, p_out)
+    T_out = fluid.state("PH", p_ok, h_out, ("T",))["T"]
+    h_l_out = fluid.state("PQ", p_ok, 0.0, ("H",))["H"]
+    h_v_out = fluid.state("PQ", p_ok, 1.0, ("H",))["H"]
+    x_out = quality(h_out, h_l_out, h_v_out)
+    Q_signed = -sign * Q  # > 0 when heat flows from refrigerant to air
+    # Air leaving: refrigerant heat plus the enthalpy carried off by condensate.
+    h_air_out = air["h"] + (Q_signed - cond_enthalpy) / m_da
+    w_air_out = air["w"] - m_cond / m_da
+    T_air_out = humid_air_temperature(h_air_out, w_air_out, env.p)
+    bad_props |= ~np.isfinite(T_out + x_out + T_air_out)
+    return {
+        "Q": Q_signed,
+        "Q_latent": -latent,
+        "h_out": h_out,
+        "p_out": p_out,
+        "dp": dp,
+        "T_out": T_out,
+        "x_out": x_out,
+        "T_air_out": T_air_out,
+        "T_surface_min": T_surface_min,
+        "m_condensate": m_cond,
+        "h_air_out": h_air_out,
+        "w_air_out": w_air_out,
+        "bad_direction": bad_direction,
+        "bad_dp": bad_dp,
+        "bad_props": bad_props,
+    }

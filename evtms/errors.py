@@ -1,0 +1,9 @@
+"""Exceptions shared by the library; the CLI turns them into exit codes."""
+
+
+class EvtmsInputError(ValueError):
+    """A user-supplied value is not allowed.
+
+    The message is one line that names the bad value and what is allowed; the
+    CLI prints it and exits with code 2.
+    """
