@@ -148,7 +148,8 @@ def bench(
     ] = None,
     params: Annotated[Path | None, typer.Option("--params", help="TOML file overriding component parameters.")] = None,
     output: Annotated[
-        Path | None, typer.Option("--output", "-o", help="Output .nc file (a folder for 'all'). Default: luts/<name>.nc")
+        Path | None,
+        typer.Option("--output", "-o", help="Output .nc file (a folder for 'all'). Default: luts/<name>.nc"),
     ] = None,
     backend: Annotated[
         str | None, typer.Option("--backend", help="CoolProp backend: HEOS (default) or BICUBIC&HEOS.")
@@ -202,7 +203,9 @@ def bench(
                 total *= len(v)
             t0 = time.perf_counter()
             try:
-                ds = run_sweep(bench_, values, parameters, grid_name=grid_name, progress=bar.task(name, total), fluid=fluid)
+                ds = run_sweep(
+                    bench_, values, parameters, grid_name=grid_name, progress=bar.task(name, total), fluid=fluid
+                )
             except EvtmsInputError as exc:
                 fail(str(exc))
             path = write_lut(ds, targets[name])

@@ -116,15 +116,23 @@ def _single_phase_htc(G, D, rough, props, nu_lam):
     return corr.single_phase_nusselt(Re, Pr, f, nu_lam) * props["K"] / D
 
 
-def _condensation_htc(G, D, sat, nu_lam):
-    """Condensation coefficient [W/(m2 K)] averaged over quality 0..1 (Gauss-Legendre)."""
+def _condensation_htc(G, D, sat, q, nu_lam):
+    """Condensation coefficient [W/(m2 K)] averaged over quality 0..1 (Gauss-Legendre).
+
+    The larger of the shear-driven (Cavallini-Zecchin) and the gravity-driven
+    film (Chato) coefficients at heat flux ``q``.
+    """
     x = corr.GAUSS_NODES[None, :]
     col = {k: v[:, None] for k, v in sat.items()}
     Pr_l = col["cp_l"] * col["mu_l"] / col["k_l"]
     nu = corr.cavallini_zecchin_nusselt(
         x, G[:, None], D, col["mu_l"], col["mu_v"], col["rho_l"], col["rho_v"], Pr_l, nu_lam
     )
-    return (nu @ corr.GAUSS_WEIGHTS) * sat["k_l"] / D
+    shear = (nu @ corr.GAUSS_WEIGHTS) * sat["k_l"] / D
+    film = corr.chato_film_condensation_htc(
+        q, D, sat["rho_l"], sat["rho_v"], sat["k_l"], sat["mu_l"], sat["cp_l"], sat["h_v"] - sat["h_l"]
+    )
+    return np.maximum(shear, film)
 
 
 def _boiling_htc(G, D, sat, q, nu_lam):
@@ -133,8 +141,17 @@ def _boiling_htc(G, D, sat, q, nu_lam):
     col = {k: v[:, None] for k, v in sat.items()}
     Pr_l = col["cp_l"] * col["mu_l"] / col["k_l"]
     h = corr.gungor_winterton_htc(
-        x, G[:, None], D, q[:, None], col["h_v"] - col["h_l"], col["mu_l"], col["rho_l"], col["rho_v"],
-        col["k_l"], Pr_l, nu_lam,
+        x,
+        G[:, None],
+        D,
+        q[:, None],
+        col["h_v"] - col["h_l"],
+        col["mu_l"],
+        col["rho_l"],
+        col["rho_v"],
+        col["k_l"],
+        Pr_l,
+        nu_lam,
     )
     return h @ corr.GAUSS_WEIGHTS
 
@@ -243,16 +260,15 @@ def solve_coil(
     start_pos = np.array([order.index(z) for z in range(3)])[start]  # position of the inlet zone in the march
     bad_direction = ~(sign * (T_air - T_in) > 0)
 
-    # Two-phase refrigerant coefficient, full coil area; boiling needs the
-    # heat flux, estimated from the all-two-phase coil by fixed-point iteration.
-    if mode == "condenser":
-        h_tp = _condensation_htc(G, geo.D_h, sat, coil.nu_laminar)
-    else:
-        q = np.full(n, 1000.0)
-        for _ in range(4):
-            h_tp = _boiling_htc(G, geo.D_h, sat, q, coil.nu_laminar)
-            UA = 1.0 / (R_air + R_wall_ref + 1.0 / (h_tp * coil.area_ref))
-            q = C_air * -np.expm1(-UA / C_air) * np.abs(T_air - T_sat) / coil.area_ref
+    # Two-phase refrigerant coefficient over the full coil area. Both film
+    # condensation and boiling depend on the wall heat flux, taken as the mean
+    # flux of an all-two-phase coil and found by fixed-point iteration.
+    two_phase_htc = _condensation_htc if mode == "condenser" else _boiling_htc
+    q = np.full(n, 1000.0)
+    for _ in range(5):
+        h_tp = two_phase_htc(G, geo.D_h, sat, q, coil.nu_laminar)
+        UA = 1.0 / (R_air + R_wall_ref + 1.0 / (h_tp * coil.area_ref))
+        q = np.maximum(C_air * -np.expm1(-UA / C_air) * np.abs(T_air - T_sat) / coil.area_ref, 1.0)
 
     # --- march through the zones -----------------------------------------
     f_rem = np.ones(n)
@@ -393,8 +409,8 @@ def solve_coil(
     Q_signed = -sign * Q  # > 0 when heat flows from refrigerant to air
     # Air leaving: refrigerant heat plus the enthalpy carried off by condensate.
     h_air_out = air["h"] + (Q_signed - cond_enthalpy) / m_da
-    w_air_out = air["w"] - m_cond / m_da
-    T_air_out = humid_air_temperature(h_air_out, w_air_out, env.p)
+    w_air_out = np.where(m_cond > 0, air["w"] - m_cond / m_da, air["w"])
+    T_air_out = humid_air_temperature(h_air_out, w_air_out, env.p, w_common=air["w"])
     bad_props |= ~np.isfinite(T_out + x_out + T_air_out)
     return {
         "Q": Q_signed,

@@ -17,11 +17,13 @@ the axis is kept for parity with the thesis and has no effect.
 
 Where this differs from the thesis' Simscape results: at fan fractions of
 0.05-0.1 the air stream (about 50-100 W/K) cannot take the whole condensing
-load of 0.6-1.6 kW within the 5-16 K between saturation and ambient, so the
-outlet stays two-phase and Q depends on fan speed and rises with pressure
-(a higher saturation temperature); the thesis reported under 1 % fan effect.
-Where the coil fully condenses, Q falls slightly with pressure, as the thesis
-found.
+load of 0.6-1.6 kW within the 5-16 K between saturation and ambient (the
+second law caps the two-phase zone at C_air (T_sat - T_air)), so the outlet
+stays two-phase there, Q depends on fan speed and rises with pressure (a
+higher saturation temperature). The thesis reported under 1 % fan effect.
+From fan 0.33 up the coil condenses fully at every thesis point: Q is then
+proportional to mass flow, changes by well under 1 % with fan speed, and
+falls slightly with pressure, as the thesis found.
 """
 
 from __future__ import annotations

@@ -38,9 +38,7 @@ def parse_axis(spec: str, bench: Bench) -> tuple[str, np.ndarray]:
         raise EvtmsInputError(f"axis {spec!r} is not of the form name=start:stop:count or name=v1,v2,...")
     name, body = m["name"], m["body"]
     if name not in allowed_axes(bench):
-        raise EvtmsInputError(
-            f"unknown axis {name!r} for {bench.name}; allowed: {', '.join(allowed_axes(bench))}"
-        )
+        raise EvtmsInputError(f"unknown axis {name!r} for {bench.name}; allowed: {', '.join(allowed_axes(bench))}")
     b = _BODY.match(body)
     if not b:
         raise EvtmsInputError(f"axis {name}: {body!r} is not start:stop:count or a comma-separated list of numbers")
@@ -85,7 +83,8 @@ def check_axis(name: str, values: np.ndarray, p_crit: float | None = None) -> No
             raise EvtmsInputError(f"axis {name}: value {v:g} is not allowed; allowed: {axis.allowed()}")
     if p_crit is not None and name == "p_in" and values[-1] >= p_crit:
         raise EvtmsInputError(
-            f"axis p_in: value {values[-1]:g} Pa is at or above the critical pressure; allowed: 0 < p_in < {p_crit:g} Pa"
+            f"axis p_in: value {values[-1]:g} Pa is at or above the critical pressure; "
+            f"allowed: 0 < p_in < {p_crit:g} Pa"
         )
 
 

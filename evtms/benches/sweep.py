@@ -25,7 +25,7 @@ def grid_points(grid: dict[str, np.ndarray], start: int, stop: int) -> dict[str,
     """Input arrays of grid points ``start:stop`` in C order, without building the full mesh."""
     shape = tuple(len(v) for v in grid.values())
     index = np.unravel_index(np.arange(start, stop), shape)
-    return {name: values[i] for (name, values), i in zip(grid.items(), index)}
+    return {name: values[i] for (name, values), i in zip(grid.items(), index, strict=True)}
 
 
 def evaluate_grid(

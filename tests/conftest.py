@@ -1,0 +1,36 @@
+"""Shared fixtures: one fluid and one thesis sweep per bench for the whole session."""
+
+from __future__ import annotations
+
+import pytest
+
+from evtms.benches import BENCHES
+from evtms.benches.grid import build_grid
+from evtms.benches.sweep import run_sweep
+from evtms.fluid import Fluid
+from evtms.params import Parameters
+
+
+@pytest.fixture(scope="session")
+def fluid() -> Fluid:
+    return Fluid()
+
+
+@pytest.fixture(scope="session")
+def params() -> Parameters:
+    return Parameters()
+
+
+@pytest.fixture(scope="session")
+def thesis(fluid, params):
+    """Thesis-grid datasets by component, computed once."""
+    cache = {}
+
+    def get(component: str):
+        if component not in cache:
+            bench = BENCHES[component]
+            grid = build_grid(bench, "thesis", {})
+            cache[component] = run_sweep(bench, grid, params, grid_name="thesis", fluid=fluid)
+        return cache[component]
+
+    return get

@@ -1,0 +1,62 @@
+"""The fluid layer: agreement with CoolProp's high-level API, NaN on bad states."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from CoolProp.CoolProp import PropsSI
+
+from evtms.benches import BENCHES
+from evtms.benches.grid import build_grid
+from evtms.benches.sweep import run_sweep
+from evtms.fluid import Fluid, SaturatedAir, humid_air_temperature, quality
+
+
+def test_states_match_propssi_and_keep_shape(fluid):
+    p = np.array([[0.3e6, 1.0e6], [1.0e6, 0.3e6]])  # repeated pairs exercise the de-duplication
+    T = np.array([[280.0, 340.0], [340.0, 280.0]])
+    out = fluid.state("PT", p, T, ("H", "D", "MU", "K", "CP"))
+    assert out["H"].shape == (2, 2)
+    for key, name in (("H", "H"), ("D", "D"), ("MU", "V"), ("K", "L"), ("CP", "C")):
+        ref = PropsSI(name, "P", p.ravel(), "T", T.ravel(), "R134a").reshape(2, 2)
+        np.testing.assert_allclose(out[key], ref, rtol=1e-10)
+
+
+def test_failed_states_are_nan_not_exceptions(fluid):
+    out = fluid.state("PT", [1e6, 1e6, 1e6, -5.0, np.nan], [340.0, 2000.0, 100.0, 300.0, 300.0], ("H", "T"))
+    assert np.isfinite(out["H"][0])
+    assert np.isnan(out["H"][1:]).all()  # above T_max, below T_triple, negative p, NaN input
+    sat = fluid.saturation([1e6, 5e6, 100.0])
+    assert np.isfinite(sat["T"][0]) and np.isnan(sat["T"][1:]).all()
+
+
+def test_saturation_and_quality(fluid):
+    sat = fluid.saturation(1e6)
+    assert float(sat["T"]) == pytest.approx(PropsSI("T", "P", 1e6, "Q", 0, "R134a"), rel=1e-10)
+    h_mid = 0.5 * (sat["h_l"] + sat["h_v"])
+    assert float(quality(h_mid, sat["h_l"], sat["h_v"])) == pytest.approx(0.5)
+    assert fluid.saturation_pressure(fluid.T_crit + 1) != fluid.saturation_pressure(fluid.T_crit + 1)  # NaN
+
+
+def test_saturated_air_table_matches_haprops():
+    from CoolProp.CoolProp import HAPropsSI
+
+    air = SaturatedAir(101325.0)
+    T = np.array([250.3, 273.2, 288.77, 305.01])
+    ref = np.array([HAPropsSI("H", "T", t, "P", 101325.0, "R", 1.0) for t in T])
+    np.testing.assert_allclose(air.enthalpy(T), ref, atol=2.0)  # J/kg, linear interpolation at 0.05 K
+    np.testing.assert_allclose(air.temperature(air.enthalpy(T)), T, atol=1e-9)
+    h = HAPropsSI("H", "T", 300.0, "P", 101325.0, "W", 0.01)
+    assert float(humid_air_temperature(h, 0.01, 101325.0)) == pytest.approx(300.0, abs=1e-6)
+
+
+@pytest.mark.slow
+def test_tabular_backend_within_half_a_percent_of_heos(thesis, params):
+    """BICUBIC&HEOS builds its tables on first use (about 5 s, cached on disk)."""
+    tab = Fluid(backend="BICUBIC&HEOS")
+    bench = BENCHES["condenser"]
+    ds = run_sweep(bench, build_grid(bench, "thesis", {}), params, fluid=tab)
+    ref = thesis("condenser")
+    assert (ds["status"].values == 0).all()
+    np.testing.assert_allclose(ds["Q"].values, ref["Q"].values, rtol=5e-3)
+    np.testing.assert_allclose(ds["T_out"].values, ref["T_out"].values, atol=0.05)

@@ -1,0 +1,88 @@
+"""LUT files per shared/spec/lut-format.md, read back with plain netCDF4."""
+
+from __future__ import annotations
+
+import json
+
+import netCDF4
+import numpy as np
+import pytest
+
+from evtms.benches import BENCHES
+from evtms.benches.grid import build_grid
+from evtms.benches.sweep import run_sweep
+from evtms.luts.io import write_lut
+from evtms.luts.schema import AXES, COMPONENT_AXES, COMPONENT_VARIABLES, REQUIRED_GLOBAL_ATTRS, VARIABLES
+
+SMALL = {
+    "mdot": np.array([0.005, 0.007]),
+    "fan": np.array([0.2, 0.5]),
+    "p_in": np.array([1.0e6]),
+    "T_in": np.array([340.0, 360.0]),
+    "T_res": np.array([300.0]),
+}
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory, params, fluid):
+    bench = BENCHES["condenser"]
+    paths = []
+    for i in range(2):
+        ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+        paths.append(write_lut(ds, tmp_path_factory.mktemp(f"run{i}") / "condenser.nc"))
+    return paths
+
+
+def test_plain_netcdf4_reads_axes_units_and_order(written):
+    with netCDF4.Dataset(written[0]) as nc:
+        assert nc.data_model == "NETCDF4"
+        assert tuple(nc.dimensions) == COMPONENT_AXES["condenser"]
+        for name in COMPONENT_AXES["condenser"]:
+            var = nc.variables[name]
+            assert var.dtype == np.float64 and var.dimensions == (name,)
+            assert var.units == AXES[name].units and var.long_name
+            assert np.all(np.diff(var[:]) > 0)
+        for name in COMPONENT_VARIABLES["condenser"]:
+            var = nc.variables[name]
+            assert var.dimensions == COMPONENT_AXES["condenser"]
+            assert var.units == VARIABLES[name][0] and var.long_name
+            assert var.dtype == (np.int8 if name == "status" else np.float64)
+
+
+def test_status_flags_and_global_attributes(written, params):
+    with netCDF4.Dataset(written[0]) as nc:
+        status = nc.variables["status"]
+        assert list(status.flag_values) == [0, 1, 2, 3, 4]
+        assert status.flag_meanings.split()[0] == "valid"
+        assert len(status.flag_meanings.split()) == len(status.flag_values)
+        for attr in REQUIRED_GLOBAL_ATTRS:
+            assert attr in nc.ncattrs(), attr
+        assert nc.Conventions == "CF-1.10"
+        assert nc.component == "condenser" and nc.fluid == "R134a" and nc.grid == "custom"
+        used = json.loads(nc.parameters)
+        assert used["condenser"]["n_tubes"] == params.condenser.n_tubes
+        assert json.loads(nc.environment)["RH"] == pytest.approx(0.4)
+        assert nc.created.endswith("Z")
+
+
+def test_two_runs_give_identical_data(written):
+    with netCDF4.Dataset(written[0]) as a, netCDF4.Dataset(written[1]) as b:
+        for name in a.variables:
+            np.testing.assert_array_equal(a.variables[name][:], b.variables[name][:])
+
+
+def test_atomic_write_leaves_no_file_on_failure(tmp_path, params, fluid, monkeypatch):
+    import xarray as xr
+
+    bench = BENCHES["condenser"]
+    ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+
+    def boom(self, path, **kw):
+        with open(path, "wb") as fh:
+            fh.write(b"partial")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", boom)
+    with pytest.raises(KeyboardInterrupt):
+        write_lut(ds, tmp_path / "c.nc")
+    assert list(tmp_path.iterdir()) == []
