@@ -37,6 +37,7 @@ OUTPUTS = {
     "S": "smass",
     "D": "rhomass",
     "CP": "cpmass",
+    "CV": "cvmass",
     "MU": "viscosity",
     "K": "conductivity",
     "Q": "Q",

@@ -149,3 +149,44 @@ def test_help_and_version_are_fast_and_lazy():
     assert v.exit_code == 0 and v.stdout.startswith("evtms ")
     h = run("bench", "--help")
     assert "evtms bench condenser --grid thesis" in h.stdout
+
+
+def test_bench_all_writes_four_files(tmp_path):
+    out = tmp_path / "luts"
+    res = run("bench", "all", "--grid", "thesis", "-o", str(out))
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in out.iterdir()) == [
+        "compressor.nc",
+        "condenser.nc",
+        "evaporator.nc",
+        "expansion_valve.nc",
+    ]
+    assert "expansion_valve: 36 points, 18 invalid" in res.stdout
+    assert "compressor: 36 points, 0 invalid" in res.stdout
+
+
+@pytest.mark.parametrize("name", ["expansion-valve", "expansion_valve"])
+def test_valve_alias(tmp_path, name):
+    out = tmp_path / "v.nc"
+    res = run("bench", name, "-o", str(out))
+    assert res.exit_code == 0 and out.exists()
+
+
+BAD_PER_BENCH = [
+    ("evaporator", ["-a", "blower=0,0.5"], "0 < blower <= 1"),
+    ("evaporator", ["-a", "fan=0.5"], "unknown axis 'fan' for evaporator"),
+    ("expansion-valve", ["-a", "mdot=-1g/s"], "mdot > 0"),
+    ("expansion-valve", ["-a", "p_in=50bar"], "critical pressure"),
+    ("compressor", ["-a", "pr=0.5,2"], "pr > 1"),
+    ("compressor", ["-a", "speed=0:1:3"], "0 < speed <= 1"),
+    ("compressor", ["-a", "T_in=100"], "T_in"),
+]
+
+
+@pytest.mark.parametrize(("bench", "args", "message"), BAD_PER_BENCH)
+def test_bad_input_per_bench(tmp_path, bench, args, message):
+    out = tmp_path / "x.nc"
+    res = run("bench", bench, *args, "-o", str(out))
+    assert res.exit_code == 2, res.output
+    assert len(res.stderr.strip().splitlines()) == 1 and message in res.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -216,7 +216,11 @@ def solve_coil(
         ``Q`` heat from refrigerant to air [W], ``Q_latent`` [W] (<= 0),
         ``h_out`` [J/kg], ``p_out`` [Pa], ``dp`` [Pa], ``T_out`` [K],
         ``x_out`` [1], ``T_air_out`` [K], ``T_surface_min`` coldest wall
-        surface [K], ``m_condensate`` [kg/s], and the boolean masks
+        surface [K], ``T_surface_eff`` coldest zone-mean effective surface of
+        the wet-coil method [K] (evaporator), ``T_dew_air_in`` [K],
+        ``m_condensate`` [kg/s], ``H_condensate`` enthalpy flow of the
+        condensate leaving [W], ``h_air_out`` [J/kg dry air],
+        ``w_air_out`` [kg/kg dry air], ``m_dry_air`` [kg/s], and the boolean masks
         ``bad_direction`` (the air cannot take or give heat in the required
         direction), ``bad_dp`` (pressure drop at or above inlet pressure) and
         ``bad_props`` (a property evaluation failed).
@@ -280,6 +284,7 @@ def solve_coil(
     cond_enthalpy = np.zeros(n)  # sum of m_w h_w(T_s) [W]
     latent = np.zeros(n)
     T_surface_min = np.full(n, np.inf)
+    T_surface_eff = np.full(n, np.inf)
     for zone in order:
         active = (start_pos <= order.index(zone)) & ~done & (f_rem > 0)
         if not active.any():
@@ -363,22 +368,23 @@ def solve_coil(
         T_surface_min[idx] = np.minimum(T_surface_min[idx], np.where(f_z > 0, T_wall, np.inf))
 
         if wet:
-            is_wet = (q_wet(f_z) > q_dry(f_z)) & (f_z > 0)
-            if is_wet.any():
-                # Effective surface state (Braun et al. 1989, eqs. 25-28).
-                ntu_o = 1.0 / (R_air[idx] * C_air[idx])
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    h_a_out = air["h"] - Q_z / np.where(f_z > 0, f_z * m_a, 1.0)
-                    h_s_eff = air["h"] - (air["h"] - h_a_out) / -np.expm1(-ntu_o)
-                T_s_eff = sat_air.temperature(h_s_eff)
-                w_s_eff = sat_air.humidity_ratio(T_s_eff)
-                w_out = w_s_eff + (air["w"] - w_s_eff) * np.exp(-ntu_o)
-                m_w = np.where(is_wet, f_z * m_a * np.maximum(air["w"] - w_out, 0.0), 0.0)
-                m_w = np.where(np.isfinite(m_w), m_w, np.nan)
-                h_fg_w = 2.501e6 - 2369.0 * (T_s_eff - 273.15)  # ASHRAE Fundamentals, latent heat of water
-                m_cond[idx] += m_w
-                cond_enthalpy[idx] += np.where(m_w > 0, m_w * water_liquid_enthalpy(T_s_eff), 0.0)
-                latent[idx] += np.where(m_w > 0, m_w * h_fg_w, 0.0)
+            # Moisture removed, from the effective surface state of the zone (Braun et
+            # al. 1989, eqs. 25-28): the zone is wet where that surface lies below the
+            # entering air's dew point, whichever of the dry and wet analyses set Q.
+            ntu_o = 1.0 / (R_air[idx] * C_air[idx])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                h_a_out = air["h"] - Q_z / np.where(f_z > 0, f_z * m_a, 1.0)
+            h_s_eff = air["h"] - (air["h"] - h_a_out) / -np.expm1(-ntu_o)
+            T_s_eff = sat_air.temperature(h_s_eff)
+            w_s_eff = sat_air.humidity_ratio(T_s_eff)
+            w_out = w_s_eff + (air["w"] - w_s_eff) * np.exp(-ntu_o)
+            m_w = np.where(f_z > 0, f_z * m_a * np.maximum(air["w"] - w_out, 0.0), 0.0)
+            h_fg_w = 2.501e6 - 2369.0 * (T_s_eff - 273.15)  # latent heat of water, ASHRAE Fundamentals
+            condensing = m_w > 0
+            m_cond[idx] += m_w
+            cond_enthalpy[idx] += np.where(condensing, m_w * water_liquid_enthalpy(T_s_eff), 0.0)
+            latent[idx] += np.where(condensing, m_w * h_fg_w, 0.0)
+            T_surface_eff[idx] = np.minimum(T_surface_eff[idx], np.where(f_z > 0, T_s_eff, np.inf))
 
         # Frictional pressure drop over the zone length.
         L = f_z * geo.tube_length
@@ -422,8 +428,12 @@ def solve_coil(
         "x_out": x_out,
         "T_air_out": T_air_out,
         "T_surface_min": T_surface_min,
+        "T_surface_eff": T_surface_eff,
+        "T_dew_air_in": np.full(n, air["T_dew"]),
         "m_condensate": m_cond,
+        "H_condensate": cond_enthalpy,
         "h_air_out": h_air_out,
+        "m_dry_air": m_da,
         "w_air_out": w_air_out,
         "bad_direction": bad_direction,
         "bad_dp": bad_dp,

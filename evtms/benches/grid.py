@@ -8,6 +8,7 @@ import numpy as np
 
 from evtms.benches.base import Bench
 from evtms.errors import EvtmsInputError
+from evtms.fluid import Fluid
 from evtms.luts.schema import ALTERNATE_AXES, AXES
 
 _SPEC = re.compile(r"^\s*(?P<name>[A-Za-z_][A-Za-z0-9_]*)\s*=\s*(?P<body>.+?)\s*$")
@@ -66,8 +67,12 @@ def parse_axis(spec: str, bench: Bench) -> tuple[str, np.ndarray]:
     return name, values
 
 
-def check_axis(name: str, values: np.ndarray, p_crit: float | None = None) -> None:
-    """Check that ``values`` are finite, strictly increasing and within the axis' range."""
+def check_axis(name: str, values: np.ndarray, fluid: Fluid | None = None) -> None:
+    """Check that ``values`` are finite, strictly increasing and within the axis' range.
+
+    With ``fluid``, refrigerant pressures must also lie below the critical
+    pressure and refrigerant temperatures within the equation of state's range.
+    """
     axis = AXES[name]
     if values.size == 0:
         raise EvtmsInputError(f"axis {name}: no values")
@@ -81,11 +86,20 @@ def check_axis(name: str, values: np.ndarray, p_crit: float | None = None) -> No
         too_high = v >= axis.upper if axis.upper_open else v > axis.upper
         if too_low or too_high:
             raise EvtmsInputError(f"axis {name}: value {v:g} is not allowed; allowed: {axis.allowed()}")
-    if p_crit is not None and name == "p_in" and values[-1] >= p_crit:
+    if fluid is None:
+        return
+    if name == "p_in" and values[-1] >= fluid.p_crit:
         raise EvtmsInputError(
-            f"axis p_in: value {values[-1]:g} Pa is at or above the critical pressure; "
-            f"allowed: 0 < p_in < {p_crit:g} Pa"
+            f"axis p_in: value {values[-1]:g} Pa is at or above the critical pressure of {fluid.name}; "
+            f"allowed: 0 < p_in < {fluid.p_crit:g} Pa"
         )
+    if name == "T_in":
+        for v in (values[0], values[-1]):
+            if not fluid.T_triple <= v <= fluid.T_max:
+                raise EvtmsInputError(
+                    f"axis T_in: value {v:g} K is outside the range of {fluid.name}'s equation of state; "
+                    f"allowed: {fluid.T_triple:g} <= T_in <= {fluid.T_max:g} K"
+                )
 
 
 def build_grid(bench: Bench, preset: str | None, overrides: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -43,6 +43,8 @@ def evaluate_grid(
         stop = min(start + chunk_size, n)
         res = bench.evaluate(grid_points(grid, start, stop), params, fluid)
         for name in bench.outputs:
+            if name in grid:  # an input given as an axis is not also a variable
+                continue
             if name not in out:
                 out[name] = np.empty(n, np.int8 if name == "status" else np.float64)
             out[name][start:stop] = res[name]
@@ -89,7 +91,7 @@ def run_sweep(
 
     fluid = fluid or Fluid(params.fluid, params.backend)
     for name, values in grid.items():
-        check_axis(name, np.asarray(values, float), fluid.p_crit)
+        check_axis(name, np.asarray(values, float), fluid)
     outputs = evaluate_grid(bench, grid, params, fluid, progress, chunk_size)
     return build_dataset(
         component=bench.name,

@@ -1,0 +1,154 @@
+"""Compressor bench: positive-displacement compressor at fixed speed and pressure ratio.
+
+Mass flow from the swept volume, the shaft speed, the suction density and a
+clearance-volume volumetric efficiency (re-expansion of the clearance gas with
+polytropic exponent ``n``):
+
+.. math:: \\dot m = \\eta_v \\rho_{in} V_d N,\\quad
+          \\eta_v = 1 + C - C\\,\\pi^{1/n},\\quad
+          C = \\frac{1 - \\eta_{v,nom}}{\\pi_{nom}^{1/n} - 1}
+
+(C set so that eta_v is the nominal value at the nominal pressure ratio).
+Discharge state and power from the isentropic efficiency and the mechanical
+efficiency:
+
+.. math:: h_{out} = h_{in} + \\frac{h(p_{out}, s_{in}) - h_{in}}{\\eta_{is}},\\quad
+          W = \\frac{\\dot m (h_{out} - h_{in})}{\\eta_{mech}}
+
+so ``W eta_mech = mdot (h_out - h_in)`` exactly.
+
+The ``thesis`` grid gives no suction pressure; it is set from a 10 K suction
+superheat, ``p_in = p_sat(T_in - 10 K)`` (``suction_superheat`` parameter),
+unless ``p_in`` is given as an axis. A compressor never compresses liquid: a
+suction state at or below saturation is an invalid point (status 3), as is a
+pressure ratio at which the clearance gas re-expands to fill the whole stroke
+(``eta_v <= 0``, status 4).
+
+References
+----------
+Stoecker, W. F., Jones, J. W. (1982). Refrigeration and Air Conditioning,
+2nd ed., McGraw-Hill, ch. 11 (clearance volumetric efficiency).
+Dincer, I., Kanoglu, M. (2010). Refrigeration Systems and Applications, 2nd
+ed., Wiley, ch. 4 (isentropic and mechanical efficiencies).
+MathWorks (2024). Compressor (2P), Simscape Fluids reference.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from evtms.benches.base import STATUS_OUTSIDE_FLUID_RANGE, STATUS_PROPERTY_FAILED, Bench, finish_status, first_code
+from evtms.fluid import Fluid, quality
+from evtms.params import CompressorParams, Parameters
+
+STATUS_LIQUID_SUCTION = 3
+STATUS_NO_VOLUMETRIC_FLOW = 4
+
+OUTPUTS = ("status", "W", "mdot", "p_in", "h_in", "h_out", "T_out", "p_out", "eta_is", "eta_vol")
+
+
+def clearance_volumetric_efficiency(pr: np.ndarray, comp: CompressorParams) -> np.ndarray:
+    """Volumetric efficiency [1] at pressure ratio ``pr`` from the clearance-volume model."""
+    n = comp.polytropic_exponent
+    C = (1.0 - comp.eta_vol_nominal) / (comp.pr_nominal ** (1.0 / n) - 1.0)
+    return 1.0 + C - C * np.asarray(pr, float) ** (1.0 / n)
+
+
+def suction_pressure(T_in: np.ndarray, comp: CompressorParams, fluid: Fluid) -> np.ndarray:
+    """Suction pressure [Pa] that gives ``comp.suction_superheat`` at suction temperature ``T_in`` [K]."""
+    return fluid.saturation_pressure(np.asarray(T_in, float) - comp.suction_superheat)
+
+
+def compressor_power(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
+    """Steady-state compressor response over arrays of bench inputs.
+
+    Parameters
+    ----------
+    inputs : dict of str to numpy.ndarray
+        ``speed`` [1] (fraction of ``speed_max``), ``T_in`` [K] or ``h_in``
+        [J/kg], ``pr`` [1], and optionally ``p_in`` [Pa].
+    params : Parameters
+        Compressor parameters (``params.compressor``).
+    fluid : Fluid
+        Refrigerant properties.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``W`` shaft power [W], ``mdot`` [kg/s], ``p_in`` [Pa], ``h_in``,
+        ``h_out`` [J/kg], ``T_out`` [K], ``p_out`` [Pa], ``eta_is``,
+        ``eta_vol`` [1], ``status`` (int8, see :data:`FLAGS`).
+    """
+    comp = params.compressor
+    speed = np.asarray(inputs["speed"], float)
+    pr = np.asarray(inputs["pr"], float)
+    if "p_in" in inputs:
+        p_in = np.asarray(inputs["p_in"], float).copy()
+    else:
+        p_in = suction_pressure(inputs["T_in"], comp, fluid)
+    if "h_in" in inputs:
+        h_in = np.asarray(inputs["h_in"], float).copy()
+        suction = fluid.state("PH", p_in, h_in, ("D", "S"))
+    else:
+        suction = fluid.state("PT", p_in, inputs["T_in"], ("H", "D", "S"))
+        h_in = suction["H"]
+    sat = fluid.saturation(p_in)
+    # Vapour strictly above saturation; (p, T) exactly at saturation is ambiguous and treated as wet.
+    wet = ~(quality(h_in, sat["h_l"], sat["h_v"]) > 1.0) & np.isfinite(sat["h_v"]) | (
+        ~np.isfinite(sat["h_v"]) & (p_in < fluid.p_crit)
+    )
+    eta_vol = clearance_volumetric_efficiency(pr, comp)
+    no_flow = ~(eta_vol > 0)
+    mdot = eta_vol * suction["D"] * comp.displacement * speed * comp.speed_max / 60.0
+    p_out = pr * p_in
+    h_out_s = fluid.state("PS", p_out, suction["S"], ("H",))["H"]
+    h_out = h_in + (h_out_s - h_in) / comp.eta_isentropic
+    T_out = fluid.state("PH", p_out, h_out, ("T",))["T"]
+    out = {
+        "W": mdot * (h_out - h_in) / comp.eta_mechanical,
+        "mdot": mdot,
+        "p_in": p_in.copy(),
+        "h_in": h_in.copy(),
+        "h_out": h_out,
+        "T_out": T_out,
+        "p_out": p_out,
+        "eta_is": np.full(p_in.shape, comp.eta_isentropic),
+        "eta_vol": eta_vol,
+    }
+    status = first_code(
+        [
+            (~np.isfinite(h_in + suction["D"]), STATUS_OUTSIDE_FLUID_RANGE),
+            (wet, STATUS_LIQUID_SUCTION),
+            (no_flow, STATUS_NO_VOLUMETRIC_FLOW),
+        ],
+        p_in.size,
+    )
+    finish_status(status, out, (0,))
+    out["status"] = status
+    return out
+
+
+FLAGS = {
+    0: "valid",
+    STATUS_OUTSIDE_FLUID_RANGE: "inlet_state_outside_fluid_range",
+    STATUS_PROPERTY_FAILED: "property_evaluation_failed",
+    STATUS_LIQUID_SUCTION: "liquid_or_two_phase_suction",
+    STATUS_NO_VOLUMETRIC_FLOW: "pressure_ratio_beyond_volumetric_limit",
+}
+
+BENCH = Bench(
+    name="compressor",
+    title="evtms compressor bench: positive-displacement R134a compressor",
+    axes=("speed", "T_in", "pr"),
+    outputs=OUTPUTS,
+    flags=FLAGS,
+    evaluate=compressor_power,
+    extra_axes=("p_in",),
+    presets={
+        "thesis": {
+            "speed": (0.3, 0.6, 0.8),
+            "T_in": (250.0, 265.0, 280.0),
+            "pr": (4.5, 5.25, 6.0, 8.0),
+        },
+    },
+)

@@ -1,0 +1,105 @@
+"""Evaporator bench: flat-tube evaporator cooling moist cabin air.
+
+The refrigerant enters at ``(p_in, T_in)`` (or ``h_in``, the usual two-phase
+inlet of a running cycle) with mass flow ``mdot``; air at the bench
+environment is drawn across the coil by the blower at fraction ``blower`` of
+its maximum flow. The moving-boundary coil of :mod:`evtms.benches.coil`
+(the condenser's, not a copy) resolves liquid, two-phase and vapour zones in
+that order; boiling follows Gungor and Winterton (1987); the air side is moist
+and, where the coil surface is below the dew point, wet: the enthalpy-potential
+method of Threlkeld (1970) in the form of Braun, Klein and Mitchell (1989)
+gives the total and, through the effective surface state, the moisture
+condensed. ``Q_latent`` is the latent heat of that condensate (<= 0, part of
+``Q``).
+
+Inlet states the thesis grid produces and how they are treated:
+
+- superheated vapour (``T_in`` above saturation): sensible heating of the
+  vapour only, outlet superheated;
+- subcooled liquid (``T_in`` below saturation at ``p_in``): the liquid warms to
+  saturation, then boils, then superheats, as far as the coil area allows.
+
+Energy: ``Q = mdot (h_in - h_out)`` (< 0), and the air loses
+``m_da (h_air_in - h_air_out)`` = ``-Q`` plus the enthalpy carried away by the
+liquid condensate. Frost: where the coldest coil surface is below 0 degC,
+``status`` is ``valid_frost_risk`` (code 10): the point is valid (finite
+values), but ice would build up on the fins over time and the steady state
+would not last. The condensate is still taken as liquid water there.
+
+``T_res`` (downstream reservoir) has no effect in steady state; the axis is
+kept for parity with the thesis.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from evtms.benches.base import STATUS_OUTSIDE_FLUID_RANGE, STATUS_PROPERTY_FAILED, Bench, finish_status
+from evtms.benches.condenser import STATUS_DP_EXCEEDS_INLET, coil_bench_outputs
+from evtms.fluid import Fluid
+from evtms.params import Parameters
+
+STATUS_NOT_COLDER_THAN_AIR = 3
+STATUS_FROST_RISK = 10
+FREEZING_POINT = 273.15  # K
+
+OUTPUTS = ("status", "Q", "Q_latent", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp")
+
+
+def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
+    """Steady-state evaporator response over arrays of bench inputs.
+
+    Parameters
+    ----------
+    inputs : dict of str to numpy.ndarray
+        ``mdot`` [kg/s], ``blower`` [1], ``p_in`` [Pa], ``T_in`` [K] or
+        ``h_in`` [J/kg], ``T_res`` [K] (no effect).
+    params : Parameters
+        Coil geometry (``params.evaporator``) and the entering air.
+    fluid : Fluid
+        Refrigerant properties.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``Q`` [W] (< 0: heat into the refrigerant), ``Q_latent`` [W] (<= 0),
+        ``h_in``, ``h_out`` [J/kg], ``T_out`` [K], ``p_out`` [Pa],
+        ``x_out`` [1], ``T_air_out`` [K], ``dp`` [Pa], ``status`` (int8, see
+        :data:`FLAGS`).
+    """
+    out, status, res = coil_bench_outputs(inputs, params, fluid, "evaporator")
+    out["Q_latent"] = np.asarray(res["Q_latent"], float).copy()
+    frost = (status == 0) & (res["T_surface_min"] < FREEZING_POINT)
+    status[frost] = STATUS_FROST_RISK
+    finish_status(status, out, BENCH.valid_flags)
+    out["status"] = status
+    return out
+
+
+FLAGS = {
+    0: "valid",
+    STATUS_OUTSIDE_FLUID_RANGE: "inlet_state_outside_fluid_range",
+    STATUS_PROPERTY_FAILED: "property_evaluation_failed",
+    STATUS_NOT_COLDER_THAN_AIR: "refrigerant_inlet_not_colder_than_air",
+    STATUS_DP_EXCEEDS_INLET: "pressure_drop_exceeds_inlet_pressure",
+    STATUS_FROST_RISK: "valid_frost_risk_surface_below_0C",
+}
+
+BENCH = Bench(
+    name="evaporator",
+    title="evtms evaporator bench: flat-tube R134a evaporator with moist air",
+    axes=("mdot", "blower", "p_in", "T_in", "T_res"),
+    outputs=OUTPUTS,
+    flags=FLAGS,
+    evaluate=evaporator_heat_rate,
+    valid_flags=(0, STATUS_FROST_RISK),
+    presets={
+        "thesis": {
+            "mdot": (0.004526, 0.0062, 0.00743, 0.0077),
+            "blower": (0.2, 0.3, 0.4, 0.5),
+            "p_in": (0.05e6, 0.1e6, 0.2e6, 0.25e6),
+            "T_in": (235.0, 250.0, 265.0, 275.0),
+            "T_res": (250.0, 265.0, 280.0),
+        },
+    },
+)
