@@ -6,6 +6,7 @@ commands that need them, so ``evtms --help`` answers at once.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -213,6 +214,155 @@ def bench(
             status = ds["status"].values
             invalid = int((~_isin(status, ds["status"].attrs["valid_flag_values"])).sum())
             typer.echo(f"{name}: {total} points, {invalid} invalid, {wall:.2f} s, wrote {path}")
+
+
+lut_app = typer.Typer(help="Read, check, query, export and compare LUT files.", no_args_is_help=True)
+app.add_typer(lut_app, name="lut")
+
+
+def _open(path: Path):
+    from evtms.luts import open_lut
+
+    try:
+        return open_lut(path)
+    except EvtmsInputError as exc:
+        fail(str(exc))
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.6g}"
+
+
+@lut_app.command("info")
+def lut_info(file: Annotated[Path, typer.Argument(help="LUT file (.nc).")]) -> None:
+    """Show a LUT's component, axes, variables, invalid points and provenance.
+
+    Example: evtms lut info luts/condenser.nc
+    """
+    from evtms.luts.summary import lut_summary
+
+    s = lut_summary(_open(file))
+    typer.echo(f"{file}: {s['component']} LUT, fluid {s['fluid']}, grid {s['grid']}, format v{s['format']}")
+    typer.echo("axes:")
+    for a in s["axes"]:
+        typer.echo(
+            f"  {a['name']:<8} {a['size']:>4} values  {_fmt(a['min']):>10} .. {_fmt(a['max']):<10} "
+            f"[{a['units']}]  {a['long_name']}"
+        )
+    typer.echo("variables (range over valid points):")
+    for v in s["variables"]:
+        typer.echo(f"  {v['name']:<10} {_fmt(v['min']):>12} .. {_fmt(v['max']):<12} [{v['units']}]  {v['long_name']}")
+    typer.echo(f"points: {s['points']}, valid: {s['valid']}, invalid: {s['points'] - s['valid']}")
+    for c in s["status"]:
+        typer.echo(f"  status {c['code']:>3} {c['meaning']:<40} {c['count']}")
+    p = s["provenance"]
+    typer.echo(f"provenance: evtms {p['evtms_version']}, CoolProp {p['coolprop_version']}, created {p['created']}")
+    typer.echo(f"history: {p['history']}")
+    typer.echo(f"environment: {json.dumps(s['environment'], sort_keys=True)}")
+    typer.echo(f"parameters: {json.dumps(s['parameters'], sort_keys=True)}")
+
+
+def _parse_point(text: str, names: tuple[str, ...]) -> dict[str, float]:
+    """``name=value[unit],...`` -> SI values (units as for --axis)."""
+    from evtms.benches.grid import parse_value
+
+    point = {}
+    for item in text.split(","):
+        if not item.strip():
+            continue
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep:
+            raise EvtmsInputError(f"--at item {item!r} is not name=value")
+        if name not in names:
+            raise EvtmsInputError(f"unknown axis {name!r} in --at; allowed: {', '.join(names)}")
+        point[name] = parse_value(name, value)
+    missing = [n for n in names if n not in point]
+    if missing:
+        raise EvtmsInputError(f"--at has no value for axis {missing[0]!r}; give all of {', '.join(names)}")
+    return point
+
+
+@lut_app.command("query")
+def lut_query(
+    file: Annotated[Path, typer.Argument(help="LUT file (.nc).")],
+    at: Annotated[
+        list[str], typer.Option("--at", help="Point as name=value,... (SI, or with a unit suffix). Repeatable.")
+    ],
+    var: Annotated[list[str] | None, typer.Option("--var", help="Variable(s) to report; default all.")] = None,
+    out_of_range: Annotated[
+        str, typer.Option("--out-of-range", help="Policy outside the grid: error, clip or nan.")
+    ] = "error",
+) -> None:
+    """Interpolate LUT variables at points (N-D multilinear).
+
+    Example: evtms lut query luts/condenser.nc --at mdot=0.005,fan=0.2,p_in=1e6,T_in=340,T_res=300 --var Q
+    """
+    from evtms.luts import Interpolator
+
+    ds = _open(file)
+    try:
+        names = tuple(ds["status"].dims)
+        variables = [v for item in (var or []) for v in item.split(",") if v] or None
+        itp = Interpolator.from_dataset(ds, variables, out_of_range)
+        points = [_parse_point(text, names) for text in at]
+        query = {n: [p[n] for p in points] for n in names}
+        result = itp(query)
+    except EvtmsInputError as exc:
+        fail(str(exc))
+    header = [f"{n} [{ds[n].attrs['units']}]" for n in names] + [f"{v} [{ds[v].attrs['units']}]" for v in itp.variables]
+    typer.echo("  ".join(header))
+    for i, p in enumerate(points):
+        row = [_fmt(p[n]) for n in names] + [_fmt(float(result[v][i])) for v in itp.variables]
+        typer.echo("  ".join(row))
+
+
+@lut_app.command("export")
+def lut_export(
+    file: Annotated[Path, typer.Argument(help="LUT file (.nc).")],
+    fmt: Annotated[str, typer.Option("--format", "-f", help="mat (MATLAB/Simulink) or csv (long form).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Output file.")],
+) -> None:
+    """Export a LUT to .mat for MATLAB/Simulink or to long-form .csv.
+
+    Example: evtms lut export luts/condenser.nc --format mat -o condenser.mat
+    """
+    from evtms.luts.export import FORMATS, to_csv, to_mat
+
+    if fmt not in FORMATS:
+        fail(f"export format {fmt!r} is not allowed; allowed: {', '.join(FORMATS)}")
+    check_output_file(output)
+    ds = _open(file)
+    path = (to_mat if fmt == "mat" else to_csv)(ds, output)
+    typer.echo(f"wrote {path}")
+
+
+@lut_app.command("diff")
+def lut_diff_cmd(
+    a: Annotated[Path, typer.Argument(help="First LUT file.")],
+    b: Annotated[Path, typer.Argument(help="Second LUT file.")],
+) -> None:
+    """Compare two LUTs: per-variable max and RMS differences, parameter and version changes.
+
+    Example: evtms lut diff old/condenser.nc luts/condenser.nc
+    """
+    from evtms.luts.diff import lut_diff
+
+    da, db = _open(a), _open(b)
+    try:
+        d = lut_diff(da, db)
+    except EvtmsInputError as exc:
+        fail(str(exc))
+    typer.echo(
+        f"common grid: {' x '.join(str(n) for n in d.common_shape)} points; status differs at {d.status_changed}"
+    )
+    typer.echo(f"  {'variable':<10} {'max |diff|':>12} {'RMS diff':>12} {'max rel':>10}  units")
+    for v in d.variables:
+        typer.echo(f"  {v.name:<10} {_fmt(v.max_abs):>12} {_fmt(v.rms):>12} {_fmt(v.max_rel):>10}  {v.units}")
+    if not d.parameters and not d.attributes:
+        typer.echo("parameters and versions: identical")
+    for key, (x, y) in {**d.attributes, **d.parameters}.items():
+        typer.echo(f"  {key}: {x} -> {y}")
 
 
 def _isin(values, allowed):

@@ -67,6 +67,21 @@ def parse_axis(spec: str, bench: Bench) -> tuple[str, np.ndarray]:
     return name, values
 
 
+def parse_value(name: str, text: str) -> float:
+    """One value of axis ``name`` with an optional unit suffix, in SI."""
+    b = _BODY.match(text.strip())
+    if not b or ":" in b["values"] or "," in b["values"]:
+        raise EvtmsInputError(f"{name}: {text!r} is not a number (with an optional unit)")
+    unit = b["unit"]
+    factor, offset = 1.0, 0.0
+    if unit:
+        units = {u: (f, o) for u, f, o in AXES[name].cli_units} if name in AXES else {}
+        if unit not in units:
+            raise EvtmsInputError(f"{name}: unit {unit!r} is not allowed; allowed: {', '.join(units) or 'none'}")
+        factor, offset = units[unit]
+    return float(b["values"]) * factor + offset
+
+
 def check_axis(name: str, values: np.ndarray, fluid: Fluid | None = None) -> None:
     """Check that ``values`` are finite, strictly increasing and within the axis' range.
 
