@@ -365,6 +365,300 @@ def lut_diff_cmd(
         typer.echo(f"  {key}: {x} -> {y}")
 
 
+cycle_app = typer.Typer(help="Solve the vapor-compression cycle on the component LUTs.", no_args_is_help=True)
+app.add_typer(cycle_app, name="cycle")
+
+_CYCLE_RANGES = {
+    "speed": (0.0, 1.0),
+    "fan": (0.0, 1.0),
+    "blower": (0.0, 1.0),
+    "RH_amb": (0.0, 1.0),
+    "RH_cabin": (0.0, 1.0),
+    "superheat": (0.0, 50.0),
+    "subcooling": (0.0, 30.0),
+    "T_amb": (233.15, 333.15),
+    "T_cabin": (253.15, 323.15),
+}
+
+
+def _cycle_values(name: str, text: str, celsius: bool) -> list[float]:
+    """A cycle input: one value, v1,v2,... or start:stop:count; degC inputs to K."""
+    import numpy as np
+
+    try:
+        if ":" in text:
+            start, stop, count = text.split(":")
+            values = np.linspace(float(start), float(stop), int(count)).tolist()
+        else:
+            values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise EvtmsInputError(
+            f"--{name.replace('_', '-').lower()} {text!r} is not a number, v1,v2,... or start:stop:count"
+        ) from None
+    if celsius:
+        values = [v + 273.15 for v in values]
+    lo, hi = _CYCLE_RANGES[name]
+    for v in values:
+        if not lo <= v <= hi or (name in ("speed", "fan", "blower") and v == 0):
+            shown = f"{v - 273.15:g} degC" if celsius else f"{v:g}"
+            allowed = f"{lo - 273.15:g} to {hi - 273.15:g} degC" if celsius else f"{lo:g} to {hi:g}"
+            raise EvtmsInputError(f"{name} = {shown} is not allowed; allowed: {allowed}")
+    if any(b <= a for a, b in zip(values, values[1:], strict=False)):
+        raise EvtmsInputError(f"{name} values must be strictly increasing")
+    return values
+
+
+def _cycle_inputs(
+    speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling
+) -> dict[str, list[float]]:
+    raw = {
+        "speed": (speed, False),
+        "fan": (fan, False),
+        "blower": (blower, False),
+        "T_amb": (t_amb, True),
+        "RH_amb": (rh_amb, False),
+        "T_cabin": (t_cabin, True),
+        "RH_cabin": (rh_cabin, False),
+        "superheat": (superheat, False),
+        "subcooling": (subcooling, False),
+    }
+    return {name: _cycle_values(name, text, c) for name, (text, c) in raw.items()}
+
+
+def _solve(luts: Path | None, direct: bool, params: Path | None, grid: dict[str, list[float]]):
+    import numpy as np
+
+    from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
+    from evtms.cycle.solver import INPUTS
+    from evtms.params import load_parameters
+
+    parameters = load_parameters(params)
+    tables = None if direct else load_cycle_luts(luts or Path("luts"))
+    mesh = np.meshgrid(*[np.asarray(grid[k]) for k in INPUTS], indexing="ij")
+    points = OperatingPoints(**{k: m.ravel() for k, m in zip(INPUTS, mesh, strict=True)})
+    return points, run_cycle(points, tables, parameters)
+
+
+_SPEED = typer.Option("--speed", help="Compressor speed fraction (0-1].")
+_FAN = typer.Option("--fan", help="Condenser fan fraction (0-1].")
+_BLOWER = typer.Option("--blower", help="Evaporator blower fraction (0-1].")
+_TAMB = typer.Option("--t-amb", help="Ambient air temperature [degC].")
+_RHAMB = typer.Option("--rh-amb", help="Ambient relative humidity (0-1).")
+_TCAB = typer.Option("--t-cabin", help="Air temperature entering the evaporator [degC].")
+_RHCAB = typer.Option("--rh-cabin", help="Relative humidity entering the evaporator (0-1).")
+_SH = typer.Option("--superheat", help="Thermostatic-valve superheat setpoint [K].")
+_SC = typer.Option("--subcooling", help="Condenser-outlet subcooling [K]; 0 = saturated liquid (receiver).")
+_LUTS = typer.Option("--luts", help="Folder with the cycle LUTs (evtms bench all --grid cycle). Default: luts/")
+_DIRECT = typer.Option("--direct", help="Use the bench physics directly instead of LUTs (reference, slower).")
+_PARAMS = typer.Option("--params", help="TOML parameter overrides (direct mode and valve limits).")
+
+
+@cycle_app.command("run")
+def cycle_run(
+    speed: Annotated[str, _SPEED] = "0.6",
+    fan: Annotated[str, _FAN] = "0.5",
+    blower: Annotated[str, _BLOWER] = "0.4",
+    t_amb: Annotated[str, _TAMB] = "30",
+    rh_amb: Annotated[str, _RHAMB] = "0.4",
+    t_cabin: Annotated[str, _TCAB] = "27",
+    rh_cabin: Annotated[str, _RHCAB] = "0.5",
+    superheat: Annotated[str, _SH] = "10",
+    subcooling: Annotated[str, _SC] = "0",
+    luts: Annotated[Path | None, _LUTS] = None,
+    direct: Annotated[bool, _DIRECT] = False,
+    params: Annotated[Path | None, _PARAMS] = None,
+) -> None:
+    """Solve one operating point and print its states and performance.
+
+    Example: evtms cycle run --luts luts/ --speed 0.6 --fan 0.5 --blower 0.4 --t-amb 30 --t-cabin 27
+    """
+    try:
+        grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling)
+        if any(len(v) != 1 for v in grid.values()):
+            raise EvtmsInputError("cycle run takes one value per input; use 'evtms cycle sweep' for several")
+        _, r = _solve(luts, direct, params, grid)
+    except EvtmsInputError as exc:
+        fail(str(exc))
+    from evtms.cycle.solver import VALID_CYCLE_FLAGS
+
+    if int(r["status"][0]) not in VALID_CYCLE_FLAGS:
+        fail(f"operating point not solved: {r['reason'][0]}")
+    typer.echo(f"{'state':<26} {'p [MPa]':>9} {'T [degC]':>9} {'h [kJ/kg]':>10}")
+    names = {"A": "A evaporator outlet", "B": "B compressor outlet", "C": "C condenser outlet", "D": "D valve outlet"}
+    for s, label in names.items():
+        typer.echo(
+            f"{label:<26} {r['p_' + s][0] / 1e6:9.4f} {r['T_' + s][0] - 273.15:9.2f} {r['h_' + s][0] / 1e3:10.2f}"
+        )
+    rows = [
+        ("mass flow", r["mdot"][0] * 1e3, "g/s"),
+        ("cooling |Q_evap|", -r["Q_evap"][0], "W"),
+        ("  of which latent", -r["Q_latent"][0], "W"),
+        ("Q_cond", r["Q_cond"][0], "W"),
+        ("compressor shaft power W", r["W"][0], "W"),
+        ("cooling COP", r["COP"][0], "-"),
+        ("valve pressure drop", r["dp_valve"][0] / 1e3, "kPa"),
+        ("valve opening / nominal", r["valve_opening"][0], "-"),
+        ("energy balance residual", r["balance_residual"][0], "W"),
+        ("  relative to W_fluid", 100 * r["balance_relative"][0], "%"),
+    ]
+    for label, value, unit in rows:
+        typer.echo(f"{label:<26} {value:10.4g} {unit}")
+    if r["reason"][0]:
+        typer.echo(f"note: {r['reason'][0]}")
+
+
+@cycle_app.command("sweep")
+def cycle_sweep(
+    output: Annotated[Path, typer.Option("--output", "-o", help="Output netCDF file.")],
+    speed: Annotated[str, _SPEED] = "0.6",
+    fan: Annotated[str, _FAN] = "0.5",
+    blower: Annotated[str, _BLOWER] = "0.4",
+    t_amb: Annotated[str, _TAMB] = "30",
+    rh_amb: Annotated[str, _RHAMB] = "0.4",
+    t_cabin: Annotated[str, _TCAB] = "27",
+    rh_cabin: Annotated[str, _RHCAB] = "0.5",
+    superheat: Annotated[str, _SH] = "10",
+    subcooling: Annotated[str, _SC] = "0",
+    luts: Annotated[Path | None, _LUTS] = None,
+    direct: Annotated[bool, _DIRECT] = False,
+    params: Annotated[Path | None, _PARAMS] = None,
+) -> None:
+    """Solve a grid of operating points (any input as v1,v2,... or start:stop:count) and write netCDF.
+
+    Example: evtms cycle sweep --luts luts/ --speed 0.2:1:9 --t-amb 25,35,45 -o cycle.nc
+    """
+    check_output_file(output)
+    try:
+        grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling)
+        t0 = time.perf_counter()
+        points, r = _solve(luts, direct, params, grid)
+        wall = time.perf_counter() - t0
+    except EvtmsInputError as exc:
+        fail(str(exc))
+    from evtms.cycle import cycle_dataset
+    from evtms.cycle.solver import VALID_CYCLE_FLAGS
+    from evtms.luts.io import atomic_output
+
+    ds = cycle_dataset(grid, r, "direct" if direct else f"LUTs in {luts or 'luts'}")
+    with atomic_output(output) as tmp:
+        ds.to_netcdf(tmp, engine="netcdf4")
+    ok = int(_isin(r["status"], VALID_CYCLE_FLAGS).sum())
+    typer.echo(f"cycle: {len(points)} operating points, {ok} solved, {wall:.2f} s, wrote {output}")
+
+
+report_app = typer.Typer(help="Figures and reports from LUT files and cycle sweeps.", no_args_is_help=True)
+app.add_typer(report_app, name="report")
+
+
+def _open_cycle(path: Path):
+    import xarray as xr
+
+    if not path.is_file():
+        fail(f"{path}: no such file")
+    try:
+        with xr.open_dataset(path) as ds:
+            ds = ds.load()
+    except Exception as exc:  # not netCDF, truncated: one line, not an HDF5 traceback
+        fail(
+            f"{path}: not a readable cycle sweep file ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})"
+        )
+    if "status" not in ds or "p_A" not in ds:
+        fail(f"{path}: not an evtms cycle sweep (write one with 'evtms cycle sweep')")
+    return ds
+
+
+def _parse_index(ds, text: str | None):
+    if text is None:
+        return None
+    index = {}
+    for item in text.split(","):
+        name, _, value = item.partition("=")
+        if name not in ds["status"].dims:
+            fail(f"unknown input {name!r} in --point; allowed: {', '.join(ds['status'].dims)}")
+        try:
+            index[name] = int(value)
+        except ValueError:
+            fail(f"--point {name}={value!r}: give a 0-based index along that input")
+        if not 0 <= index[name] < ds.sizes[name]:
+            fail(f"--point {name}={value}: allowed 0 to {ds.sizes[name] - 1}")
+    return {d: index.get(d, 0) for d in ds["status"].dims}
+
+
+def _diagram(kind: str, sweep: Path, output: Path, point: str | None) -> None:
+    from evtms.fluid import Fluid
+    from evtms.reports.cycle_plots import diagram_data, ph_diagram, pt_diagram
+
+    if output.suffix.lower() not in (".png", ".svg"):
+        fail(f"output {str(output)!r} must end in .png or .svg")
+    check_output_file(output)
+    ds = _open_cycle(sweep)
+    try:
+        states = diagram_data(ds, _parse_index(ds, point))
+    except ValueError as exc:
+        fail(str(exc))
+    (ph_diagram if kind == "ph" else pt_diagram)(states, Fluid(), output)
+    typer.echo(f"wrote {output}")
+
+
+_POINT = typer.Option("--point", help="Operating point as input=index,... (0-based); default: the first solved.")
+
+
+@report_app.command("ph-diagram")
+def report_ph(
+    sweep: Annotated[Path, typer.Argument(help="Cycle sweep file (evtms cycle sweep).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Figure file, .png or .svg.")],
+    point: Annotated[str | None, _POINT] = None,
+) -> None:
+    """p-h diagram of an operating point: states A-D and the cycle on R134a's dome.
+
+    Example: evtms report ph-diagram cycle.nc -o ph.svg --point speed=3
+    """
+    _diagram("ph", sweep, output, point)
+
+
+@report_app.command("pt-diagram")
+def report_pt(
+    sweep: Annotated[Path, typer.Argument(help="Cycle sweep file (evtms cycle sweep).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Figure file, .png or .svg.")],
+    point: Annotated[str | None, _POINT] = None,
+) -> None:
+    """p-T diagram of an operating point: states A-D and the cycle on R134a's saturation curve.
+
+    Example: evtms report pt-diagram cycle.nc -o pt.png
+    """
+    _diagram("pt", sweep, output, point)
+
+
+@report_app.command("energy-balance")
+def report_energy_balance(
+    sweep: Annotated[Path, typer.Argument(help="Cycle sweep varying one input (evtms cycle sweep).")],
+    output: Annotated[
+        Path, typer.Option("--output", "-o", help="Figure file, .png or .svg; a .csv table is written beside.")
+    ],
+    x: Annotated[str | None, typer.Option("--x", help="The swept input; default: the one with several values.")] = None,
+) -> None:
+    """Energy balance over a sweep: Q_cond, |Q_evap|, W_fluid (each from its LUT) and the residual.
+
+    Example: evtms cycle sweep --speed 0.2:1:9 -o speed.nc && evtms report energy-balance speed.nc -o eb.png
+    """
+    from evtms.reports.cycle_plots import energy_balance_figure
+
+    if output.suffix.lower() not in (".png", ".svg"):
+        fail(f"output {str(output)!r} must end in .png or .svg")
+    check_output_file(output)
+    ds = _open_cycle(sweep)
+    if x is None:
+        varied = [d for d in ds["status"].dims if ds.sizes[d] > 1]
+        if len(varied) != 1:
+            fail(f"the sweep varies {len(varied)} inputs ({', '.join(varied) or 'none'}); an energy balance takes one")
+        x = varied[0]
+    try:
+        energy_balance_figure(ds, x, output)
+    except ValueError as exc:
+        fail(str(exc))
+    typer.echo(f"wrote {output} and {output.with_suffix('.csv')}")
+
+
 def _isin(values, allowed):
     import numpy as np
 

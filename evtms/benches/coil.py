@@ -178,6 +178,14 @@ def _bisect(func, target, hi, steps=_BISECTION_STEPS):
     return 0.5 * (lo + hi)
 
 
+def _air_inlet_arrays(T: np.ndarray, RH: np.ndarray, p: float) -> dict[str, np.ndarray]:
+    """Moist-air inlet properties per point, computed once per distinct (T, RH)."""
+    pairs = np.stack([T, RH], axis=1)
+    uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
+    rows = [humid_air_inlet(float(t), p, float(rh)) for t, rh in uniq]
+    return {key: np.array([r[key] for r in rows])[inverse.reshape(-1)] for key in rows[0]}
+
+
 def solve_coil(
     fluid: Fluid,
     coil: CoilParams,
@@ -187,6 +195,8 @@ def solve_coil(
     mdot: np.ndarray,
     air_fraction: np.ndarray,
     mode: str,
+    T_air: np.ndarray | float | None = None,
+    RH_air: np.ndarray | float | None = None,
 ) -> dict[str, np.ndarray]:
     """Steady-state coil response at arrays of refrigerant and air inlet conditions.
 
@@ -209,6 +219,9 @@ def solve_coil(
     mode : {"condenser", "evaporator"}
         ``"condenser"``: heat leaves the refrigerant, dry air.
         ``"evaporator"``: heat enters the refrigerant, moist air may condense.
+    T_air, RH_air : numpy.ndarray or float, optional
+        Entering-air temperature [K] and relative humidity [1] per point;
+        ``env.T`` and ``env.RH`` if not given (``env.p`` is the air pressure).
 
     Returns
     -------
@@ -235,8 +248,9 @@ def solve_coil(
     rough = coil.roughness / geo.D_h
 
     # --- air side --------------------------------------------------------
-    air = humid_air_inlet(env.T, env.p, env.RH)
-    T_air = env.T
+    T_air = np.broadcast_to(np.asarray(env.T if T_air is None else T_air, float), (n,))
+    RH_air = np.broadcast_to(np.asarray(env.RH if RH_air is None else RH_air, float), (n,))
+    air = _air_inlet_arrays(T_air, RH_air, env.p)
     volume_flow = air_fraction * coil.fan_flow_max
     m_da = air["rho"] * volume_flow / (1.0 + air["w"])
     C_air = m_da * air["cp"]
@@ -251,7 +265,7 @@ def solve_coil(
     sat = fluid.saturation(p_in)
     T_sat, h_l, h_v = sat["T"], sat["h_l"], sat["h_v"]
     T_in = fluid.state("PH", p_in, h_in, ("T",))["T"]
-    h_air_T = fluid.state("PT", p_in, np.full(n, T_air), ("H",))["H"]  # refrigerant at air temperature
+    h_air_T = fluid.state("PT", p_in, T_air, ("H",))["H"]  # refrigerant at air temperature
     G = mdot / geo.flow_area
     bad_props = ~np.isfinite(T_in + T_sat + h_air_T)
 
@@ -291,7 +305,8 @@ def solve_coil(
             continue
         idx = np.nonzero(active)[0]
         p, m, fr = p_in[idx], mdot[idx], f_rem[idx]
-        Ta = T_air
+        Ta = T_air[idx]
+        air_h, air_w, air_cp = air["h"][idx], air["w"][idx], air["cp"][idx]
         Tr0, hr0 = T_cur[idx], h_cur[idx]
         Ts = T_sat[idx]
         is_last = zone == order[-1]
@@ -336,11 +351,11 @@ def solve_coil(
             # Enthalpy potential (Braun et al. 1989): saturated-air enthalpy slope
             # c_s as the secant between refrigerant and entering-air temperature.
             h_s_r = sat_air.enthalpy(Tr0)
-            c_s = (sat_air.enthalpy(np.full(idx.size, Ta)) - h_s_r) / np.maximum(Ta - Tr0, 1e-9)
-            R_star = air["cp"] * R_air[idx] + c_s * R_ref  # (J/kg)/W
+            c_s = (sat_air.enthalpy(Ta) - h_s_r) / np.maximum(Ta - Tr0, 1e-9)
+            R_star = air_cp * R_air[idx] + c_s * R_ref  # (J/kg)/W
             C_ref_star = C_ref / c_s
             m_a = m_da[idx]
-            dh = np.maximum(air["h"] - h_s_r, 0.0)
+            dh = np.maximum(air_h - h_s_r, 0.0)
 
             def q_wet(f, C_ref_star=C_ref_star, R_star=R_star, m_a=m_a, dh=dh):
                 C_af = f * m_a
@@ -373,12 +388,12 @@ def solve_coil(
             # entering air's dew point, whichever of the dry and wet analyses set Q.
             ntu_o = 1.0 / (R_air[idx] * C_air[idx])
             with np.errstate(divide="ignore", invalid="ignore"):
-                h_a_out = air["h"] - Q_z / np.where(f_z > 0, f_z * m_a, 1.0)
-            h_s_eff = air["h"] - (air["h"] - h_a_out) / -np.expm1(-ntu_o)
+                h_a_out = air_h - Q_z / np.where(f_z > 0, f_z * m_a, 1.0)
+            h_s_eff = air_h - (air_h - h_a_out) / -np.expm1(-ntu_o)
             T_s_eff = sat_air.temperature(h_s_eff)
             w_s_eff = sat_air.humidity_ratio(T_s_eff)
-            w_out = w_s_eff + (air["w"] - w_s_eff) * np.exp(-ntu_o)
-            m_w = np.where(f_z > 0, f_z * m_a * np.maximum(air["w"] - w_out, 0.0), 0.0)
+            w_out = w_s_eff + (air_w - w_s_eff) * np.exp(-ntu_o)
+            m_w = np.where(f_z > 0, f_z * m_a * np.maximum(air_w - w_out, 0.0), 0.0)
             h_fg_w = 2.501e6 - 2369.0 * (T_s_eff - 273.15)  # latent heat of water, ASHRAE Fundamentals
             condensing = m_w > 0
             m_cond[idx] += m_w
@@ -429,7 +444,7 @@ def solve_coil(
         "T_air_out": T_air_out,
         "T_surface_min": T_surface_min,
         "T_surface_eff": T_surface_eff,
-        "T_dew_air_in": np.full(n, air["T_dew"]),
+        "T_dew_air_in": air["T_dew"],
         "m_condensate": m_cond,
         "H_condensate": cond_enthalpy,
         "h_air_out": h_air_out,

@@ -150,5 +150,14 @@ BENCH = Bench(
             "T_in": (250.0, 265.0, 280.0),
             "pr": (4.5, 5.25, 6.0, 8.0),
         },
+        # Cycle envelope: W and mdot are linear in speed, so its two ends suffice; the
+        # suction grid is fine enough (2.5 K, < 2 K of saturation per pressure cell)
+        # that no cell of a point superheated by 5 K or more touches a wet corner.
+        "cycle": {
+            "speed": (0.1, 1.0),
+            "T_in": tuple(np.linspace(240.0, 340.0, 41)),
+            "pr": tuple(np.geomspace(1.2, 12.0, 14)),
+            "p_in": tuple(np.geomspace(0.06e6, 0.9e6, 40)),
+        },
     },
 )

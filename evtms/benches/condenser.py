@@ -76,6 +76,8 @@ def coil_bench_outputs(
         inputs["mdot"],
         inputs[air_axis],
         mode,
+        T_air=inputs.get("T_air_in"),
+        RH_air=inputs.get("RH_air_in"),
     )
     status = first_code(
         [
@@ -98,7 +100,9 @@ def condenser_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid
     ----------
     inputs : dict of str to numpy.ndarray
         ``mdot`` [kg/s], ``fan`` [1], ``p_in`` [Pa], ``T_in`` [K] or
-        ``h_in`` [J/kg], ``T_res`` [K] (no effect, see the module notes).
+        ``h_in`` [J/kg], ``T_res`` [K] (no effect, see the module notes);
+        optionally ``T_air_in`` [K] and ``RH_air_in`` [1] (else the
+        environment's air).
     params : Parameters
         Coil geometry (``params.condenser``) and ambient air.
     fluid : Fluid
@@ -132,6 +136,7 @@ BENCH = Bench(
     outputs=OUTPUTS,
     flags=FLAGS,
     evaluate=condenser_heat_rate,
+    extra_axes=("T_air_in", "RH_air_in"),
     presets={
         "thesis": {
             "mdot": (0.004526, 0.0062, 0.00743, 0.0077),
@@ -139,6 +144,15 @@ BENCH = Bench(
             "p_in": (0.9e6, 1.0e6, 1.1e6, 1.2e6),
             "T_in": (330.0, 345.0, 360.0, 375.0),
             "T_res": (300.0, 315.0, 330.0),
+        },
+        # Cycle envelope: ambient 15-45 degC, fan 0.1-1, compressor speed 0.1-1 (see README).
+        "cycle": {
+            "mdot": tuple(np.linspace(0.003, 0.08, 12)),
+            "fan": (0.1, 0.15, 0.25, 0.4, 0.55, 0.75, 1.0),
+            "p_in": tuple(np.geomspace(0.5e6, 3.2e6, 14)),
+            "h_in": tuple(np.linspace(400e3, 500e3, 9)),
+            "T_res": (300.0,),
+            "T_air_in": tuple(np.linspace(288.15, 318.15, 7)),
         },
     },
 )

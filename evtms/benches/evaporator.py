@@ -53,7 +53,8 @@ def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, flui
     ----------
     inputs : dict of str to numpy.ndarray
         ``mdot`` [kg/s], ``blower`` [1], ``p_in`` [Pa], ``T_in`` [K] or
-        ``h_in`` [J/kg], ``T_res`` [K] (no effect).
+        ``h_in`` [J/kg], ``T_res`` [K] (no effect); optionally ``T_air_in``
+        [K] and ``RH_air_in`` [1] (else the environment's air).
     params : Parameters
         Coil geometry (``params.evaporator``) and the entering air.
     fluid : Fluid
@@ -92,6 +93,7 @@ BENCH = Bench(
     outputs=OUTPUTS,
     flags=FLAGS,
     evaluate=evaporator_heat_rate,
+    extra_axes=("T_air_in", "RH_air_in"),
     valid_flags=(0, STATUS_FROST_RISK),
     presets={
         "thesis": {
@@ -100,6 +102,16 @@ BENCH = Bench(
             "p_in": (0.05e6, 0.1e6, 0.2e6, 0.25e6),
             "T_in": (235.0, 250.0, 265.0, 275.0),
             "T_res": (250.0, 265.0, 280.0),
+        },
+        # Cycle envelope: cabin air 15-35 degC at RH 0.2-0.8, blower 0.1-1 (see README).
+        "cycle": {
+            "mdot": tuple(np.linspace(0.003, 0.08, 12)),
+            "blower": (0.1, 0.15, 0.25, 0.4, 0.55, 0.75, 1.0),
+            "p_in": tuple(np.geomspace(0.06e6, 0.9e6, 14)),
+            "h_in": tuple(np.linspace(200e3, 350e3, 7)),
+            "T_res": (280.0,),
+            "T_air_in": tuple(np.linspace(288.15, 308.15, 5)),
+            "RH_air_in": (0.2, 0.4, 0.6, 0.8),
         },
     },
 )

@@ -166,5 +166,11 @@ BENCH = Bench(
             "p_in": (0.9e6, 1.0e6, 1.1e6, 1.2e6),
             "mdot": (0.0045, 0.00625, 0.008),
         },
+        # Condenser outlets of the cycle envelope; dp goes with mdot^2, so two flows suffice.
+        "cycle": {
+            "h_in": tuple(np.linspace(200e3, 350e3, 7)),
+            "p_in": tuple(np.geomspace(0.5e6, 3.2e6, 8)),
+            "mdot": (0.001, 0.005),
+        },
     },
 )

@@ -136,6 +136,8 @@ def build_grid(bench: Bench, preset: str | None, overrides: dict[str, np.ndarray
             grid[name] = np.asarray(overrides[name], float)
         elif name in base:
             grid[name] = np.asarray(base[name], float)
+        elif alt is not None and alt in base:
+            grid[alt] = np.asarray(base[alt], float)
         else:
             raise EvtmsInputError(f"axis {name} of {bench.name} has no values; give it with --axis {name}=...")
     for name in bench.extra_axes:

@@ -1,0 +1,228 @@
+"""Component models for the cycle solver: from LUTs, or the bench physics directly.
+
+Both classes answer the same four calls on arrays of operating points and
+return NaN plus a reason string where they cannot: :class:`LutModels`
+interpolates LUT files (the fast path for control work) and names the LUT
+axis a query leaves; :class:`DirectModels` calls the bench functions (the
+accuracy reference) and names the bench's status.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from evtms.errors import EvtmsInputError
+from evtms.fluid import Fluid
+from evtms.params import Parameters
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+Result = dict[str, np.ndarray]
+
+#: Variables each component model returns.
+COMPONENT_OUTPUTS = {
+    "compressor": ("mdot", "h_in", "h_out", "T_out", "W"),
+    "condenser": ("Q", "h_out", "p_out", "T_out", "x_out"),
+    "evaporator": ("Q", "Q_latent", "h_out", "p_out", "T_out"),
+    "expansion_valve": ("dp",),
+}
+
+
+def _reasons(n: int) -> np.ndarray:
+    return np.full(n, "", dtype=object)
+
+
+class DirectModels:
+    """The bench physics, called directly (no LUTs).
+
+    Parameters
+    ----------
+    params : Parameters
+        Component parameters (the ``environment`` gives the air pressure).
+    fluid : Fluid, optional
+        Refrigerant properties; built from ``params`` if not given.
+    """
+
+    name = "direct"
+
+    def __init__(self, params: Parameters, fluid: Fluid | None = None) -> None:
+        from evtms.benches import BENCHES
+
+        self.params = params
+        self.fluid = fluid or Fluid(params.fluid, params.backend)
+        self._benches = BENCHES
+
+    def _run(self, component: str, inputs: dict[str, np.ndarray]) -> Result:
+        bench = self._benches[component]
+        n = len(next(iter(inputs.values())))
+        inputs = {k: np.broadcast_to(np.asarray(v, float), (n,)).copy() for k, v in inputs.items()}
+        out = bench.evaluate(inputs, self.params, self.fluid)
+        bad = ~np.isin(out["status"], bench.valid_flags)
+        reasons = _reasons(n)
+        for code, meaning in bench.flags.items():
+            reasons[bad & (out["status"] == code)] = f"{component}: {meaning}"
+        result = {k: out[k] for k in COMPONENT_OUTPUTS[component]}
+        result["reason"] = reasons
+        return result
+
+    def compressor(self, speed, T_in, p_in, pr) -> Result:
+        return self._run("compressor", {"speed": speed, "T_in": T_in, "p_in": p_in, "pr": pr})
+
+    def condenser(self, mdot, fan, p_in, h_in, T_air, RH_air) -> Result:
+        return self._run(
+            "condenser",
+            {
+                "mdot": mdot,
+                "fan": fan,
+                "p_in": p_in,
+                "h_in": h_in,
+                "T_res": T_air,
+                "T_air_in": T_air,
+                "RH_air_in": RH_air,
+            },
+        )
+
+    def evaporator(self, mdot, blower, p_in, h_in, T_air, RH_air) -> Result:
+        return self._run(
+            "evaporator",
+            {
+                "mdot": mdot,
+                "blower": blower,
+                "p_in": p_in,
+                "h_in": h_in,
+                "T_res": T_air,
+                "T_air_in": T_air,
+                "RH_air_in": RH_air,
+            },
+        )
+
+    def valve(self, h_in, p_in, mdot) -> Result:
+        return self._run("expansion_valve", {"h_in": h_in, "p_in": p_in, "mdot": mdot})
+
+    def valve_reference_flow(self) -> float:
+        """A small mass flow [kg/s] at which the nominal-opening valve passes liquid."""
+        return 1e-3
+
+    def limits(self) -> dict[str, tuple[float, float]]:
+        """Ranges the solver may search: the fluid's saturation range, and pressure
+        ratios up to where the compressor's volumetric efficiency falls to 5 %."""
+        from evtms.benches.compressor import clearance_volumetric_efficiency
+
+        comp = self.params.compressor
+        ratios = np.geomspace(1.0, 100.0, 2000)
+        pr_max = float(ratios[clearance_volumetric_efficiency(ratios, comp) > 0.05][-1])
+        return {
+            "p_suction": (2.5e4, 0.9 * self.fluid.p_crit),
+            "p_discharge": (1e5, 0.98 * self.fluid.p_crit),
+            "pr": (1.0, pr_max),
+        }
+
+
+class _LutComponent:
+    """One component's LUT: interpolator, axes, and the fixed values of absent axes."""
+
+    def __init__(self, component: str, ds: xr.Dataset, variables: tuple[str, ...]) -> None:
+        from evtms.luts import Interpolator
+
+        self.component = component
+        self.source = ds.encoding.get("source", component)
+        self.dims = list(ds["status"].dims)
+        self.itp = Interpolator.from_dataset(ds, list(variables), out_of_range="nan")
+        self.ranges = {d: (float(ds[d].values[0]), float(ds[d].values[-1])) for d in self.dims}
+        env = json.loads(ds.attrs.get("environment", "{}"))
+        # Air conditions a LUT without air axes was computed at.
+        self.fixed = {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")}
+
+    def __call__(self, query: dict[str, np.ndarray]) -> Result:
+        n = len(next(iter(query.values())))
+        reasons = _reasons(n)
+        cols = {}
+        for d in self.dims:
+            if d == "T_res":
+                lo, _ = self.ranges[d]
+                cols[d] = np.full(n, lo)  # no effect in steady state; any grid value will do
+                continue
+            x = np.broadcast_to(np.asarray(query[d], float), (n,))
+            lo, hi = self.ranges[d]
+            outside = ~((x >= lo) & (x <= hi)) & (reasons == "")
+            for i in np.nonzero(outside)[0]:
+                reasons[i] = f"{self.component} LUT axis {d} = {x[i]:.6g} outside [{lo:.6g}, {hi:.6g}]"
+            cols[d] = x
+        for axis, fixed in self.fixed.items():
+            if axis in query and axis not in self.dims and fixed is not None:
+                x = np.broadcast_to(np.asarray(query[axis], float), (n,))
+                off = (np.abs(x - fixed) > 1e-9) & (reasons == "")
+                for i in np.nonzero(off)[0]:
+                    reasons[i] = f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
+        out = self.itp(cols)
+        bad = reasons != ""
+        for v in out.values():
+            v[bad] = np.nan
+        nan = ~bad & ~np.isfinite(out[self.itp.variables[0]])
+        reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
+        out["reason"] = reasons
+        return out
+
+
+class LutModels:
+    """Component models interpolated from LUT datasets.
+
+    Parameters
+    ----------
+    luts : mapping of str to xarray.Dataset
+        ``condenser``, ``evaporator``, ``expansion_valve`` and ``compressor``
+        LUTs. The coils and the valve must have ``h_in`` inlet axes (a
+        two-phase inlet has no (p, T)) and the compressor a ``p_in`` axis, as
+        the ``cycle`` grid preset writes them.
+    """
+
+    name = "lut"
+
+    def __init__(self, luts: dict[str, xr.Dataset]) -> None:
+        need = {"condenser": "h_in", "evaporator": "h_in", "expansion_valve": "h_in", "compressor": "p_in"}
+        self.luts = {}
+        for component, axis in need.items():
+            if component not in luts:
+                raise EvtmsInputError(f"the cycle needs a {component} LUT; none was given")
+            ds = luts[component]
+            if axis not in ds.dims:
+                raise EvtmsInputError(
+                    f"the {component} LUT has axes {', '.join(ds.dims)}; cycle work needs {axis!r} "
+                    "(write it with --grid cycle)"
+                )
+            self.luts[component] = _LutComponent(component, ds, COMPONENT_OUTPUTS[component])
+
+    def compressor(self, speed, T_in, p_in, pr) -> Result:
+        return self.luts["compressor"]({"speed": speed, "T_in": T_in, "p_in": p_in, "pr": pr})
+
+    def condenser(self, mdot, fan, p_in, h_in, T_air, RH_air) -> Result:
+        return self.luts["condenser"](
+            {"mdot": mdot, "fan": fan, "p_in": p_in, "h_in": h_in, "T_air_in": T_air, "RH_air_in": RH_air}
+        )
+
+    def evaporator(self, mdot, blower, p_in, h_in, T_air, RH_air) -> Result:
+        return self.luts["evaporator"](
+            {"mdot": mdot, "blower": blower, "p_in": p_in, "h_in": h_in, "T_air_in": T_air, "RH_air_in": RH_air}
+        )
+
+    def valve(self, h_in, p_in, mdot) -> Result:
+        return self.luts["expansion_valve"]({"h_in": h_in, "p_in": p_in, "mdot": mdot})
+
+    def valve_reference_flow(self) -> float:
+        """The valve LUT's smallest mass flow [kg/s]."""
+        return self.luts["expansion_valve"].ranges["mdot"][0]
+
+    def limits(self) -> dict[str, tuple[float, float]]:
+        """Pressure ranges the solver may search: where the LUTs have data."""
+        evap = self.luts["evaporator"].ranges["p_in"]
+        comp = self.luts["compressor"].ranges["p_in"]
+        cond = self.luts["condenser"].ranges["p_in"]
+        return {
+            "p_suction": (max(evap[0], comp[0]), min(evap[1], comp[1])),
+            "p_discharge": cond,
+            "pr": self.luts["compressor"].ranges["pr"],
+        }
