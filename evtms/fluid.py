@@ -197,6 +197,12 @@ class Fluid:
             out[f"{short}_v"] = vap[key]
         return out
 
+    def saturation_curve(self) -> SaturationCurve:
+        """The fluid's tabulated :class:`SaturationCurve`, built on first use."""
+        if getattr(self, "_curve", None) is None:
+            self._curve = SaturationCurve(self)
+        return self._curve
+
     def saturation_pressure(self, T: np.ndarray | float) -> np.ndarray:
         """Saturation pressure [Pa] at temperature ``T`` [K]; NaN outside the dome."""
         T = np.asarray(T, dtype=float)

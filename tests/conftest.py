@@ -34,3 +34,22 @@ def thesis(fluid, params):
         return cache[component]
 
     return get
+
+
+@pytest.fixture(scope="session")
+def cycle_luts_dir(tmp_path_factory, params, fluid):
+    """The four LUTs on the 'cycle' grid preset, written once per session (about a minute)."""
+    from evtms.luts.io import write_lut
+
+    folder = tmp_path_factory.mktemp("cycle_luts")
+    for name, bench in BENCHES.items():
+        ds = run_sweep(bench, build_grid(bench, "cycle", {}), params, grid_name="cycle", fluid=fluid)
+        write_lut(ds, folder / f"{name}.nc")
+    return folder
+
+
+@pytest.fixture(scope="session")
+def cycle_luts(cycle_luts_dir):
+    from evtms.cycle import load_cycle_luts
+
+    return load_cycle_luts(cycle_luts_dir)

@@ -186,6 +186,72 @@ def _air_inlet_arrays(T: np.ndarray, RH: np.ndarray, p: float) -> dict[str, np.n
     return {key: np.array([r[key] for r in rows])[inverse.reshape(-1)] for key in rows[0]}
 
 
+#: Largest coil fraction searched for the fraction needed to finish a phase change.
+_F_SEARCH_MAX = 1e3
+#: Cap of the capacity ratio (coil fraction available over needed), for finite LUT values.
+CAPACITY_RATIO_MAX = 1e3
+
+
+@dataclass
+class _ZoneHeatRate:
+    """Heat rate [W] of one zone as a function of its coil fraction f (effectiveness-NTU).
+
+    Cross flow, both streams unmixed; the air stream through the zone is
+    ``f C_air`` and its conductance ``f / R_tot``. ``wet`` holds the same
+    model in enthalpy-potential form (capacities in kg/s, potential in J/kg);
+    the zone then moves the larger of the two (Braun et al. 1989).
+    """
+
+    C_ref: np.ndarray
+    R_tot: np.ndarray
+    C_air: np.ndarray
+    dT: np.ndarray
+    wet: _ZoneHeatRate | None = None
+
+    def dry(self, f: np.ndarray) -> np.ndarray:
+        C_af = f * self.C_air
+        C_min = np.minimum(C_af, self.C_ref)
+        C_max = np.maximum(C_af, self.C_ref)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ntu = np.where(C_min > 0, f / self.R_tot / np.where(C_min > 0, C_min, 1.0), 0.0)
+            cr = np.where(np.isfinite(C_max) & (C_max > 0), C_min / np.where(C_max > 0, C_max, 1.0), 0.0)
+            # NaN inputs (points already flagged invalid) stay NaN here, silently.
+            return corr.crossflow_effectiveness(ntu, cr) * C_min * self.dT
+
+    def rate(self, f: np.ndarray) -> np.ndarray:
+        q = self.dry(f)
+        return q if self.wet is None else np.maximum(q, self.wet.dry(f))
+
+    def subset(self, sub: np.ndarray) -> _ZoneHeatRate:
+        return _ZoneHeatRate(
+            self.C_ref[sub],
+            self.R_tot[sub],
+            self.C_air[sub],
+            self.dT[sub],
+            None if self.wet is None else self.wet.subset(sub),
+        )
+
+    def fraction_needed(self, Q_needed: np.ndarray, two_phase: bool) -> np.ndarray:
+        """Coil fraction the zone needs to move ``Q_needed`` (inf if it never can).
+
+        A two-phase zone's heat rate is proportional to its fraction (its
+        effectiveness does not depend on it); a single-phase zone's fraction
+        comes by bisection on a hypothetically longer coil.
+        """
+        finite = np.isfinite(Q_needed)
+        if two_phase:
+            per_unit = self.rate(np.ones_like(Q_needed))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return np.where(finite & (per_unit > 0), Q_needed / per_unit, np.inf)
+        big = np.full_like(Q_needed, _F_SEARCH_MAX)
+        ok = finite & (self.rate(big) >= Q_needed)
+        f = np.full_like(Q_needed, np.inf)
+        if ok.any():
+            sub = np.nonzero(ok)[0]
+            f[ok] = _bisect(self.subset(sub).rate, Q_needed[ok], big[ok])
+        return f
+
+
 def solve_coil(
     fluid: Fluid,
     coil: CoilParams,
@@ -299,17 +365,22 @@ def solve_coil(
     latent = np.zeros(n)
     T_surface_min = np.full(n, np.inf)
     T_surface_eff = np.full(n, np.inf)
-    for zone in order:
-        active = (start_pos <= order.index(zone)) & ~done & (f_rem > 0)
-        if not active.any():
+    # Boundary enthalpy a zone of the march starts from when it is not the inlet zone.
+    entry_h = {1: h_v, 0: h_l} if mode == "condenser" else {1: h_l, 2: h_v}
+    f_needed = np.zeros(n)  # coil fraction needed to finish the phase change
+    for pos, zone in enumerate(order):
+        is_last = pos == len(order) - 1
+        live = (start_pos <= pos) & ~done & (f_rem > 0)
+        # Zones before the last are also evaluated where the coil already ended, as
+        # if it were longer: the fraction needed to finish the phase change.
+        path = live | ((start_pos <= pos) & ~(bad_props | bad_direction) & (not is_last))
+        if not path.any():
             continue
-        idx = np.nonzero(active)[0]
-        p, m, fr = p_in[idx], mdot[idx], f_rem[idx]
-        Ta = T_air[idx]
-        air_h, air_w, air_cp = air["h"][idx], air["w"][idx], air["cp"][idx]
-        Tr0, hr0 = T_cur[idx], h_cur[idx]
-        Ts = T_sat[idx]
-        is_last = zone == order[-1]
+        idx = np.nonzero(path)[0]
+        Ta, Ts, m = T_air[idx], T_sat[idx], mdot[idx]
+        at_start = start[idx] == zone
+        Tr0 = np.where(at_start, T_in[idx], Ts)
+        hr0 = np.where(at_start, h_in[idx], entry_h[zone][idx]) if zone in entry_h else h_in[idx].copy()
         two_phase = zone == 1
         # The phase boundary ends this zone only if it lies on the refrigerant's way towards the air.
         reachable = np.zeros(idx.size, bool) if is_last else (sign * (Ta - Ts) > 0)
@@ -325,7 +396,7 @@ def solve_coil(
             props = None
         else:
             T_mid = 0.5 * (Tr0 + T_end)
-            props = fluid.state("PT", p, T_mid, ("D", "CP", "MU", "K"))
+            props = fluid.state("PT", p_in[idx], T_mid, ("D", "CP", "MU", "K"))
             phase = "v" if zone == 2 else "l"
             for key, sk in (("D", "rho"), ("CP", "cp"), ("MU", "mu"), ("K", "k")):
                 props[key] = np.where(np.isfinite(props[key]), props[key], sat[f"{sk}_{phase}"][idx])
@@ -334,58 +405,45 @@ def solve_coil(
             cp_eff = np.where(np.abs(span) > 1e-9, (h_end - hr0) / np.where(span == 0, 1.0, span), props["CP"])
             C_ref = m * cp_eff
         R_ref = R_wall_ref + 1.0 / (h_ref * coil.area_ref)
-        R_tot = R_air[idx] + R_ref
-        C_a = C_air[idx]
-        dT = np.abs(Ta - Tr0)
-
-        def q_dry(f, C_ref=C_ref, R_tot=R_tot, C_a=C_a, dT=dT):
-            C_af = f * C_a
-            C_min = np.minimum(C_af, C_ref)
-            C_max = np.maximum(C_af, C_ref)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ntu = np.where(C_min > 0, f / R_tot / np.where(C_min > 0, C_min, 1.0), 0.0)
-                cr = np.where(np.isfinite(C_max) & (C_max > 0), C_min / np.where(C_max > 0, C_max, 1.0), 0.0)
-            return corr.crossflow_effectiveness(ntu, cr) * C_min * dT
-
+        model = _ZoneHeatRate(C_ref=C_ref, R_tot=R_air[idx] + R_ref, C_air=C_air[idx], dT=np.abs(Ta - Tr0))
         if wet:
             # Enthalpy potential (Braun et al. 1989): saturated-air enthalpy slope
             # c_s as the secant between refrigerant and entering-air temperature.
             h_s_r = sat_air.enthalpy(Tr0)
             c_s = (sat_air.enthalpy(Ta) - h_s_r) / np.maximum(Ta - Tr0, 1e-9)
-            R_star = air_cp * R_air[idx] + c_s * R_ref  # (J/kg)/W
-            C_ref_star = C_ref / c_s
-            m_a = m_da[idx]
-            dh = np.maximum(air_h - h_s_r, 0.0)
+            model.wet = _ZoneHeatRate(
+                C_ref=C_ref / c_s,
+                R_tot=air["cp"][idx] * R_air[idx] + c_s * R_ref,  # (J/kg)/W
+                C_air=m_da[idx],
+                dT=np.maximum(air["h"][idx] - h_s_r, 0.0),
+            )
+        if not is_last:
+            f_needed[idx] += model.fraction_needed(Q_needed, two_phase)
 
-            def q_wet(f, C_ref_star=C_ref_star, R_star=R_star, m_a=m_a, dh=dh):
-                C_af = f * m_a
-                C_min = np.minimum(C_af, C_ref_star)
-                C_max = np.maximum(C_af, C_ref_star)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    ntu = np.where(C_min > 0, f / R_star / np.where(C_min > 0, C_min, 1.0), 0.0)
-                    cr = np.where(np.isfinite(C_max) & (C_max > 0), C_min / np.where(C_max > 0, C_max, 1.0), 0.0)
-                return corr.crossflow_effectiveness(ntu, cr) * C_min * dh
-
-            def q_zone(f):
-                return np.maximum(q_dry(f), q_wet(f))
-        else:
-            q_zone = q_dry
-
-        Q_full = q_zone(fr)
+        # From here on, only the zone's share of the real coil.
+        sub = np.nonzero(live[idx])[0]
+        if sub.size == 0:
+            continue
+        idx, Ta, Ts, m, Tr0, hr0, Q_needed, R_ref = (a[sub] for a in (idx, Ta, Ts, m, Tr0, hr0, Q_needed, R_ref))
+        props = None if props is None else {k: v[sub] for k, v in props.items()}
+        model = model.subset(sub)
+        fr = f_rem[idx]
+        Q_full = model.rate(fr)
         take_all = Q_full <= Q_needed
         f_z = np.where(take_all, fr, 0.0)
         if (~take_all).any():
-            f_z = np.where(take_all, fr, _bisect(q_zone, Q_needed, fr))
+            f_z = np.where(take_all, fr, _bisect(model.rate, Q_needed, fr))
         Q_z = np.where(take_all, Q_full, Q_needed)
 
         # Coldest (evaporator) or hottest (condenser) wall point of the zone: at the air inlet face.
-        T_wall = Tr0 + (Ta - Tr0) * R_ref / R_tot
+        T_wall = Tr0 + (Ta - Tr0) * R_ref / model.R_tot
         T_surface_min[idx] = np.minimum(T_surface_min[idx], np.where(f_z > 0, T_wall, np.inf))
 
         if wet:
             # Moisture removed, from the effective surface state of the zone (Braun et
             # al. 1989, eqs. 25-28): the zone is wet where that surface lies below the
             # entering air's dew point, whichever of the dry and wet analyses set Q.
+            air_h, air_w, m_a = air["h"][idx], air["w"][idx], m_da[idx]
             ntu_o = 1.0 / (R_air[idx] * C_air[idx])
             with np.errstate(divide="ignore", invalid="ignore"):
                 h_a_out = air_h - Q_z / np.where(f_z > 0, f_z * m_a, 1.0)
@@ -423,10 +481,14 @@ def solve_coil(
     p_out = p_in - dp
     bad_dp = ~(p_out > fluid.p_triple)
     p_ok = np.where(bad_dp, np.nan, p_out)
-    T_out = fluid.state("PH", p_ok, h_out, ("T",))["T"]
-    h_l_out = fluid.state("PQ", p_ok, 0.0, ("H",))["H"]
-    h_v_out = fluid.state("PQ", p_ok, 1.0, ("H",))["H"]
-    x_out = quality(h_out, h_l_out, h_v_out)
+    # Saturation at the outlet pressure from the fluid's tabulated curve (within
+    # 1 J/kg of CoolProp below 3 MPa); a two-phase outlet sits at T_sat, so only
+    # single-phase outlets need a (p, h) flash.
+    curve = fluid.saturation_curve()
+    x_out = quality(h_out, curve.liquid_enthalpy(p_ok), curve.vapour_enthalpy(p_ok))
+    T_out = curve.temperature(p_ok)
+    single = ~((x_out >= 0.0) & (x_out <= 1.0))
+    T_out[single] = fluid.state("PH", p_ok[single], h_out[single], ("T",))["T"]
     Q_signed = -sign * Q  # > 0 when heat flows from refrigerant to air
     # Air leaving: refrigerant heat plus the enthalpy carried off by condensate.
     h_air_out = air["h"] + (Q_signed - cond_enthalpy) / m_da
@@ -450,6 +512,9 @@ def solve_coil(
         "h_air_out": h_air_out,
         "m_dry_air": m_da,
         "w_air_out": w_air_out,
+        "capacity_ratio": np.where(
+            f_needed > 1.0 / CAPACITY_RATIO_MAX, 1.0 / np.maximum(f_needed, 1e-300), CAPACITY_RATIO_MAX
+        ),
         "bad_direction": bad_direction,
         "bad_dp": bad_dp,
         "bad_props": bad_props,

@@ -37,7 +37,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from evtms.benches.base import STATUS_OUTSIDE_FLUID_RANGE, STATUS_PROPERTY_FAILED, Bench, finish_status, first_code
+from evtms.benches.base import (
+    STATUS_OUTSIDE_FLUID_RANGE,
+    STATUS_PROPERTY_FAILED,
+    Bench,
+    finish_status,
+    first_code,
+    pressure_nodes,
+)
 from evtms.fluid import Fluid, quality
 from evtms.params import CompressorParams, Parameters
 
@@ -157,7 +164,7 @@ BENCH = Bench(
             "speed": (0.1, 1.0),
             "T_in": tuple(np.linspace(240.0, 340.0, 41)),
             "pr": tuple(np.geomspace(1.2, 12.0, 14)),
-            "p_in": tuple(np.geomspace(0.06e6, 0.9e6, 40)),
+            "p_in": pressure_nodes(np.arange(-36.0, 32.0, 2.0)),
         },
     },
 )

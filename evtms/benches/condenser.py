@@ -36,6 +36,7 @@ from evtms.benches.base import (
     Bench,
     finish_status,
     first_code,
+    pressure_nodes,
 )
 from evtms.benches.coil import solve_coil
 from evtms.fluid import Fluid
@@ -44,7 +45,7 @@ from evtms.params import Parameters
 STATUS_NOT_WARMER_THAN_AIR = 3
 STATUS_DP_EXCEEDS_INLET = 4
 
-OUTPUTS = ("status", "Q", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp")
+OUTPUTS = ("status", "Q", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp", "capacity_ratio")
 
 
 def inlet_enthalpy(inputs: dict[str, np.ndarray], fluid: Fluid) -> np.ndarray:
@@ -88,7 +89,8 @@ def coil_bench_outputs(
         ],
         p_in.size,
     )
-    out = {k: np.asarray(res[k], float).copy() for k in ("Q", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp")}
+    keys = ("Q", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp", "capacity_ratio")
+    out = {k: np.asarray(res[k], float).copy() for k in keys}
     out["h_in"] = h_in
     return out, status, res
 
@@ -113,7 +115,11 @@ def condenser_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid
     dict of str to numpy.ndarray
         ``Q`` [W] (> 0, refrigerant to air), ``h_in``, ``h_out`` [J/kg],
         ``T_out`` [K], ``p_out`` [Pa], ``x_out`` [1], ``T_air_out`` [K],
-        ``dp`` [Pa] and ``status`` (int8, see :data:`FLAGS`).
+        ``dp`` [Pa], ``capacity_ratio`` [1] (coil length over the length
+        needed to condense to saturated liquid: > 1 subcooled outlet, < 1
+        two-phase outlet; a smooth function of the inputs where ``x_out`` has
+        a kink, which the cycle solver uses) and ``status`` (int8, see
+        :data:`FLAGS`).
     """
     out, status, _ = coil_bench_outputs(inputs, params, fluid, "condenser")
     finish_status(status, out, (0,))
@@ -145,14 +151,16 @@ BENCH = Bench(
             "T_in": (330.0, 345.0, 360.0, 375.0),
             "T_res": (300.0, 315.0, 330.0),
         },
-        # Cycle envelope: ambient 15-45 degC, fan 0.1-1, compressor speed 0.1-1 (see README).
+        # Cycle envelope (README): ambient 15-45 degC, fan 0.1-1, condensing 15-91 degC.
+        # Saturation temperature and air temperature every 2 K: the response hinges on
+        # their difference, which is small (a few kelvin) at a fully condensing point.
         "cycle": {
-            "mdot": tuple(np.linspace(0.003, 0.08, 12)),
-            "fan": (0.1, 0.15, 0.25, 0.4, 0.55, 0.75, 1.0),
-            "p_in": tuple(np.geomspace(0.5e6, 3.2e6, 14)),
-            "h_in": tuple(np.linspace(400e3, 500e3, 9)),
+            "mdot": tuple(np.geomspace(0.002, 0.15, 16)),
+            "fan": tuple(np.geomspace(0.1, 1.0, 8)),
+            "p_in": pressure_nodes(np.arange(15.0, 92.0, 2.0)),
+            "h_in": tuple(np.linspace(400e3, 480e3, 5)),
             "T_res": (300.0,),
-            "T_air_in": tuple(np.linspace(288.15, 318.15, 7)),
+            "T_air_in": tuple(np.arange(15.0, 45.1, 2.0) + 273.15),
         },
     },
 )

@@ -34,7 +34,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from evtms.benches.base import STATUS_OUTSIDE_FLUID_RANGE, STATUS_PROPERTY_FAILED, Bench, finish_status
+from evtms.benches.base import (
+    STATUS_OUTSIDE_FLUID_RANGE,
+    STATUS_PROPERTY_FAILED,
+    Bench,
+    finish_status,
+    pressure_nodes,
+)
 from evtms.benches.condenser import STATUS_DP_EXCEEDS_INLET, coil_bench_outputs
 from evtms.fluid import Fluid
 from evtms.params import Parameters
@@ -43,7 +49,7 @@ STATUS_NOT_COLDER_THAN_AIR = 3
 STATUS_FROST_RISK = 10
 FREEZING_POINT = 273.15  # K
 
-OUTPUTS = ("status", "Q", "Q_latent", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp")
+OUTPUTS = ("status", "Q", "Q_latent", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp", "capacity_ratio")
 
 
 def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
@@ -65,8 +71,9 @@ def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, flui
     dict of str to numpy.ndarray
         ``Q`` [W] (< 0: heat into the refrigerant), ``Q_latent`` [W] (<= 0),
         ``h_in``, ``h_out`` [J/kg], ``T_out`` [K], ``p_out`` [Pa],
-        ``x_out`` [1], ``T_air_out`` [K], ``dp`` [Pa], ``status`` (int8, see
-        :data:`FLAGS`).
+        ``x_out`` [1], ``T_air_out`` [K], ``dp`` [Pa], ``capacity_ratio`` [1]
+        (coil length over the length needed to evaporate to saturated vapour),
+        ``status`` (int8, see :data:`FLAGS`).
     """
     out, status, res = coil_bench_outputs(inputs, params, fluid, "evaporator")
     out["Q_latent"] = np.asarray(res["Q_latent"], float).copy()
@@ -103,15 +110,16 @@ BENCH = Bench(
             "T_in": (235.0, 250.0, 265.0, 275.0),
             "T_res": (250.0, 265.0, 280.0),
         },
-        # Cycle envelope: cabin air 15-35 degC at RH 0.2-0.8, blower 0.1-1 (see README).
+        # Cycle envelope (README): cabin air 15-35 degC at RH 0.2-0.8, blower 0.1-1,
+        # evaporating -35 to 29 degC (every 2 K of saturation temperature).
         "cycle": {
-            "mdot": tuple(np.linspace(0.003, 0.08, 12)),
-            "blower": (0.1, 0.15, 0.25, 0.4, 0.55, 0.75, 1.0),
-            "p_in": tuple(np.geomspace(0.06e6, 0.9e6, 14)),
-            "h_in": tuple(np.linspace(200e3, 350e3, 7)),
+            "mdot": tuple(np.geomspace(0.002, 0.15, 16)),
+            "blower": tuple(np.geomspace(0.1, 1.0, 12)),
+            "p_in": pressure_nodes(np.arange(-35.0, 30.0, 2.0)),
+            "h_in": tuple(np.linspace(200e3, 350e3, 5)),
             "T_res": (280.0,),
-            "T_air_in": tuple(np.linspace(288.15, 308.15, 5)),
-            "RH_air_in": (0.2, 0.4, 0.6, 0.8),
+            "T_air_in": tuple(np.arange(15.0, 35.1, 4.0) + 273.15),
+            "RH_air_in": tuple(np.linspace(0.2, 0.8, 7)),
         },
     },
 )

@@ -43,7 +43,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from evtms.benches.base import STATUS_OUTSIDE_FLUID_RANGE, STATUS_PROPERTY_FAILED, Bench, finish_status, first_code
+from evtms.benches.base import (
+    STATUS_OUTSIDE_FLUID_RANGE,
+    STATUS_PROPERTY_FAILED,
+    Bench,
+    finish_status,
+    first_code,
+    pressure_nodes,
+)
 from evtms.benches.condenser import inlet_enthalpy
 from evtms.fluid import Fluid, quality
 from evtms.params import ExpansionValveParams, Parameters
@@ -169,7 +176,7 @@ BENCH = Bench(
         # Condenser outlets of the cycle envelope; dp goes with mdot^2, so two flows suffice.
         "cycle": {
             "h_in": tuple(np.linspace(200e3, 350e3, 7)),
-            "p_in": tuple(np.geomspace(0.5e6, 3.2e6, 8)),
+            "p_in": pressure_nodes(np.arange(15.0, 92.0, 5.0)),
             "mdot": (0.001, 0.005),
         },
     },

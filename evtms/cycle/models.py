@@ -23,11 +23,26 @@ if TYPE_CHECKING:
 
 Result = dict[str, np.ndarray]
 
-#: Variables each component model returns.
+#: Variables the solver needs while it iterates (the fewer, the faster the LUT gathers).
+ITERATION_OUTPUTS = {
+    "compressor": ("mdot", "h_in", "h_out"),
+    "condenser": ("capacity_ratio", "p_out", "x_out", "h_out"),
+    "evaporator": ("h_out", "p_out"),
+    "expansion_valve": ("dp",),
+}
+
+#: Variables whose interpolation gets the quadratic (curvature) correction: the coils'
+#: closure and outlet variables, which curve strongly between nodes.
+CURVED = {
+    "condenser": ("capacity_ratio", "x_out", "h_out", "T_out"),
+    "evaporator": ("h_out", "Q_latent"),
+}
+
+#: Variables each component model returns for the final states.
 COMPONENT_OUTPUTS = {
     "compressor": ("mdot", "h_in", "h_out", "T_out", "W"),
-    "condenser": ("Q", "h_out", "p_out", "T_out", "x_out"),
-    "evaporator": ("Q", "Q_latent", "h_out", "p_out", "T_out"),
+    "condenser": ("h_out", "p_out", "T_out", "x_out", "capacity_ratio"),
+    "evaporator": ("Q_latent", "h_out", "p_out"),
     "expansion_valve": ("dp",),
 }
 
@@ -103,6 +118,9 @@ class DirectModels:
     def valve(self, h_in, p_in, mdot) -> Result:
         return self._run("expansion_valve", {"h_in": h_in, "p_in": p_in, "mdot": mdot})
 
+    def detailed(self, on: bool) -> None:
+        """The bench functions always return every variable."""
+
     def valve_reference_flow(self) -> float:
         """A small mass flow [kg/s] at which the nominal-opening valve passes liquid."""
         return 1e-3
@@ -125,13 +143,21 @@ class DirectModels:
 class _LutComponent:
     """One component's LUT: interpolator, axes, and the fixed values of absent axes."""
 
-    def __init__(self, component: str, ds: xr.Dataset, variables: tuple[str, ...]) -> None:
+    def __init__(self, component: str, ds: xr.Dataset, curvature: tuple[str, ...]) -> None:
         from evtms.luts import Interpolator
 
         self.component = component
         self.source = ds.encoding.get("source", component)
         self.dims = list(ds["status"].dims)
-        self.itp = Interpolator.from_dataset(ds, list(variables), out_of_range="nan")
+        # The coils' responses curve strongly between nodes (they saturate towards
+        # the air temperature); the quadratic correction cuts that error several-fold.
+        self.fast = Interpolator.from_dataset(
+            ds, list(ITERATION_OUTPUTS[component]), out_of_range="nan", curvature=curvature
+        )
+        self.full = Interpolator.from_dataset(
+            ds, list(COMPONENT_OUTPUTS[component]), out_of_range="nan", curvature=curvature
+        )
+        self.detailed = False
         self.ranges = {d: (float(ds[d].values[0]), float(ds[d].values[-1])) for d in self.dims}
         env = json.loads(ds.attrs.get("environment", "{}"))
         # Air conditions a LUT without air axes was computed at.
@@ -158,11 +184,12 @@ class _LutComponent:
                 off = (np.abs(x - fixed) > 1e-9) & (reasons == "")
                 for i in np.nonzero(off)[0]:
                     reasons[i] = f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
-        out = self.itp(cols)
+        itp = self.full if self.detailed else self.fast
+        out = itp(cols)
         bad = reasons != ""
         for v in out.values():
             v[bad] = np.nan
-        nan = ~bad & ~np.isfinite(out[self.itp.variables[0]])
+        nan = ~bad & ~np.isfinite(out[itp.variables[0]])
         reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
         out["reason"] = reasons
         return out
@@ -194,7 +221,12 @@ class LutModels:
                     f"the {component} LUT has axes {', '.join(ds.dims)}; cycle work needs {axis!r} "
                     "(write it with --grid cycle)"
                 )
-            self.luts[component] = _LutComponent(component, ds, COMPONENT_OUTPUTS[component])
+            self.luts[component] = _LutComponent(component, ds, CURVED.get(component, ()))
+
+    def detailed(self, on: bool) -> None:
+        """Return every variable (final states) or only those the iterations need."""
+        for lut in self.luts.values():
+            lut.detailed = on
 
     def compressor(self, speed, T_in, p_in, pr) -> Result:
         return self.luts["compressor"]({"speed": speed, "T_in": T_in, "p_in": p_in, "pr": pr})

@@ -60,6 +60,9 @@ CYCLE_FLAGS = {
 }
 VALID_CYCLE_FLAGS = (STATUS_CONVERGED, STATUS_VALVE_BEYOND_MAX)
 
+#: Scale [J/(kg K)] that turns the suction enthalpy residual into about kelvin of superheat.
+_CP_SCALE = 1000.0
+
 INPUTS = ("speed", "fan", "blower", "T_amb", "RH_amb", "T_cabin", "RH_cabin", "superheat", "subcooling")
 
 
@@ -209,22 +212,44 @@ class CycleSolver:
         p_C = cond["p_out"]
         h_l, h_v = self.sat.liquid_enthalpy(p_C), self.sat.vapour_enthalpy(p_C)
         x_target = -self.sat.liquid_cp(p_C) * ops["subcooling"] / (h_v - h_l)
-        residual = cond["x_out"] - x_target
+        # Saturated-liquid outlet: the capacity ratio (coil over the coil needed to
+        # condense fully) is smooth where x_out has its kink, exactly at this target.
+        residual = np.where(ops["subcooling"] > 0, cond["x_out"] - x_target, 1.0 - cond["capacity_ratio"])
         # Refrigerant not warmer than the air condenses nothing: far above the target.
         residual = np.where(_says(cond["reason"], "not_warmer_than_air") & np.isfinite(comp["mdot"]), 1.0, residual)
         reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
         return {"T_A": T_A, "comp": comp, "cond": cond, "residual": residual, "reason": reason}
 
-    def _solve_discharge(self, ops: dict, p_A: np.ndarray) -> dict:
-        """Discharge pressure p_B for each suction pressure: the condenser-outlet condition."""
+    def _solve_discharge(self, ops: dict, p_A: np.ndarray, guess: np.ndarray | None = None) -> dict:
+        """Discharge pressure p_B for each suction pressure: the condenser-outlet condition.
+
+        ``guess`` (NaN where unknown), the root at a nearby suction pressure,
+        narrows the bracket to +-2 % where the residual changes sign there.
+        """
         n = p_A.size
         pr_lo, pr_hi = self._pr
         lo = np.maximum(self.sat.pressure(ops["T_amb"] + 0.5), pr_lo * p_A)
         lo = np.maximum(lo, self._p_discharge[0])
         hi = np.minimum(np.full(n, self._p_discharge[1]), pr_hi * p_A)
-        e_lo = self._discharge_side(ops, p_A, lo)
-        e_hi = self._discharge_side(ops, p_A, hi)
-        f_lo, f_hi = e_lo["residual"], e_hi["residual"]
+        f_lo, f_hi = np.full(n, np.nan), np.full(n, np.nan)
+        r_lo, r_hi = np.full(n, "", dtype=object), np.full(n, "", dtype=object)
+        narrow = np.zeros(n, bool)
+        if guess is not None and np.isfinite(guess).any():
+            g = np.nonzero(np.isfinite(guess) & (guess > lo) & (guess < hi))[0]
+            sub = {k: v[g] for k, v in ops.items()}
+            a, b = np.maximum(lo[g], guess[g] / 1.02), np.minimum(hi[g], guess[g] * 1.02)
+            ea, eb = self._discharge_side(sub, p_A[g], a), self._discharge_side(sub, p_A[g], b)
+            ok = (ea["residual"] > 0) & (eb["residual"] < 0)
+            k = g[ok]
+            lo[k], hi[k], f_lo[k], f_hi[k] = a[ok], b[ok], ea["residual"][ok], eb["residual"][ok]
+            narrow[k] = True
+        wide = np.nonzero(~narrow)[0]
+        if wide.size:
+            sub = {k: v[wide] for k, v in ops.items()}
+            e_lo = self._discharge_side(sub, p_A[wide], lo[wide])
+            e_hi = self._discharge_side(sub, p_A[wide], hi[wide])
+            f_lo[wide], f_hi[wide] = e_lo["residual"], e_hi["residual"]
+            r_lo[wide], r_hi[wide] = e_lo["reason"], e_hi["reason"]
         status = np.full(n, STATUS_CONVERGED, np.int8)
         reason = np.full(n, "", dtype=object)
         cold = np.isfinite(f_lo) & (f_lo <= 0)
@@ -245,7 +270,7 @@ class CycleSolver:
                 r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], pb)
                 return r["residual"], r["reason"]
 
-            root, state, why = bracketed_root(fun, lo[idx], hi[idx], f_lo[idx], f_hi[idx], idx, 1e-9, 1e-9)
+            root, state, why = bracketed_root(fun, lo[idx], hi[idx], f_lo[idx], f_hi[idx], idx, 1e-7, 1e-7)
             p_B[idx] = root
             status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
             status[idx[state == 3]] = STATUS_NOT_CONVERGED
@@ -253,26 +278,43 @@ class CycleSolver:
         p_B[status != STATUS_CONVERGED] = np.nan
         return {"p_B": p_B, "status": status, "reason": reason}
 
-    def _suction_side(self, ops: dict, p_A: np.ndarray, full: bool = False) -> dict:
-        """Superheat residual at suction pressure p_A (with the inner discharge solve)."""
-        dis = self._solve_discharge(ops, p_A)
+    def _suction_side(self, ops: dict, p_A: np.ndarray, idx: np.ndarray, full: bool = False) -> dict:
+        """Superheat residual at suction pressure p_A (with the inner discharge solve).
+
+        ``idx`` are the points' indices in the whole batch, for the warm start
+        of the discharge pressure from the previous suction iterate.
+        """
+        dis = self._solve_discharge(ops, p_A, self._guess[idx])
+        self._guess[idx] = np.where(np.isfinite(dis["p_B"]), dis["p_B"], self._guess[idx])
         side = self._discharge_side(ops, p_A, dis["p_B"])
         comp, cond = side["comp"], side["cond"]
-        h_D = cond["h_out"]
-        p_D = p_A.copy()
-        for _ in range(3):  # evaporator inlet = outlet pressure + its own drop
+        saturated = ops["subcooling"] <= 0
+        h_D = np.where(saturated, self.sat.liquid_enthalpy(cond["p_out"]), cond["h_out"])
+        # Evaporator inlet = outlet pressure + its own drop: a fixed point, warm-started
+        # from the drop at the previous suction iterate (the drop changes slowly).
+        p_D = p_A + self._dp_guess[idx]
+        for _ in range(2):
             evap = self.models.evaporator(comp["mdot"], ops["blower"], p_D, h_D, ops["T_cabin"], ops["RH_cabin"])
-            p_D = p_A + np.where(np.isfinite(evap["p_out"]), p_D - evap["p_out"], 0.0)
+            drop = np.where(np.isfinite(evap["p_out"]), p_D - evap["p_out"], self._dp_guess[idx])
+            p_D = p_A + drop
+        self._dp_guess[idx] = drop
         evap = self.models.evaporator(comp["mdot"], ops["blower"], p_D, h_D, ops["T_cabin"], ops["RH_cabin"])
-        sh = evap["T_out"] - self.sat.temperature(evap["p_out"])
-        # An inlet not colder than the air evaporates nothing: no superheat at all.
-        sh = np.where(_says(evap["reason"], "not_colder_than_air") & np.isfinite(h_D), 0.0, sh)
+        # The valve holds the outlet at the superheat setpoint, i.e. at the compressor's
+        # suction state A. The residual compares enthalpies (scaled to about kelvin):
+        # interpolated outlet enthalpy stays smooth where the LUT's outlet temperature
+        # has its kink (outlet turning two-phase), and matching it keeps the cycle's
+        # energy balance.
+        sh = (evap["h_out"] - comp["h_in"]) / _CP_SCALE
+        # An inlet not colder than the air evaporates nothing: the outlet stays at h_D.
+        sh = np.where(
+            _says(evap["reason"], "not_colder_than_air") & np.isfinite(h_D), (h_D - comp["h_in"]) / _CP_SCALE, sh
+        )
         status = dis["status"].copy()
         reason = dis["reason"].copy()
         bad = (status == STATUS_CONVERGED) & ~np.isfinite(sh)
         status[bad] = STATUS_OUTSIDE_ENVELOPE
         reason[bad] = np.where(side["reason"][bad] != "", side["reason"][bad], evap["reason"][bad])
-        residual = np.where(status == STATUS_CONVERGED, sh - ops["superheat"], np.nan)
+        residual = np.where(status == STATUS_CONVERGED, sh, np.nan)
         out = {"residual": residual, "status": status, "reason": reason}
         if full:
             out.update(p_B=dis["p_B"], p_D=p_D, side=side, evap=evap)
@@ -302,8 +344,11 @@ class CycleSolver:
         # Evaporating 45 K below the cabin air leaves a large superheat: the low end of the bracket.
         lo = np.maximum(self.sat.pressure(ops["T_cabin"] - 45.0), p_lo_lim)
         hi = np.minimum(self.sat.pressure(ops["T_cabin"] - 0.5), p_hi_lim)
-        e_lo = self._suction_side(ops, lo)
-        e_hi = self._suction_side(ops, hi)
+        self._guess = np.full(n, np.nan)
+        self._dp_guess = np.zeros(n)
+        everyone = np.arange(n)
+        e_lo = self._suction_side(ops, lo, everyone)
+        e_hi = self._suction_side(ops, hi, everyone)
         f_lo, f_hi = e_lo["residual"], e_hi["residual"]
         status = np.full(n, STATUS_CONVERGED, np.int8)
         reason = np.full(n, "", dtype=object)
@@ -321,10 +366,10 @@ class CycleSolver:
         if idx.size:
 
             def fun(pa, i):
-                r = self._suction_side({k: v[i] for k, v in ops.items()}, pa)
+                r = self._suction_side({k: v[i] for k, v in ops.items()}, pa, i)
                 return r["residual"], r["reason"]
 
-            root, state, why = bracketed_root(fun, lo[idx], hi[idx], f_lo[idx], f_hi[idx], idx, 1e-9, 1e-6)
+            root, state, why = bracketed_root(fun, lo[idx], hi[idx], f_lo[idx], f_hi[idx], idx, 1e-7, 1e-4)
             p_A[idx] = root
             status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
             status[idx[state == 3]] = STATUS_NOT_CONVERGED
@@ -333,40 +378,55 @@ class CycleSolver:
         return self._final_states(ops, p_A, status, reason)
 
     def _final_states(self, ops: dict, p_A: np.ndarray, status: np.ndarray, reason: np.ndarray) -> dict:
-        fin = self._suction_side(ops, p_A, full=True)
+        self.models.detailed(True)
+        try:
+            fin = self._suction_side(ops, p_A, np.arange(p_A.size), full=True)
+            return self._collect(ops, p_A, status, reason, fin)
+        finally:
+            self.models.detailed(False)
+
+    def _collect(self, ops: dict, p_A: np.ndarray, status: np.ndarray, reason: np.ndarray, fin: dict) -> dict:
         late = (status == STATUS_CONVERGED) & (fin["status"] != STATUS_CONVERGED)
         status[late] = fin["status"][late]
         reason[late] = fin["reason"][late]
         side, evap = fin["side"], fin["evap"]
         comp, cond = side["comp"], side["cond"]
         mdot = comp["mdot"]
+        # State C: with a saturated-liquid outlet it is that condition at the LUT's
+        # outlet pressure (the LUT's own h_out has its kink exactly there).
+        p_C = cond["p_out"]
+        saturated = ops["subcooling"] <= 0
+        h_C = np.where(saturated, self.sat.liquid_enthalpy(p_C), cond["h_out"])
+        T_C = np.where(saturated, self.sat.temperature(p_C), cond["T_out"])
         # The valve's orifice law makes dp go with mdot^2 at a given inlet state, so the
         # opening that passes mdot at the cycle's dp follows from the nominal-opening dp
         # at a small reference flow (valid on every valve grid).
         m_ref = self.models.valve_reference_flow()
-        valve = self.models.valve(cond["h_out"], cond["p_out"], np.full(mdot.shape, m_ref))
-        dp_valve = cond["p_out"] - fin["p_D"]
+        valve = self.models.valve(h_C, p_C, np.full(mdot.shape, m_ref))
+        dp_valve = p_C - fin["p_D"]
         with np.errstate(invalid="ignore", divide="ignore"):
             opening = mdot / m_ref * np.sqrt(valve["dp"] / dp_valve)
+        # Heat flows as mdot times each component's enthalpy change, the outlet from its own model.
+        h_B = comp["h_out"]
         res = {
             "p_A": p_A,
             "T_A": side["T_A"],
             "h_A": comp["h_in"],
             "p_B": fin["p_B"],
             "T_B": comp["T_out"],
-            "h_B": comp["h_out"],
-            "p_C": cond["p_out"],
-            "T_C": cond["T_out"],
-            "h_C": cond["h_out"],
+            "h_B": h_B,
+            "p_C": p_C,
+            "T_C": T_C,
+            "h_C": h_C,
             "p_D": fin["p_D"],
             "T_D": self.sat.temperature(fin["p_D"]),
-            "h_D": cond["h_out"].copy(),
+            "h_D": h_C.copy(),
             "mdot": mdot,
-            "Q_evap": evap["Q"],
+            "Q_evap": -mdot * (evap["h_out"] - h_C),
             "Q_latent": evap["Q_latent"],
-            "Q_cond": cond["Q"],
+            "Q_cond": mdot * (h_B - h_C),
             "W": comp["W"],
-            "W_fluid": mdot * (comp["h_out"] - comp["h_in"]),
+            "W_fluid": mdot * (h_B - comp["h_in"]),
             "h_A_evap": evap["h_out"],
             "dp_valve": dp_valve,
             "valve_opening": opening,
