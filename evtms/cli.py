@@ -262,7 +262,7 @@ def lut_info(file: Annotated[Path, typer.Argument(help="LUT file (.nc).")]) -> N
     typer.echo(f"parameters: {json.dumps(s['parameters'], sort_keys=True)}")
 
 
-def _parse_point(text: str, names: tuple[str, ...]) -> dict[str, float]:
+def _parse_point(text: str, names: tuple[str, ...], partial: bool = False) -> dict[str, float]:
     """``name=value[unit],...`` -> SI values (units as for --axis)."""
     from evtms.benches.grid import parse_value
 
@@ -278,7 +278,7 @@ def _parse_point(text: str, names: tuple[str, ...]) -> dict[str, float]:
             raise EvtmsInputError(f"unknown axis {name!r} in --at; allowed: {', '.join(names)}")
         point[name] = parse_value(name, value)
     missing = [n for n in names if n not in point]
-    if missing:
+    if missing and not partial:
         raise EvtmsInputError(f"--at has no value for axis {missing[0]!r}; give all of {', '.join(names)}")
     return point
 
@@ -657,6 +657,79 @@ def report_energy_balance(
     except ValueError as exc:
         fail(str(exc))
     typer.echo(f"wrote {output} and {output.with_suffix('.csv')}")
+
+
+@report_app.command("bench")
+def report_bench(
+    file: Annotated[Path, typer.Argument(help="LUT file (.nc) of any bench.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Output folder (created if its parent exists).")],
+    at: Annotated[
+        str | None, typer.Option("--at", help="Base point name=value,... (nearest grid value); default: first values.")
+    ] = None,
+    surface: Annotated[
+        str | None, typer.Option("--surface", help="Two axes for the 3-D map, e.g. p_in,T_in (the default).")
+    ] = None,
+    fmt: Annotated[str, typer.Option("--format", help="Figure format: png or svg.")] = "png",
+) -> None:
+    """Bench figures and an HTML report from a LUT: response per axis, 3-D map, provenance.
+
+    Example: evtms report bench luts/condenser.nc -o reports/condenser/
+    """
+    from evtms.reports.bench_plots import bench_report_figures
+    from evtms.reports.html import bench_report_page
+
+    if fmt not in ("png", "svg"):
+        fail(f"figure format {fmt!r} is not allowed; allowed: png, svg")
+    ds = _open(file)
+    try:
+        base = _parse_point(at, tuple(ds["status"].dims), partial=True) if at else None
+        pair = None
+        if surface:
+            parts = tuple(p.strip() for p in surface.split(","))
+            if len(parts) != 2:
+                raise EvtmsInputError(f"--surface {surface!r} must name two axes, e.g. p_in,T_in")
+            pair = parts
+        folder = check_output_folder(output)
+        figures = bench_report_figures(ds, folder, base, pair, fmt)
+    except EvtmsInputError as exc:
+        fail(str(exc))
+    page = bench_report_page(ds, figures, folder / "index.html", str(file))
+    typer.echo(f"wrote {len(figures)} figures and {page}")
+
+
+@app.command()
+def demo(
+    output: Annotated[
+        Path, typer.Option("--output", "-o", help="Output folder (created if its parent exists).")
+    ] = Path("out"),
+    force: Annotated[bool, typer.Option("--force", help="Recompute LUTs even if they are up to date.")] = False,
+    workers: Annotated[int, typer.Option("--workers", help="Processes for the bench sweeps.")] = 2,
+    params: Annotated[Path | None, typer.Option("--params", help="TOML parameter overrides.")] = None,
+) -> None:
+    """The whole job: benches on the thesis and cycle grids, LUTs, a cycle sweep, figures, index.html.
+
+    Example: evtms demo -o out/   (a second run reuses up-to-date LUTs; --force recomputes)
+    """
+    from evtms.demo import run_demo
+    from evtms.params import load_parameters
+
+    if workers < 1:
+        fail(f"--workers {workers} is not allowed; allowed: 1 or more")
+    try:
+        parameters = load_parameters(params)
+    except EvtmsInputError as exc:
+        fail(str(exc))
+    folder = check_output_folder(output)
+    t0 = time.perf_counter()
+
+    def notify(message: str) -> None:
+        typer.echo(f"[{time.perf_counter() - t0:6.1f} s] {message}", err=True)
+
+    result = run_demo(folder, parameters, force=force, workers=workers, notify=notify)
+    typer.echo(
+        f"demo: {len(result.computed)} LUTs computed, {len(result.reused)} reused, "
+        f"{time.perf_counter() - t0:.1f} s; open {result.index.resolve()}"
+    )
 
 
 def _isin(values, allowed):

@@ -37,15 +37,20 @@ def thesis(fluid, params):
 
 
 @pytest.fixture(scope="session")
-def cycle_luts_dir(tmp_path_factory, params, fluid):
-    """The four LUTs on the 'cycle' grid preset, written once per session (about a minute)."""
-    from evtms.luts.io import write_lut
+def demo_run(tmp_path_factory):
+    """One full 'evtms demo' into a fresh folder (about a minute on two cores), shared by the tests."""
+    from evtms.demo import run_demo
 
-    folder = tmp_path_factory.mktemp("cycle_luts")
-    for name, bench in BENCHES.items():
-        ds = run_sweep(bench, build_grid(bench, "cycle", {}), params, grid_name="cycle", fluid=fluid)
-        write_lut(ds, folder / f"{name}.nc")
-    return folder
+    out = tmp_path_factory.mktemp("demo")
+    messages = []
+    result = run_demo(out, workers=2, notify=messages.append)
+    return out, result, messages
+
+
+@pytest.fixture(scope="session")
+def cycle_luts_dir(demo_run):
+    """The four LUTs on the 'cycle' grid preset (written by the demo run)."""
+    return demo_run[0] / "luts" / "cycle"
 
 
 @pytest.fixture(scope="session")

@@ -1,0 +1,241 @@
+"""The whole job in one call: benches, LUTs, a cycle sweep, figures and an HTML index.
+
+``run_demo(out)`` writes into ``out``::
+
+    luts/thesis/<component>.nc     the four benches on the thesis grids
+    luts/cycle/<component>.nc      the four benches on the cycle grids
+    cycle/speed_sweep.nc           cycle on the LUTs over compressor speed
+    reports/<component>/index.html bench figures (thesis LUTs) with provenance
+    reports/cycle/*.png|svg|csv    p-h, p-T and energy-balance figures
+    index.html                     links to everything
+
+A LUT already in place with the same grid, parameters, air boundary, evtms
+and CoolProp versions is reused (``force`` recomputes it). The benches run in
+parallel processes, one per LUT.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from evtms import __version__
+from evtms.params import Parameters
+
+COMPONENTS = ("condenser", "evaporator", "expansion_valve", "compressor")
+GRIDS = ("thesis", "cycle")
+
+Notify = Callable[[str], None]
+
+
+@dataclass
+class DemoResult:
+    """What the demo wrote and reused."""
+
+    index: Path
+    computed: list[str] = field(default_factory=list)
+    reused: list[str] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def lut_is_current(path: Path, component: str, grid: str, params: Parameters) -> bool:
+    """True if ``path`` is a valid LUT made with these inputs and the current versions."""
+    from evtms.fluid import coolprop_version
+    from evtms.luts import LutFormatError, open_lut
+
+    if not path.exists():
+        return False
+    try:
+        ds = open_lut(path)
+    except LutFormatError:
+        return False
+    a = ds.attrs
+    return (
+        a.get("grid") == grid
+        and a.get("component") == component
+        and a.get("evtms_version") == __version__
+        and a.get("coolprop_version") == coolprop_version()
+        and a.get("parameters") == json.dumps(params.for_component(component), sort_keys=True)
+        and a.get("environment") == json.dumps(asdict(params.environment), sort_keys=True)
+    )
+
+
+def _compute_lut(component: str, grid: str, params: Parameters, path: str) -> tuple[str, float]:
+    """Worker: sweep one bench on a preset grid and write its LUT (runs in a child process)."""
+    from evtms.benches import BENCHES
+    from evtms.benches.grid import build_grid
+    from evtms.benches.sweep import run_sweep
+    from evtms.luts.io import write_lut
+
+    t0 = time.perf_counter()
+    bench = BENCHES[component]
+    ds = run_sweep(bench, build_grid(bench, grid, {}), params, grid_name=grid)
+    write_lut(ds, path)
+    return f"{grid}/{component}", time.perf_counter() - t0
+
+
+def run_demo(
+    out: str | Path,
+    params: Parameters | None = None,
+    force: bool = False,
+    workers: int = 2,
+    notify: Notify | None = None,
+) -> DemoResult:
+    """Run benches, cycle and reports into ``out`` (see the module notes).
+
+    ``notify(message)`` is called as each step starts or ends (for progress).
+    """
+    params = params or Parameters()
+    notify = notify or (lambda message: None)
+    out = Path(out)
+    result = DemoResult(index=out / "index.html")
+    for grid in GRIDS:
+        (out / "luts" / grid).mkdir(parents=True, exist_ok=True)
+    jobs = []
+    for grid in GRIDS:
+        for c in COMPONENTS:
+            path = out / "luts" / grid / f"{c}.nc"
+            if not force and lut_is_current(path, c, grid, params):
+                result.reused.append(f"{grid}/{c}")
+            else:
+                jobs.append((c, grid, path))
+    if result.reused:
+        notify(f"reusing up-to-date LUTs: {', '.join(result.reused)}")
+    if jobs:
+        # Longest first, so two workers finish together.
+        order = {"evaporator": 0, "condenser": 1, "compressor": 2, "expansion_valve": 3}
+        jobs.sort(key=lambda j: (j[1] != "cycle", order[j[0]]))
+        notify(f"computing {len(jobs)} LUTs in {workers} processes")
+        with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+            futures = [pool.submit(_compute_lut, c, g, params, str(p)) for c, g, p in jobs]
+            for fut in as_completed(futures):
+                name, seconds = fut.result()
+                result.computed.append(name)
+                result.timings[name] = seconds
+                notify(f"wrote LUT {name} ({seconds:.1f} s)")
+    t0 = time.perf_counter()
+    _cycle_and_reports(out, params, result, notify)
+    result.timings["cycle and reports"] = time.perf_counter() - t0
+    return result
+
+
+def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify: Notify) -> None:
+    from evtms.cycle import OperatingPoints, cycle_dataset, load_cycle_luts, run_cycle
+    from evtms.cycle.solver import INPUTS
+    from evtms.fluid import Fluid
+    from evtms.luts import open_lut
+    from evtms.luts.io import atomic_output
+    from evtms.reports.bench_plots import bench_report_figures
+    from evtms.reports.cycle_plots import diagram_data, energy_balance_figure, ph_diagram, pt_diagram
+    from evtms.reports.html import bench_report_page
+
+    fluid = Fluid(params.fluid, params.backend)
+    # Cycle over compressor speed at the default conditions.
+    notify("solving the cycle over compressor speed on the cycle LUTs")
+    luts = load_cycle_luts(out / "luts" / "cycle")
+    defaults = {
+        "speed": np.linspace(0.2, 1.0, 9),
+        "fan": [0.5],
+        "blower": [0.4],
+        "T_amb": [303.15],
+        "RH_amb": [0.4],
+        "T_cabin": [300.15],
+        "RH_cabin": [0.5],
+        "superheat": [10.0],
+        "subcooling": [0.0],
+    }
+    grid = {k: np.asarray(v, float) for k, v in defaults.items()}
+    mesh = np.meshgrid(*[grid[k] for k in INPUTS], indexing="ij")
+    points = OperatingPoints(**{k: m.ravel() for k, m in zip(INPUTS, mesh, strict=True)})
+    res = run_cycle(points, luts, params, fluid)
+    sweep = cycle_dataset(grid, res, "LUTs in luts/cycle")
+    (out / "cycle").mkdir(exist_ok=True)
+    with atomic_output(out / "cycle" / "speed_sweep.nc") as tmp:
+        sweep.to_netcdf(tmp, engine="netcdf4")
+    figs = out / "reports" / "cycle"
+    figs.mkdir(parents=True, exist_ok=True)
+    notify("drawing the cycle figures")
+    cycle_figures = []
+    for fmt in ("png", "svg"):
+        energy_balance_figure(sweep, "speed", figs / f"energy_balance.{fmt}")
+    cycle_figures.append(
+        ("Energy balance over compressor speed (table: energy_balance.csv)", figs / "energy_balance.png")
+    )
+    mid = {d: 0 for d in INPUTS}
+    mid["speed"] = 4  # speed 0.6
+    states = diagram_data(sweep, mid)
+    for fmt in ("png", "svg"):
+        ph_diagram(states, fluid, figs / f"ph_diagram.{fmt}")
+        pt_diagram(states, fluid, figs / f"pt_diagram.{fmt}")
+    cycle_figures += [
+        ("p-h diagram at speed 0.6", figs / "ph_diagram.png"),
+        ("p-T diagram at speed 0.6", figs / "pt_diagram.png"),
+    ]
+    bench_pages = []
+    for c in COMPONENTS:
+        notify(f"drawing the {c} bench report")
+        lut_path = out / "luts" / "thesis" / f"{c}.nc"
+        ds = open_lut(lut_path)
+        folder = out / "reports" / c
+        folder.mkdir(parents=True, exist_ok=True)
+        figures = bench_report_figures(ds, folder)
+        bench_pages.append((c, bench_report_page(ds, figures, folder / "index.html", str(lut_path.relative_to(out)))))
+    _write_index(out, result, bench_pages, cycle_figures, sweep)
+
+
+def _write_index(out: Path, result: DemoResult, bench_pages, cycle_figures, sweep) -> None:
+    import html
+
+    from evtms.cycle.solver import CYCLE_FLAGS
+    from evtms.reports.html import _rel, _table, write_page
+
+    body = [
+        "<p>Generated by <code>evtms demo</code>. All files sit beside this page.</p>",
+        "<h2>Bench reports (thesis grids)</h2><ul>",
+    ]
+    for c, page in bench_pages:
+        body.append(f'<li><a href="{_rel(page, out)}">{html.escape(c)}</a></li>')
+    body.append("</ul><h2>LUT files</h2><ul>")
+    for grid in GRIDS:
+        for c in COMPONENTS:
+            p = out / "luts" / grid / f"{c}.nc"
+            body.append(f'<li><a href="{_rel(p, out)}">{grid}/{c}.nc</a></li>')
+    body.append("</ul><h2>Cycle on the LUTs</h2>")
+    rows = []
+    for i, speed in enumerate(sweep["speed"].values):
+        pt = sweep.isel(speed=i).squeeze()
+        code = int(pt["status"])
+        rows.append(
+            (
+                f"{speed:.2f}",
+                f"{float(pt['p_A']) / 1e6:.3f}",
+                f"{float(pt['p_B']) / 1e6:.3f}",
+                f"{-float(pt['Q_evap']):.0f}",
+                f"{float(pt['W']):.0f}",
+                f"{float(pt['COP']):.2f}",
+                CYCLE_FLAGS.get(code, str(code)),
+            )
+        )
+    body.append(_table(rows, ("speed", "p_A [MPa]", "p_B [MPa]", "cooling [W]", "W [W]", "COP", "status")))
+    body.append(f'<p>Sweep file: <a href="{_rel(out / "cycle" / "speed_sweep.nc", out)}">cycle/speed_sweep.nc</a></p>')
+    for caption, fig in cycle_figures:
+        rel = _rel(fig, out)
+        body.append(
+            f'<figure><a href="{rel}"><img src="{rel}" alt="{html.escape(caption)}"></a>'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+        )
+    body.append("<h2>This run</h2>")
+    body.append(
+        _table(
+            [(n, "computed", f"{t:.1f} s") for n, t in result.timings.items() if n in result.computed]
+            + [(n, "reused", "") for n in result.reused],
+            ("LUT", "", "time"),
+        )
+    )
+    write_page(out / "index.html", "evtms: R134a circuit benches, LUTs and cycle", "\n".join(body))

@@ -1,0 +1,143 @@
+"""Bench reports, HTML pages and the demo: files exist, data equal the LUT, browser opens them."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from evtms.cli import app
+from evtms.demo import COMPONENTS
+from evtms.luts import open_lut
+from evtms.reports.bench_plots import MAIN, base_point, line_data, surface_data
+from evtms.reports.html import referenced_files
+
+runner = CliRunner()
+
+
+def test_demo_produces_every_artefact(demo_run):
+    out, result, _ = demo_run
+    assert sorted(result.computed) == sorted(f"{g}/{c}" for g in ("thesis", "cycle") for c in COMPONENTS)
+    for grid in ("thesis", "cycle"):
+        for c in COMPONENTS:
+            assert open_lut(out / "luts" / grid / f"{c}.nc").attrs["grid"] == grid
+    for c in COMPONENTS:
+        figures = list((out / "reports" / c).glob("*.png"))
+        assert len(figures) >= 4 and all(f.stat().st_size > 5000 for f in figures)
+        assert (out / "reports" / c / "index.html").exists()
+    for name in (
+        "energy_balance.png",
+        "energy_balance.svg",
+        "energy_balance.csv",
+        "ph_diagram.png",
+        "ph_diagram.svg",
+        "pt_diagram.png",
+        "pt_diagram.svg",
+    ):
+        assert (out / "reports" / "cycle" / name).stat().st_size > 500
+    assert (out / "cycle" / "speed_sweep.nc").exists()
+
+
+def test_html_pages_reference_only_existing_files(demo_run):
+    out = demo_run[0]
+    pages = [out / "index.html"] + [out / "reports" / c / "index.html" for c in COMPONENTS]
+    for page in pages:
+        refs = referenced_files(page)
+        assert refs, page
+        missing = [r for r in refs if not r.exists()]
+        assert not missing, (page, missing)
+    top = (out / "index.html").read_text()
+    assert "cycle/speed_sweep.nc" in top and "reports/condenser/index.html" in top
+
+
+def test_second_demo_run_skips_the_benches(demo_run, tmp_path):
+    out = demo_run[0]
+    res = runner.invoke(app, ["demo", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "0 LUTs computed, 8 reused" in res.stdout
+
+
+def test_plotted_data_equal_the_lut(thesis):
+    for component in ("condenser", "compressor", "expansion_valve"):
+        ds = thesis(component)
+        var, family = MAIN[component]
+        base = base_point(ds)
+        for axis in ds["status"].dims:
+            if axis == family:
+                continue
+            data = line_data(ds, axis, base)
+            for f, y in data.lines.items():
+                sel = {d: v for d, v in base.items() if d not in (axis, family)} | {family: f}
+                expected = ds[var].sel(sel).transpose(axis).values
+                ok = ds["status"].sel(sel).transpose(axis).values == 0
+                np.testing.assert_array_equal(y[ok], expected[ok])
+                assert np.isnan(y[~ok]).all()  # invalid points are gaps
+    ds = thesis("condenser")
+    base = base_point(ds, {"fan": 0.5, "T_res": 315.0})
+    surf = surface_data(ds, ("p_in", "T_in"), base)
+    z = surf.surfaces[0.0077]
+    assert z.shape == (4, 4)
+    assert z[2, 3] == float(ds["Q"].sel(mdot=0.0077, fan=0.5, T_res=315.0, p_in=1.1e6, T_in=375.0))
+
+
+def test_valve_gaps_stay_gaps(thesis):
+    ds = thesis("expansion_valve")
+    data = surface_data(ds, ("p_in", "T_in"), base_point(ds))
+    z = data.surfaces[float(ds["mdot"][0])]
+    assert np.isnan(z).sum() == 6 and np.isfinite(z).sum() == 6  # vapour inlets choke at 330 K and 315 K
+
+
+def test_report_bench_cli(tmp_path, thesis):
+    from evtms.luts.io import write_lut
+
+    lut = write_lut(thesis("compressor"), tmp_path / "compressor.nc")
+    out = tmp_path / "rep"
+    res = runner.invoke(app, ["report", "bench", str(lut), "-o", str(out), "--at", "T_in=265", "--format", "svg"])
+    assert res.exit_code == 0, res.output
+    assert len(list(out.glob("*.svg"))) == 4 and (out / "index.html").exists()
+    res = runner.invoke(app, ["report", "bench", str(lut), "-o", str(out), "--at", "p_in=3"])
+    assert res.exit_code == 2 and "unknown axis 'p_in'" in res.stderr
+    res = runner.invoke(app, ["report", "bench", str(lut), "-o", str(out), "--surface", "speed,pr"])
+    assert res.exit_code == 2 and "surface axis 'speed' is not allowed" in res.stderr
+
+
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def test_html_opens_in_headless_browser_without_console_errors(demo_run, tmp_path):
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("no Chromium on this machine (.ci/run installs Debian's chromium; it could not here)")
+    out = demo_run[0]
+    shot = tmp_path / "index.png"
+    flags = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        f"--user-data-dir={tmp_path / 'profile'}",
+    ]
+    page = (out / "index.html").resolve().as_uri()
+    res = subprocess.run(
+        [browser, *flags, "--enable-logging=stderr", "--v=0", f"--screenshot={shot}", "--window-size=1200,1600", page],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert shot.exists() and shot.stat().st_size > 10000, res.stderr[-2000:]
+    console = [line for line in res.stderr.splitlines() if "CONSOLE" in line and "ERROR" in line.upper()]
+    assert not console, console
+    dom = subprocess.run([browser, *flags, "--dump-dom", page], capture_output=True, text=True, timeout=120)
+    assert "evtms: R134a circuit benches" in dom.stdout and "<img" in dom.stdout
