@@ -156,6 +156,16 @@ def bench(
         str | None, typer.Option("--backend", help="CoolProp backend: HEOS (default) or BICUBIC&HEOS.")
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    workers: Annotated[
+        int | None, typer.Option("--workers", help="Run the sweep in N local dask worker processes.")
+    ] = None,
+    scheduler: Annotated[
+        str | None, typer.Option("--scheduler", help="Send the sweep to a dask.distributed scheduler, tcp://host:port.")
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Reuse the finished chunks of an interrupted sweep to the same output.")
+    ] = False,
+    chunk_points: Annotated[int, typer.Option("--chunk-points", help="Points per chunk (bounds memory).")] = 16384,
 ) -> None:
     """Sweep a component bench over a grid and write its LUT (netCDF).
 
@@ -189,31 +199,56 @@ def bench(
     except EvtmsInputError as exc:
         fail(str(exc))
 
-    from evtms.benches.sweep import run_sweep
-    from evtms.fluid import Fluid
-    from evtms.luts.io import write_lut
+    from evtms.benches.chunked import InProcessRunner, sweep_to_file
 
+    if workers is not None and workers < 1:
+        fail(f"--workers {workers} is not allowed; allowed: 1 or more")
+    if workers is not None and scheduler is not None:
+        fail("give --workers or --scheduler, not both")
+    if chunk_points < 1:
+        fail(f"--chunk-points {chunk_points} is not allowed; allowed: 1 or more")
     try:
-        fluid = Fluid(parameters.fluid, parameters.backend)
+        from evtms.fluid import Fluid
+
+        Fluid(parameters.fluid, parameters.backend)
     except ValueError as exc:
         fail(f"fluid {parameters.fluid!r} with backend {parameters.backend!r} cannot be loaded ({exc})")
-    with _ProgressBar(quiet or not sys.stderr.isatty()) as bar:
-        for name, bench_, values, grid_name in jobs:
-            total = 1
-            for v in values.values():
-                total *= len(v)
-            t0 = time.perf_counter()
-            try:
-                ds = run_sweep(
-                    bench_, values, parameters, grid_name=grid_name, progress=bar.task(name, total), fluid=fluid
+    try:
+        if workers is None and scheduler is None:
+            runner = InProcessRunner()  # plain NumPy in this process: dask is not imported
+        else:
+            from evtms.benches.chunked import DaskRunner
+
+            runner = DaskRunner(workers=workers, scheduler=scheduler)
+    except EvtmsInputError as exc:
+        fail(str(exc))
+    try:
+        with _ProgressBar(quiet or not sys.stderr.isatty()) as bar:
+            for name, bench_, values, grid_name in jobs:
+                total = 1
+                for v in values.values():
+                    total *= len(v)
+                try:
+                    s = sweep_to_file(
+                        bench_,
+                        values,
+                        parameters,
+                        targets[name],
+                        grid_name=grid_name,
+                        runner=runner,
+                        chunk_points=chunk_points,
+                        resume=resume,
+                        progress=bar.task(name, total),
+                    )
+                except EvtmsInputError as exc:
+                    fail(str(exc))
+                chunks = f"{s.chunks} chunks ({s.computed} computed, {s.reused} reused), " if s.chunks > 1 else ""
+                typer.echo(
+                    f"{name}: {s.points} points, {s.invalid} invalid, {chunks}{s.seconds:.2f} s "
+                    f"({runner.name}), wrote {s.path}"
                 )
-            except EvtmsInputError as exc:
-                fail(str(exc))
-            path = write_lut(ds, targets[name])
-            wall = time.perf_counter() - t0
-            status = ds["status"].values
-            invalid = int((~_isin(status, ds["status"].attrs["valid_flag_values"])).sum())
-            typer.echo(f"{name}: {total} points, {invalid} invalid, {wall:.2f} s, wrote {path}")
+    finally:
+        runner.close()
 
 
 lut_app = typer.Typer(help="Read, check, query, export and compare LUT files.", no_args_is_help=True)

@@ -59,10 +59,15 @@ def coolprop_version() -> str:
 
 
 def _unique_rows(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unique (a, b) pairs and the inverse index that rebuilds the inputs."""
-    pairs = np.stack([a, b], axis=1)
-    uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
-    return uniq, inverse.reshape(-1)
+    """Unique (a, b) pairs and the inverse index that rebuilds the inputs.
+
+    The pairs are packed into complex numbers, which NumPy sorts natively
+    (real part, then imaginary); ``np.unique(axis=0)`` on a 2-column array
+    is several times slower.
+    """
+    packed = np.asarray(a, np.float64) + 1j * np.asarray(b, np.float64)
+    uniq, inverse = np.unique(packed, return_inverse=True)
+    return np.stack([uniq.real, uniq.imag], axis=1), inverse.reshape(-1)
 
 
 class Fluid:

@@ -108,6 +108,16 @@ def _where(mask: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(mask, a, b)
 
 
+def _gauss_mean(values: np.ndarray) -> np.ndarray:
+    """Gauss-Legendre mean over the last axis, row by row.
+
+    Written as a sum rather than a BLAS product, whose rounding depends on how
+    many rows it is given: a point's value must not depend on its batch (the
+    chunked sweeps give identical files in every mode).
+    """
+    return np.sum(values * corr.GAUSS_WEIGHTS, axis=-1)
+
+
 def _single_phase_htc(G, D, rough, props, nu_lam):
     """Refrigerant single-phase heat-transfer coefficient [W/(m2 K)]."""
     Re = G * D / props["MU"]
@@ -128,7 +138,7 @@ def _condensation_htc(G, D, sat, q, nu_lam):
     nu = corr.cavallini_zecchin_nusselt(
         x, G[:, None], D, col["mu_l"], col["mu_v"], col["rho_l"], col["rho_v"], Pr_l, nu_lam
     )
-    shear = (nu @ corr.GAUSS_WEIGHTS) * sat["k_l"] / D
+    shear = _gauss_mean(nu) * sat["k_l"] / D
     film = corr.chato_film_condensation_htc(
         q, D, sat["rho_l"], sat["rho_v"], sat["k_l"], sat["mu_l"], sat["cp_l"], sat["h_v"] - sat["h_l"]
     )
@@ -153,7 +163,7 @@ def _boiling_htc(G, D, sat, q, nu_lam):
         Pr_l,
         nu_lam,
     )
-    return h @ corr.GAUSS_WEIGHTS
+    return _gauss_mean(h)
 
 
 def _two_phase_gradient(G, D, rough, sat, x0, x1):
@@ -163,7 +173,7 @@ def _two_phase_gradient(G, D, rough, sat, x0, x1):
     g = corr.muller_steinhagen_heck_gradient(
         np.clip(x, 0.0, 1.0), G[:, None], D, rough, col["mu_l"], col["mu_v"], col["rho_l"], col["rho_v"]
     )
-    return g @ corr.GAUSS_WEIGHTS
+    return _gauss_mean(g)
 
 
 def _bisect(func, target, hi, steps=_BISECTION_STEPS):

@@ -1,0 +1,200 @@
+"""Chunked, resumable, parallel sweeps: identical files, resume after a kill, bounded memory."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import netCDF4
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from evtms.cli import app
+
+runner = CliRunner()
+GRID = [
+    "-a",
+    "mdot=0.004:0.008:4",
+    "-a",
+    "fan=0.1:1:3",
+    "-a",
+    "p_in=0.9:1.2:3MPa",
+    "-a",
+    "T_in=330:375:5",
+    "-a",
+    "T_res=300",
+]  # 180 points
+PER_RUN = ("created", "history")
+
+
+def assert_same_lut(a, b):
+    """Same variables, values and attributes, but for the creation time."""
+    with netCDF4.Dataset(a) as x, netCDF4.Dataset(b) as y:
+        assert list(x.variables) == list(y.variables)
+        for name in x.variables:
+            np.testing.assert_array_equal(x.variables[name][:].filled(np.nan), y.variables[name][:].filled(np.nan))
+            assert x.variables[name].ncattrs() == y.variables[name].ncattrs()
+        for attr in x.ncattrs():
+            if attr not in PER_RUN:
+                assert x.getncattr(attr) == y.getncattr(attr), attr
+
+
+@pytest.fixture(scope="module")
+def local_cluster():
+    distributed = pytest.importorskip("distributed")
+    cluster = distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None, worker_dashboard_address=None
+    )
+    yield cluster
+    cluster.close()
+
+
+def test_in_process_workers_and_cluster_give_identical_files(tmp_path, local_cluster):
+    files = {}
+    for mode, extra in (
+        ("in", []),
+        ("workers", ["--workers", "2"]),
+        ("cluster", ["--scheduler", local_cluster.scheduler_address]),
+    ):
+        files[mode] = tmp_path / f"{mode}.nc"
+        res = runner.invoke(app, ["bench", "condenser", *GRID, "--chunk-points", "30", "-o", str(files[mode]), *extra])
+        assert res.exit_code == 0, res.output
+        assert "12 chunks (12 computed, 0 reused)" in res.stdout
+        assert ("(dask)" in res.stdout) == (mode != "in")
+    assert_same_lut(files["in"], files["workers"])
+    assert_same_lut(files["in"], files["cluster"])
+    # Chunking changes nothing either: one chunk against twelve.
+    one = tmp_path / "one.nc"
+    assert runner.invoke(app, ["bench", "condenser", *GRID, "-o", str(one)]).exit_code == 0
+    assert_same_lut(files["in"], one)
+
+
+def test_in_process_sweep_does_not_import_dask(tmp_path):
+    code = (
+        "import sys; from typer.testing import CliRunner; from evtms.cli import app;"
+        f"r = CliRunner().invoke(app, ['bench', 'compressor', '-o', r'{tmp_path / 'c.nc'}']);"
+        "assert r.exit_code == 0, r.output; assert 'dask' not in sys.modules and 'distributed' not in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_killed_sweep_resumes_and_recomputes_only_missing_chunks(tmp_path):
+    out = tmp_path / "evap.nc"
+    partial = tmp_path / "evap.nc.partial"
+    grid = [
+        "-a",
+        "mdot=0.004:0.008:8",
+        "-a",
+        "blower=0.2:0.5:6",
+        "-a",
+        "p_in=0.1:0.25:5MPa",
+        "-a",
+        "T_in=250:275:20",
+        "-a",
+        "T_res=280",
+    ]  # 4800 points
+    cmd = [sys.executable, "-m", "evtms.cli", "bench", "evaporator", *grid, "--chunk-points", "100", "-o", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list(partial.glob("chunk_*.npz"))) < 8:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    saved = len(list(partial.glob("chunk_*.npz")))
+    assert 8 <= saved < 48 and not out.exists()  # killed part-way, and no half-written output
+    res = runner.invoke(app, ["bench", "evaporator", *grid, "--chunk-points", "100", "-o", str(out), "--resume"])
+    assert res.exit_code == 0, res.output
+    assert f"48 chunks ({48 - saved} computed, {saved} reused)" in res.stdout
+    assert not partial.exists()
+    fresh = tmp_path / "fresh.nc"
+    assert runner.invoke(app, ["bench", "evaporator", *grid, "--chunk-points", "100", "-o", str(fresh)]).exit_code == 0
+    assert_same_lut(out, fresh)
+
+
+def test_resume_refuses_a_partial_sweep_of_other_inputs(tmp_path):
+    out = tmp_path / "c.nc"
+    partial = tmp_path / "c.nc.partial"
+    partial.mkdir()
+    (partial / "manifest.json").write_text(json.dumps({"bench": "condenser", "axes": {}}))
+    res = runner.invoke(app, ["bench", "condenser", "-o", str(out), "--resume"])
+    assert res.exit_code == 2 and "was made with other inputs" in res.stderr and not out.exists()
+
+
+def _peak_rss_mb(points_per_axis: int, tmp_path) -> float:
+    code = f"""
+import resource
+import numpy as np
+from evtms.benches import BENCHES
+from evtms.benches.chunked import sweep_to_file
+from evtms.params import Parameters
+n = {points_per_axis}
+grid = {{"mdot": np.linspace(0.004, 0.008, n), "fan": np.linspace(0.1, 1, n), "p_in": np.linspace(0.9e6, 1.2e6, n),
+        "T_in": np.linspace(330, 375, n), "T_res": np.linspace(300, 330, 5)}}
+sweep_to_file(BENCHES["condenser"], grid, Parameters(), r"{tmp_path}/m{points_per_axis}.nc", chunk_points=4096)
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+"""
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return float(res.stdout.strip().splitlines()[-1])
+
+
+def test_peak_memory_does_not_grow_with_the_grid(tmp_path):
+    small = _peak_rss_mb(10, tmp_path)  # 50,000 points
+    large = _peak_rss_mb(20, tmp_path)  # 800,000 points: holding its outputs alone would take 58 MB more
+    assert large - small < 15.0, (small, large)
+
+
+def test_a_worker_killed_mid_sweep_loses_nothing(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    from evtms.benches import BENCHES
+    from evtms.benches.chunked import DaskRunner, InProcessRunner, sweep_to_file
+    from evtms.params import Parameters
+
+    grid = {
+        "mdot": np.linspace(0.004, 0.008, 6),
+        "blower": np.linspace(0.2, 0.5, 6),
+        "p_in": np.linspace(0.1e6, 0.25e6, 6),
+        "T_in": np.linspace(250, 275, 20),
+        "T_res": np.array([280.0]),
+    }
+    dask = DaskRunner(workers=2)
+    try:
+        pids = dask.client.run(os.getpid)
+        victim = next(iter(pids.values()))
+        done = []
+
+        def progress(finished, total):
+            done.append(finished)
+
+        result = {}
+        worker = threading.Thread(
+            target=lambda: result.update(
+                s=sweep_to_file(
+                    BENCHES["evaporator"],
+                    grid,
+                    Parameters(),
+                    tmp_path / "d.nc",
+                    runner=dask,
+                    chunk_points=40,
+                    progress=progress,
+                )
+            )
+        )
+        worker.start()
+        while len(done) < 4 and worker.is_alive():
+            time.sleep(0.01)
+        os.kill(victim, signal.SIGKILL)  # the nanny restarts it; its tasks are rescheduled
+        worker.join(timeout=180)
+        assert not worker.is_alive() and result["s"].computed == result["s"].chunks
+    finally:
+        dask.close()
+    sweep_to_file(
+        BENCHES["evaporator"], grid, Parameters(), tmp_path / "ref.nc", runner=InProcessRunner(), chunk_points=40
+    )
+    assert_same_lut(tmp_path / "d.nc", tmp_path / "ref.nc")
+    assert distributed is not None
