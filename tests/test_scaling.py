@@ -49,7 +49,7 @@ def assert_same_lut(a, b):
 def local_cluster():
     distributed = pytest.importorskip("distributed")
     cluster = distributed.LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None, worker_dashboard_address=None
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0", worker_dashboard_address=":0"
     )
     yield cluster
     cluster.close()
@@ -136,7 +136,7 @@ from evtms.params import Parameters
 n = {points_per_axis}
 grid = {{"mdot": np.linspace(0.004, 0.008, n), "fan": np.linspace(0.1, 1, n), "p_in": np.linspace(0.9e6, 1.2e6, n),
         "T_in": np.linspace(330, 375, n), "T_res": np.linspace(300, 330, 5)}}
-sweep_to_file(BENCHES["condenser"], grid, Parameters(), r"{tmp_path}/m{points_per_axis}.nc", chunk_points=4096)
+sweep_to_file(BENCHES["condenser"], grid, Parameters(), r"{tmp_path}/m{points_per_axis}.nc")
 print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
 """
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -161,8 +161,8 @@ class DaskRunner:
                 n_workers=workers or 1,
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=None,
-                worker_dashboard_address=None,
+                dashboard_address=":0",
+                worker_dashboard_address=":0",
             )
             self.client = Client(self._cluster)
         self.workers = max(len(self.client.scheduler_info().get("workers", {})), 1)
@@ -341,9 +341,8 @@ def _assemble(
     """Stream the chunk files into the LUT file (atomically); returns the invalid-point count."""
     import netCDF4
 
-    from evtms.luts.io import atomic_output, axis_attributes, global_attributes, variable_attributes
+    from evtms.luts.io import global_attributes
 
-    dims = tuple(grid)
     attrs = global_attributes(
         component=bench.name,
         title=bench.title,
@@ -355,7 +354,32 @@ def _assemble(
         history=f"evtms bench {bench.name} --grid {grid_name}",
     )
     trailing = plan.shape[plan.lead :]
+    # Each chunk is written once, so HDF5's per-variable chunk cache (netCDF's default
+    # is tens of MB per variable) buys nothing and would grow memory with the grid.
+    previous = netCDF4.get_chunk_cache()
+    netCDF4.set_chunk_cache(size=1 << 20, nelems=61, preemption=1.0)
+    try:
+        _write_chunks(bench, grid, plan, partial, path, names, attrs, trailing)
+    finally:
+        netCDF4.set_chunk_cache(*previous)
+    return _count_invalid(bench, plan, partial)
+
+
+def _count_invalid(bench: Bench, plan: ChunkPlan, partial: Path) -> int:
     invalid = 0
+    for k in range(plan.count):
+        with np.load(partial / f"chunk_{k:06d}.npz") as z:
+            invalid += int((~np.isin(z["status"], bench.valid_flags)).sum())
+    return invalid
+
+
+def _write_chunks(bench, grid, plan, partial, path, names, attrs, trailing) -> None:
+    """Create the LUT file and stream every chunk into its slab (atomically)."""
+    import netCDF4
+
+    from evtms.luts.io import atomic_output, axis_attributes, variable_attributes
+
+    dims = tuple(grid)
     with atomic_output(path) as tmp, netCDF4.Dataset(tmp, "w", format="NETCDF4") as nc:
         for name, values in grid.items():
             nc.createDimension(name, len(values))
@@ -381,5 +405,3 @@ def _assemble(
                 index = plan.index(k) + (slice(None),) * len(trailing)
                 for name in names:
                     variables[name][index] = z[name].reshape(trailing)
-                invalid += int((~np.isin(z["status"], bench.valid_flags)).sum())
-    return invalid
