@@ -193,6 +193,8 @@ def _air_inlet_arrays(T: np.ndarray, RH: np.ndarray, p: float) -> dict[str, np.n
     pairs = np.stack([T, RH], axis=1)
     uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
     rows = [humid_air_inlet(float(t), p, float(rh)) for t, rh in uniq]
+    if not rows:  # no points: empty arrays with the same keys
+        return {key: np.empty(0) for key in ("w", "h", "cp", "rho", "mu", "k", "T_dew", "Pr")}
     return {key: np.array([r[key] for r in rows])[inverse.reshape(-1)] for key in rows[0]}
 
 

@@ -51,7 +51,8 @@ def to_mat(ds: xr.Dataset, path: str | Path) -> Path:
         "units": {n: str(ds[n].attrs.get("units", "")) for n in [*dims, *ds.data_vars]},
         "long_names": {n: str(ds[n].attrs.get("long_name", "")) for n in [*dims, *ds.data_vars]},
         "status_flags": " ".join(
-            f"{int(c)}={m}" for c, m in zip(np.atleast_1d(flags["flag_values"]), flags["flag_meanings"].split(), strict=True)
+            f"{int(c)}={m}"
+            for c, m in zip(np.atleast_1d(flags["flag_values"]), flags["flag_meanings"].split(), strict=True)
         ),
         "provenance": {k: str(v) for k, v in ds.attrs.items()},
         "note": SIMULINK_NOTE,

@@ -127,11 +127,11 @@ class Interpolator:
             unknown = set(query) - set(self.names)
             missing = [n for n in self.names if n not in query]
             if unknown:
-                raise EvtmsInputError(
-                    f"unknown axis {sorted(unknown)[0]!r} in query; allowed: {', '.join(self.names)}"
-                )
+                raise EvtmsInputError(f"unknown axis {sorted(unknown)[0]!r} in query; allowed: {', '.join(self.names)}")
             if missing:
-                raise EvtmsInputError(f"query has no value for axis {missing[0]!r}; give all of {', '.join(self.names)}")
+                raise EvtmsInputError(
+                    f"query has no value for axis {missing[0]!r}; give all of {', '.join(self.names)}"
+                )
             cols = np.broadcast_arrays(*[np.asarray(query[n], np.float64).reshape(-1) for n in self.names])
             pts = np.stack(cols, axis=1)
         else:

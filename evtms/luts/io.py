@@ -93,11 +93,15 @@ def build_dataset(
 
     dims = tuple(grid)
     shape = tuple(len(v) for v in grid.values())
-    coords = {name: xr.Variable(name, np.asarray(values, np.float64), axis_attributes(name)) for name, values in grid.items()}
+    coords = {
+        name: xr.Variable(name, np.asarray(values, np.float64), axis_attributes(name)) for name, values in grid.items()
+    }
     data_vars = {}
     for name, flat in outputs.items():
         dtype = np.int8 if name == "status" else np.float64
-        data_vars[name] = xr.Variable(dims, np.asarray(flat, dtype).reshape(shape), variable_attributes(name, flags, valid_flags))
+        data_vars[name] = xr.Variable(
+            dims, np.asarray(flat, dtype).reshape(shape), variable_attributes(name, flags, valid_flags)
+        )
     return xr.Dataset(data_vars, coords=coords, attrs=global_attributes(**attrs))
 
 

@@ -63,23 +63,57 @@ _FRACTION_UNITS = (("%", 0.01, 0.0),)
 AXES: dict[str, AxisSpec] = {
     a.name: a
     for a in (
-        AxisSpec("mdot", "kg s-1", "refrigerant mass flow rate", 0.0, cli_units=(("kg/s", 1.0, 0.0), ("g/s", 1e-3, 0.0))),
-        AxisSpec("fan", "1", "condenser fan speed, fraction of maximum", 0.0, 1.0, upper_open=False,
-                 cli_units=_FRACTION_UNITS),
-        AxisSpec("blower", "1", "evaporator blower air flow, fraction of maximum", 0.0, 1.0, upper_open=False,
-                 cli_units=_FRACTION_UNITS),
-        AxisSpec("speed", "1", "compressor speed, fraction of maximum", 0.0, 1.0, upper_open=False,
-                 cli_units=_FRACTION_UNITS),
+        AxisSpec(
+            "mdot", "kg s-1", "refrigerant mass flow rate", 0.0, cli_units=(("kg/s", 1.0, 0.0), ("g/s", 1e-3, 0.0))
+        ),
+        AxisSpec(
+            "fan",
+            "1",
+            "condenser fan speed, fraction of maximum",
+            0.0,
+            1.0,
+            upper_open=False,
+            cli_units=_FRACTION_UNITS,
+        ),
+        AxisSpec(
+            "blower",
+            "1",
+            "evaporator blower air flow, fraction of maximum",
+            0.0,
+            1.0,
+            upper_open=False,
+            cli_units=_FRACTION_UNITS,
+        ),
+        AxisSpec(
+            "speed", "1", "compressor speed, fraction of maximum", 0.0, 1.0, upper_open=False, cli_units=_FRACTION_UNITS
+        ),
         AxisSpec("p_in", "Pa", "refrigerant inlet pressure", 0.0, cli_units=_PRESSURE_UNITS),
         AxisSpec("T_in", "K", "refrigerant inlet temperature", 0.0, cli_units=_TEMPERATURE_UNITS),
-        AxisSpec("h_in", "J kg-1", "refrigerant inlet specific enthalpy",
-                 cli_units=(("J/kg", 1.0, 0.0), ("kJ/kg", 1e3, 0.0))),
+        AxisSpec(
+            "h_in", "J kg-1", "refrigerant inlet specific enthalpy", cli_units=(("J/kg", 1.0, 0.0), ("kJ/kg", 1e3, 0.0))
+        ),
         AxisSpec("T_res", "K", "outlet reservoir temperature", 0.0, cli_units=_TEMPERATURE_UNITS),
         AxisSpec("pr", "1", "compressor pressure ratio p_out/p_in", 1.0),
-        AxisSpec("T_air_in", "K", "air temperature entering the coil", 233.15, 353.15, lower_open=False,
-                 upper_open=False, cli_units=_TEMPERATURE_UNITS),
-        AxisSpec("RH_air_in", "1", "relative humidity of the air entering the coil", 0.0, 1.0, lower_open=False,
-                 upper_open=False, cli_units=_FRACTION_UNITS),
+        AxisSpec(
+            "T_air_in",
+            "K",
+            "air temperature entering the coil",
+            233.15,
+            353.15,
+            lower_open=False,
+            upper_open=False,
+            cli_units=_TEMPERATURE_UNITS,
+        ),
+        AxisSpec(
+            "RH_air_in",
+            "1",
+            "relative humidity of the air entering the coil",
+            0.0,
+            1.0,
+            lower_open=False,
+            upper_open=False,
+            cli_units=_FRACTION_UNITS,
+        ),
     )
 }
 

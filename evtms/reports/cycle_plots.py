@@ -92,8 +92,13 @@ def ph_diagram(states: dict[str, float], fluid: Fluid, path: str | Path) -> Path
     cyc = cycle_path(states, fluid)
     fig = _figure()
     ax = fig.add_subplot()
-    ax.plot(np.r_[dome["h_l"], dome["h_v"][::-1]] / 1e3, np.r_[dome["p"], dome["p"][::-1]] / 1e6, color="0.5",
-            lw=1.2, label="saturation (R134a)")
+    ax.plot(
+        np.r_[dome["h_l"], dome["h_v"][::-1]] / 1e3,
+        np.r_[dome["p"], dome["p"][::-1]] / 1e6,
+        color="0.5",
+        lw=1.2,
+        label="saturation (R134a)",
+    )
     ax.plot(cyc["h"] / 1e3, cyc["p"] / 1e6, color="tab:blue", lw=2, label="cycle")
     for s in STATES:
         ax.plot(states[f"h_{s}"] / 1e3, states[f"p_{s}"] / 1e6, "o", color="tab:red")

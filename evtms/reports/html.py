@@ -28,7 +28,7 @@ pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.8em; }
 
 def _page(title: str, body: str) -> str:
     return (
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
         f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head>\n"
         f"<body>\n<h1>{html.escape(title)}</h1>\n{body}\n</body></html>\n"
     )
@@ -74,8 +74,10 @@ def bench_report_page(ds: xr.Dataset, figures: list[tuple[str, Path]], path: str
             ("attribute", "value"),
         ),
         "<h2>Axes</h2>",
-        _table([(a["name"], a["size"], a["min"], a["max"], a["units"]) for a in s["axes"]],
-               ("axis", "values", "min", "max", "units")),
+        _table(
+            [(a["name"], a["size"], a["min"], a["max"], a["units"]) for a in s["axes"]],
+            ("axis", "values", "min", "max", "units"),
+        ),
         "<h2>Points by status</h2>",
         _table([(c["code"], c["meaning"], c["count"]) for c in s["status"]], ("code", "meaning", "points")),
         f"<p>{s['valid']} valid of {s['points']} points.</p>",
@@ -83,10 +85,13 @@ def bench_report_page(ds: xr.Dataset, figures: list[tuple[str, Path]], path: str
     ]
     for caption, fig in figures:
         rel = _rel(fig, path.parent)
-        body.append(f'<figure><a href="{rel}"><img src="{rel}" alt="{html.escape(caption)}"></a>'
-                    f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+        body.append(
+            f'<figure><a href="{rel}"><img src="{rel}" alt="{html.escape(caption)}"></a>'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+        )
     body.append("<h2>Parameters and environment</h2>")
-    body.append(f"<pre>{html.escape(json.dumps({'parameters': s['parameters'], 'environment': s['environment']}, indent=1))}</pre>")
+    inputs = {"parameters": s["parameters"], "environment": s["environment"]}
+    body.append(f"<pre>{html.escape(json.dumps(inputs, indent=1))}</pre>")
     return write_page(path, f"evtms {s['component']} bench report", "\n".join(body))
 
 
