@@ -24,6 +24,13 @@ STATUS_VALID = 0
 STATUS_OUTSIDE_FLUID_RANGE = 1
 STATUS_PROPERTY_FAILED = 2
 
+#: The flag meanings of the shared codes; each bench adds its own.
+COMMON_FLAGS = {
+    STATUS_VALID: "valid",
+    STATUS_OUTSIDE_FLUID_RANGE: "inlet_state_outside_fluid_range",
+    STATUS_PROPERTY_FAILED: "property_evaluation_failed",
+}
+
 
 @dataclass(frozen=True)
 class Bench:

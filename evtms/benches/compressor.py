@@ -38,8 +38,8 @@ from __future__ import annotations
 import numpy as np
 
 from evtms.benches.base import (
+    COMMON_FLAGS,
     STATUS_OUTSIDE_FLUID_RANGE,
-    STATUS_PROPERTY_FAILED,
     Bench,
     finish_status,
     first_code,
@@ -136,9 +136,7 @@ def compressor_power(inputs: dict[str, np.ndarray], params: Parameters, fluid: F
 
 
 FLAGS = {
-    0: "valid",
-    STATUS_OUTSIDE_FLUID_RANGE: "inlet_state_outside_fluid_range",
-    STATUS_PROPERTY_FAILED: "property_evaluation_failed",
+    **COMMON_FLAGS,
     STATUS_LIQUID_SUCTION: "liquid_or_two_phase_suction",
     STATUS_NO_VOLUMETRIC_FLOW: "pressure_ratio_beyond_volumetric_limit",
 }

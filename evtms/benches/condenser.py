@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from evtms.benches.base import (
+    COMMON_FLAGS,
     STATUS_OUTSIDE_FLUID_RANGE,
     STATUS_PROPERTY_FAILED,
     Bench,
@@ -128,9 +129,7 @@ def condenser_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid
 
 
 FLAGS = {
-    0: "valid",
-    STATUS_OUTSIDE_FLUID_RANGE: "inlet_state_outside_fluid_range",
-    STATUS_PROPERTY_FAILED: "property_evaluation_failed",
+    **COMMON_FLAGS,
     STATUS_NOT_WARMER_THAN_AIR: "refrigerant_inlet_not_warmer_than_air",
     STATUS_DP_EXCEEDS_INLET: "pressure_drop_exceeds_inlet_pressure",
 }

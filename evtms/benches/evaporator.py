@@ -35,8 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from evtms.benches.base import (
-    STATUS_OUTSIDE_FLUID_RANGE,
-    STATUS_PROPERTY_FAILED,
+    COMMON_FLAGS,
     Bench,
     finish_status,
     pressure_nodes,
@@ -85,9 +84,7 @@ def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, flui
 
 
 FLAGS = {
-    0: "valid",
-    STATUS_OUTSIDE_FLUID_RANGE: "inlet_state_outside_fluid_range",
-    STATUS_PROPERTY_FAILED: "property_evaluation_failed",
+    **COMMON_FLAGS,
     STATUS_NOT_COLDER_THAN_AIR: "refrigerant_inlet_not_colder_than_air",
     STATUS_DP_EXCEEDS_INLET: "pressure_drop_exceeds_inlet_pressure",
     STATUS_FROST_RISK: "valid_frost_risk_surface_below_0C",

@@ -44,8 +44,8 @@ from __future__ import annotations
 import numpy as np
 
 from evtms.benches.base import (
+    COMMON_FLAGS,
     STATUS_OUTSIDE_FLUID_RANGE,
-    STATUS_PROPERTY_FAILED,
     Bench,
     finish_status,
     first_code,
@@ -153,9 +153,7 @@ def valve_pressure_drop(inputs: dict[str, np.ndarray], params: Parameters, fluid
 
 
 FLAGS = {
-    0: "valid",
-    STATUS_OUTSIDE_FLUID_RANGE: "inlet_state_outside_fluid_range",
-    STATUS_PROPERTY_FAILED: "property_evaluation_failed",
+    **COMMON_FLAGS,
     STATUS_DP_EXCEEDS_INLET: "pressure_drop_exceeds_inlet_pressure",
     STATUS_CHOKED: "mass_flow_above_choked_limit",
 }
