@@ -237,7 +237,7 @@ class CycleSolver:
         if guess is not None and np.isfinite(guess).any():
             g = np.nonzero(np.isfinite(guess) & (guess > lo) & (guess < hi))[0]
             sub = {k: v[g] for k, v in ops.items()}
-            a, b = np.maximum(lo[g], guess[g] / 1.02), np.minimum(hi[g], guess[g] * 1.02)
+            a, b = np.maximum(lo[g], guess[g] / 1.05), np.minimum(hi[g], guess[g] * 1.05)
             ea, eb = self._discharge_side(sub, p_A[g], a), self._discharge_side(sub, p_A[g], b)
             ok = (ea["residual"] > 0) & (eb["residual"] < 0)
             k = g[ok]
@@ -266,12 +266,14 @@ class CycleSolver:
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
 
-            def fun(pb, i):
-                r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], pb)
+            # Iterate on the saturation temperature: the residual is close to linear in it.
+            def fun(t_sat, i):
+                r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], self.sat.pressure(t_sat))
                 return r["residual"], r["reason"]
 
-            root, state, why = bracketed_root(fun, lo[idx], hi[idx], f_lo[idx], f_hi[idx], idx, 1e-7, 1e-7)
-            p_B[idx] = root
+            t_lo, t_hi = self.sat.temperature(lo[idx]), self.sat.temperature(hi[idx])
+            root, state, why = bracketed_root(fun, t_lo, t_hi, f_lo[idx], f_hi[idx], idx, 1e-8, 1e-7)
+            p_B[idx] = self.sat.pressure(root)
             status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
             status[idx[state == 3]] = STATUS_NOT_CONVERGED
             reason[idx] = np.where(state == 3, "discharge-pressure iteration did not converge", why)
@@ -365,12 +367,14 @@ class CycleSolver:
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
 
-            def fun(pa, i):
-                r = self._suction_side({k: v[i] for k, v in ops.items()}, pa, i)
+            # Iterate on the evaporating temperature (saturation at p_A), as above.
+            def fun(t_sat, i):
+                r = self._suction_side({k: v[i] for k, v in ops.items()}, self.sat.pressure(t_sat), i)
                 return r["residual"], r["reason"]
 
-            root, state, why = bracketed_root(fun, lo[idx], hi[idx], f_lo[idx], f_hi[idx], idx, 1e-7, 1e-4)
-            p_A[idx] = root
+            t_lo, t_hi = self.sat.temperature(lo[idx]), self.sat.temperature(hi[idx])
+            root, state, why = bracketed_root(fun, t_lo, t_hi, f_lo[idx], f_hi[idx], idx, 1e-8, 1e-4)
+            p_A[idx] = self.sat.pressure(root)
             status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
             status[idx[state == 3]] = STATUS_NOT_CONVERGED
             reason[idx] = np.where(state == 3, "suction-pressure iteration did not converge", why)
