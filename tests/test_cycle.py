@@ -150,3 +150,14 @@ def test_cli_sweep_and_reports(tmp_path, cycle_luts_dir):
     assert (tmp_path / "eb.csv").read_text().startswith("speed [1],Q_cond [W]")
     res = runner.invoke(app, ["report", "ph-diagram", str(out), "-o", str(tmp_path / "x.pdf")])
     assert res.exit_code == 2 and ".png or .svg" in res.stderr
+
+
+def test_subcooled_condenser_outlet(cycle_luts):
+    points = OperatingPoints(speed=[0.4, 0.8], fan=0.6, blower=0.5, T_amb=303.15, T_cabin=300.15, subcooling=3.0)
+    curve = Fluid().saturation_curve()
+    direct = run_cycle(points)
+    lut = run_cycle(points, cycle_luts)
+    for r, tol in ((direct, 0.05), (lut, 1.5)):  # the LUT's outlet temperature is interpolated: about 1 K off
+        assert np.isin(r["status"], VALID_CYCLE_FLAGS).all()
+        np.testing.assert_allclose(curve.temperature(r["p_C"]) - r["T_C"], 3.0, atol=tol)
+    np.testing.assert_allclose(lut["COP"], direct["COP"], rtol=0.02)

@@ -26,7 +26,10 @@ Result = dict[str, np.ndarray]
 #: Variables the solver needs while it iterates (the fewer, the faster the LUT gathers).
 ITERATION_OUTPUTS = {
     "compressor": ("mdot", "h_in", "h_out"),
-    "condenser": ("capacity_ratio", "p_out", "x_out", "h_out"),
+    # With a saturated-liquid outlet the condenser closes on capacity_ratio alone;
+    # a subcooled target needs the outlet quality and enthalpy as well.
+    "condenser": ("capacity_ratio", "p_out"),
+    "condenser_subcooled": ("capacity_ratio", "p_out", "x_out", "h_out"),
     "evaporator": ("h_out", "p_out"),
     "expansion_valve": ("dp",),
 }
@@ -121,6 +124,9 @@ class DirectModels:
     def detailed(self, on: bool) -> None:
         """The bench functions always return every variable."""
 
+    def subcooled_targets(self, on: bool) -> None:
+        """The bench functions always return every variable."""
+
     def valve_reference_flow(self) -> float:
         """A small mass flow [kg/s] at which the nominal-opening valve passes liquid."""
         return 1e-3
@@ -154,6 +160,14 @@ class _LutComponent:
         self.fast = Interpolator.from_dataset(
             ds, list(ITERATION_OUTPUTS[component]), out_of_range="nan", curvature=curvature
         )
+        self.subcooled = (
+            Interpolator.from_dataset(
+                ds, list(ITERATION_OUTPUTS["condenser_subcooled"]), out_of_range="nan", curvature=curvature
+            )
+            if component == "condenser"
+            else self.fast
+        )
+        self.needs_subcooled = False
         self.full = Interpolator.from_dataset(
             ds, list(COMPONENT_OUTPUTS[component]), out_of_range="nan", curvature=curvature
         )
@@ -184,7 +198,7 @@ class _LutComponent:
                 off = (np.abs(x - fixed) > 1e-9) & (reasons == "")
                 for i in np.nonzero(off)[0]:
                     reasons[i] = f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
-        itp = self.full if self.detailed else self.fast
+        itp = self.full if self.detailed else (self.subcooled if self.needs_subcooled else self.fast)
         out = itp(cols)
         bad = reasons != ""
         for v in out.values():
@@ -227,6 +241,10 @@ class LutModels:
         """Return every variable (final states) or only those the iterations need."""
         for lut in self.luts.values():
             lut.detailed = on
+
+    def subcooled_targets(self, on: bool) -> None:
+        """Whether any point asks for a subcooled condenser outlet (more variables per iteration)."""
+        self.luts["condenser"].needs_subcooled = on
 
     def compressor(self, speed, T_in, p_in, pr) -> Result:
         return self.luts["compressor"]({"speed": speed, "T_in": T_in, "p_in": p_in, "pr": pr})

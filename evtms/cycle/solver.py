@@ -214,7 +214,9 @@ class CycleSolver:
         x_target = -self.sat.liquid_cp(p_C) * ops["subcooling"] / (h_v - h_l)
         # Saturated-liquid outlet: the capacity ratio (coil over the coil needed to
         # condense fully) is smooth where x_out has its kink, exactly at this target.
-        residual = np.where(ops["subcooling"] > 0, cond["x_out"] - x_target, 1.0 - cond["capacity_ratio"])
+        residual = 1.0 - cond["capacity_ratio"]
+        if "x_out" in cond:  # present whenever some point targets a subcooled outlet
+            residual = np.where(ops["subcooling"] > 0, cond["x_out"] - x_target, residual)
         # Refrigerant not warmer than the air condenses nothing: far above the target.
         residual = np.where(_says(cond["reason"], "not_warmer_than_air") & np.isfinite(comp["mdot"]), 1.0, residual)
         reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
@@ -265,7 +267,6 @@ class CycleSolver:
         p_B = np.full(n, np.nan)
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
-
             # Iterate on the saturation temperature: the residual is close to linear in it.
             def fun(t_sat, i):
                 r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], self.sat.pressure(t_sat))
@@ -291,7 +292,9 @@ class CycleSolver:
         side = self._discharge_side(ops, p_A, dis["p_B"])
         comp, cond = side["comp"], side["cond"]
         saturated = ops["subcooling"] <= 0
-        h_D = np.where(saturated, self.sat.liquid_enthalpy(cond["p_out"]), cond["h_out"])
+        h_D = self.sat.liquid_enthalpy(cond["p_out"])
+        if "h_out" in cond:
+            h_D = np.where(saturated, h_D, cond["h_out"])
         # Evaporator inlet = outlet pressure + its own drop: a fixed point, warm-started
         # from the drop at the previous suction iterate (the drop changes slowly).
         p_D = p_A + self._dp_guess[idx]
@@ -348,6 +351,7 @@ class CycleSolver:
         hi = np.minimum(self.sat.pressure(ops["T_cabin"] - 0.5), p_hi_lim)
         self._guess = np.full(n, np.nan)
         self._dp_guess = np.zeros(n)
+        self.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
         everyone = np.arange(n)
         e_lo = self._suction_side(ops, lo, everyone)
         e_hi = self._suction_side(ops, hi, everyone)
@@ -366,7 +370,6 @@ class CycleSolver:
         p_A = np.full(n, np.nan)
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
-
             # Iterate on the evaporating temperature (saturation at p_A), as above.
             def fun(t_sat, i):
                 r = self._suction_side({k: v[i] for k, v in ops.items()}, self.sat.pressure(t_sat), i)
