@@ -222,6 +222,24 @@ class CycleSolver:
         reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
         return {"T_A": T_A, "comp": comp, "cond": cond, "residual": residual, "reason": reason}
 
+    def _pressure_root(self, residual, lo, hi, f_lo, f_hi, idx, ftol, status, reason, what) -> np.ndarray:
+        """Root in pressure of ``residual(p, idx)`` for the points ``idx`` of a bracket.
+
+        Iterates on the saturation temperature, in which both closures are close
+        to linear; marks points whose model left its envelope (with its reason)
+        or that did not converge in ``status`` and ``reason``.
+        """
+
+        def fun(t_sat, i):
+            return residual(self.sat.pressure(t_sat), i)
+
+        t_lo, t_hi = self.sat.temperature(lo[idx]), self.sat.temperature(hi[idx])
+        root, state, why = bracketed_root(fun, t_lo, t_hi, f_lo[idx], f_hi[idx], idx, 1e-8, ftol)
+        status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
+        status[idx[state == 3]] = STATUS_NOT_CONVERGED
+        reason[idx] = np.where(state == 3, f"{what} iteration did not converge", why)
+        return self.sat.pressure(root)
+
     def _solve_discharge(self, ops: dict, p_A: np.ndarray, guess: np.ndarray | None = None) -> dict:
         """Discharge pressure p_B for each suction pressure: the condenser-outlet condition.
 
@@ -267,17 +285,14 @@ class CycleSolver:
         p_B = np.full(n, np.nan)
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
-            # Iterate on the saturation temperature: the residual is close to linear in it.
-            def fun(t_sat, i):
-                r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], self.sat.pressure(t_sat))
+
+            def residual(pb, i):
+                r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], pb)
                 return r["residual"], r["reason"]
 
-            t_lo, t_hi = self.sat.temperature(lo[idx]), self.sat.temperature(hi[idx])
-            root, state, why = bracketed_root(fun, t_lo, t_hi, f_lo[idx], f_hi[idx], idx, 1e-8, 1e-7)
-            p_B[idx] = self.sat.pressure(root)
-            status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
-            status[idx[state == 3]] = STATUS_NOT_CONVERGED
-            reason[idx] = np.where(state == 3, "discharge-pressure iteration did not converge", why)
+            p_B[idx] = self._pressure_root(
+                residual, lo, hi, f_lo, f_hi, idx, 1e-7, status, reason, "discharge-pressure"
+            )
         p_B[status != STATUS_CONVERGED] = np.nan
         return {"p_B": p_B, "status": status, "reason": reason}
 
@@ -370,17 +385,12 @@ class CycleSolver:
         p_A = np.full(n, np.nan)
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
-            # Iterate on the evaporating temperature (saturation at p_A), as above.
-            def fun(t_sat, i):
-                r = self._suction_side({k: v[i] for k, v in ops.items()}, self.sat.pressure(t_sat), i)
+
+            def residual(pa, i):
+                r = self._suction_side({k: v[i] for k, v in ops.items()}, pa, i)
                 return r["residual"], r["reason"]
 
-            t_lo, t_hi = self.sat.temperature(lo[idx]), self.sat.temperature(hi[idx])
-            root, state, why = bracketed_root(fun, t_lo, t_hi, f_lo[idx], f_hi[idx], idx, 1e-8, 1e-4)
-            p_A[idx] = self.sat.pressure(root)
-            status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
-            status[idx[state == 3]] = STATUS_NOT_CONVERGED
-            reason[idx] = np.where(state == 3, "suction-pressure iteration did not converge", why)
+            p_A[idx] = self._pressure_root(residual, lo, hi, f_lo, f_hi, idx, 1e-4, status, reason, "suction-pressure")
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
 
