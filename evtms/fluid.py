@@ -419,18 +419,6 @@ def water_liquid_enthalpy(T: np.ndarray) -> np.ndarray:
     return 4186.0 * (np.asarray(T, float) - 273.16)
 
 
-def fluid_constants(fluid: Fluid) -> dict[str, float]:
-    """Critical, triple-point and range limits of ``fluid`` as plain floats."""
-    return {
-        "p_crit": fluid.p_crit,
-        "T_crit": fluid.T_crit,
-        "p_triple": fluid.p_triple,
-        "T_triple": fluid.T_triple,
-        "T_max": fluid.T_max,
-        "p_max": fluid.p_max,
-    }
-
-
 class SaturationCurve:
     """Saturation properties tabulated against pressure, for solvers' inner loops.
 

@@ -48,7 +48,6 @@ from evtms.fluid import Fluid, humid_air_inlet, humid_air_temperature, quality, 
 from evtms.params import CoilParams, Environment
 
 _BISECTION_STEPS = 60
-ZONES = ("liquid", "two_phase", "vapour")
 
 
 @dataclass(frozen=True)
@@ -102,10 +101,6 @@ def coil_geometry(coil: CoilParams) -> CoilGeometry:
         D_h_air=4.0 * coil.area_air_free * coil.tube_depth / area_air,
         R_wall=coil.wall_thickness / (coil.wall_conductivity * coil.area_ref),
     )
-
-
-def _where(mask: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.where(mask, a, b)
 
 
 def _gauss_mean(values: np.ndarray) -> np.ndarray:

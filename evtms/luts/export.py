@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -96,8 +95,3 @@ def read_csv(path: str | Path) -> tuple[list[tuple[str, str]], np.ndarray]:
         name, _, unit = col.partition(" [")
         names.append((name, unit.rstrip("]")))
     return names, np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-
-
-def provenance_json(ds: xr.Dataset) -> str:
-    """The LUT's global attributes as JSON (for reports and exports)."""
-    return json.dumps({k: str(v) for k, v in ds.attrs.items()}, indent=1, sort_keys=True)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import json
 import os
 import tempfile
 from collections.abc import Iterator
@@ -144,8 +143,3 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-
-
-def parameters_of(ds: xr.Dataset) -> dict:
-    """The ``parameters`` global attribute, parsed."""
-    return json.loads(ds.attrs.get("parameters", "{}"))
