@@ -16,11 +16,10 @@ parallel processes, one per LUT.
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -61,8 +60,8 @@ def lut_is_current(path: Path, component: str, grid: str, params: Parameters) ->
         and a.get("component") == component
         and a.get("evtms_version") == __version__
         and a.get("coolprop_version") == coolprop_version()
-        and a.get("parameters") == json.dumps(params.for_component(component), sort_keys=True)
-        and a.get("environment") == json.dumps(asdict(params.environment), sort_keys=True)
+        and a.get("parameters") == params.component_json(component)
+        and a.get("environment") == params.environment_json()
     )
 
 

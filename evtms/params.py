@@ -222,9 +222,13 @@ class Parameters:
     compressor: CompressorParams = field(default_factory=CompressorParams)
     expansion_valve: ExpansionValveParams = field(default_factory=ExpansionValveParams)
 
-    def to_json(self) -> str:
-        """All parameters as a JSON string (stored in every LUT file)."""
-        return json.dumps(dataclasses.asdict(self), sort_keys=True)
+    def component_json(self, component: str) -> str:
+        """The ``parameters`` attribute of a LUT of ``component``: its parameters as JSON."""
+        return json.dumps(self.for_component(component), sort_keys=True)
+
+    def environment_json(self) -> str:
+        """The ``environment`` attribute of a LUT: the air boundary as JSON."""
+        return json.dumps(dataclasses.asdict(self.environment), sort_keys=True)
 
     def for_component(self, component: str) -> dict[str, Any]:
         """The parameters one component's bench uses, as a plain dict."""

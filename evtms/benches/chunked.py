@@ -26,7 +26,7 @@ import os
 import shutil
 import time
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -229,8 +229,8 @@ def _manifest(bench: Bench, grid: dict, params: Parameters, grid_name: str, plan
         "bench": bench.name,
         "grid_name": grid_name,
         "axes": {k: [float(x) for x in v] for k, v in grid.items()},
-        "parameters": params.for_component(bench.name),
-        "environment": asdict(params.environment),
+        "parameters": json.loads(params.component_json(bench.name)),
+        "environment": json.loads(params.environment_json()),
         "evtms_version": __version__,
         "coolprop_version": coolprop_version(),
         "lead": plan.lead,
@@ -279,7 +279,6 @@ def sweep_to_file(
         other inputs.
     """
     from evtms.benches.grid import check_axis
-    from evtms.fluid import coolprop_version
 
     t0 = time.perf_counter()
     runner = runner or InProcessRunner()
@@ -320,7 +319,7 @@ def sweep_to_file(
         finished += plan.block
         if progress is not None:
             progress(finished, plan.points)
-    invalid = _assemble(bench, grid, params, grid_name, plan, partial, path, names, coolprop_version())
+    invalid = _assemble(bench, grid, params, grid_name, plan, partial, path, names)
     shutil.rmtree(partial)
     return SweepSummary(
         path, plan.points, plan.count, len(todo), len(done), invalid, time.perf_counter() - t0, runner.name
@@ -336,23 +335,14 @@ def _assemble(
     partial: Path,
     path: Path,
     names: list[str],
-    cp_version: str,
 ) -> int:
     """Stream the chunk files into the LUT file (atomically); returns the invalid-point count."""
     import netCDF4
 
+    from evtms.benches.sweep import bench_attributes
     from evtms.luts.io import global_attributes
 
-    attrs = global_attributes(
-        component=bench.name,
-        title=bench.title,
-        parameters_json=json.dumps(params.for_component(bench.name), sort_keys=True),
-        environment_json=json.dumps(asdict(params.environment), sort_keys=True),
-        grid_name=grid_name,
-        fluid=params.fluid,
-        coolprop_version=cp_version,
-        history=f"evtms bench {bench.name} --grid {grid_name}",
-    )
+    attrs = global_attributes(**bench_attributes(bench, params, grid_name))
     trailing = plan.shape[plan.lead :]
     # Each chunk is written once, so HDF5's per-variable chunk cache (netCDF's default
     # is tens of MB per variable) buys nothing and would grow memory with the grid.

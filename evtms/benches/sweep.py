@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
-from dataclasses import asdict
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -94,16 +92,23 @@ def run_sweep(
         check_axis(name, np.asarray(values, float), fluid)
     outputs = evaluate_grid(bench, grid, params, fluid, progress, chunk_size)
     return build_dataset(
-        component=bench.name,
-        title=bench.title,
         grid=grid,
         outputs=outputs,
         flags=bench.flags,
         valid_flags=bench.valid_flags,
-        parameters_json=json.dumps(params.for_component(bench.name), sort_keys=True),
-        environment_json=json.dumps(asdict(params.environment), sort_keys=True),
-        grid_name=grid_name,
-        fluid=fluid.name,
-        coolprop_version=coolprop_version(),
-        history=f"evtms bench {bench.name} --grid {grid_name}",
+        **bench_attributes(bench, params, grid_name),
     )
+
+
+def bench_attributes(bench: Bench, params: Parameters, grid_name: str) -> dict[str, str]:
+    """Keyword arguments of :func:`evtms.luts.io.global_attributes` for a bench's LUT."""
+    return {
+        "component": bench.name,
+        "title": bench.title,
+        "parameters_json": params.component_json(bench.name),
+        "environment_json": params.environment_json(),
+        "grid_name": grid_name,
+        "fluid": params.fluid,
+        "coolprop_version": coolprop_version(),
+        "history": f"evtms bench {bench.name} --grid {grid_name}",
+    }
