@@ -89,42 +89,32 @@ def diagram_data(ds: xr.Dataset, point: dict[str, int] | None = None) -> dict[st
 def ph_diagram(states: dict[str, float], fluid: Fluid, path: str | Path) -> Path:
     """Draw the p-h diagram (log p) of one operating point on the saturation dome."""
     dome = saturation_dome(fluid)
-    cyc = cycle_path(states, fluid)
-    fig = _figure()
-    ax = fig.add_subplot()
-    ax.plot(
-        np.r_[dome["h_l"], dome["h_v"][::-1]] / 1e3,
-        np.r_[dome["p"], dome["p"][::-1]] / 1e6,
-        color="0.5",
-        lw=1.2,
-        label="saturation (R134a)",
-    )
-    ax.plot(cyc["h"] / 1e3, cyc["p"] / 1e6, color="tab:blue", lw=2, label="cycle")
-    for s in STATES:
-        ax.plot(states[f"h_{s}"] / 1e3, states[f"p_{s}"] / 1e6, "o", color="tab:red")
-        ax.annotate(s, (states[f"h_{s}"] / 1e3, states[f"p_{s}"] / 1e6), textcoords="offset points", xytext=(6, 4))
-    ax.set_yscale("log")
-    ax.set_xlabel("specific enthalpy h [kJ/kg]")
-    ax.set_ylabel("pressure p [MPa]")
-    ax.set_title(_title(states))
-    ax.legend(loc="lower right")
-    ax.grid(True, which="both", alpha=0.3)
-    return _save(fig, path)
+    # The dome: liquid line up to the critical point, vapour line back down.
+    line = (np.r_[dome["h_l"], dome["h_v"][::-1]], np.r_[dome["p"], dome["p"][::-1]])
+    return _state_diagram(states, fluid, path, "h", lambda h: h / 1e3, line, "specific enthalpy h [kJ/kg]")
 
 
 def pt_diagram(states: dict[str, float], fluid: Fluid, path: str | Path) -> Path:
     """Draw the p-T diagram of one operating point on the saturation curve."""
     dome = saturation_dome(fluid)
+    return _state_diagram(
+        states, fluid, path, "T", lambda T: T - 273.15, (dome["T"], dome["p"]), "temperature T [degC]"
+    )
+
+
+def _state_diagram(states, fluid: Fluid, path, key: str, shown, saturation, xlabel: str) -> Path:
+    """Log-p diagram against quantity ``key`` (displayed through ``shown``): saturation, cycle path, states A-D."""
     cyc = cycle_path(states, fluid)
     fig = _figure()
     ax = fig.add_subplot()
-    ax.plot(dome["T"] - 273.15, dome["p"] / 1e6, color="0.5", lw=1.2, label="saturation (R134a)")
-    ax.plot(cyc["T"] - 273.15, cyc["p"] / 1e6, color="tab:blue", lw=2, label="cycle")
+    ax.plot(shown(saturation[0]), saturation[1] / 1e6, color="0.5", lw=1.2, label=f"saturation ({fluid.name})")
+    ax.plot(shown(cyc[key]), cyc["p"] / 1e6, color="tab:blue", lw=2, label="cycle")
     for s in STATES:
-        ax.plot(states[f"T_{s}"] - 273.15, states[f"p_{s}"] / 1e6, "o", color="tab:red")
-        ax.annotate(s, (states[f"T_{s}"] - 273.15, states[f"p_{s}"] / 1e6), textcoords="offset points", xytext=(6, 4))
+        xy = (shown(states[f"{key}_{s}"]), states[f"p_{s}"] / 1e6)
+        ax.plot(*xy, "o", color="tab:red")
+        ax.annotate(s, xy, textcoords="offset points", xytext=(6, 4))
     ax.set_yscale("log")
-    ax.set_xlabel("temperature T [degC]")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel("pressure p [MPa]")
     ax.set_title(_title(states))
     ax.legend(loc="lower right")
