@@ -66,16 +66,17 @@ def lut_is_current(path: Path, component: str, grid: str, params: Parameters) ->
 
 
 def _compute_lut(component: str, grid: str, params: Parameters, path: str) -> tuple[str, float]:
-    """Worker: sweep one bench on a preset grid and write its LUT (runs in a child process)."""
+    """Worker: sweep one bench on a preset grid and write its LUT (runs in a child process).
+
+    The same chunked writer as ``evtms bench``: memory bounded by the chunk.
+    """
     from evtms.benches import BENCHES
+    from evtms.benches.chunked import sweep_to_file
     from evtms.benches.grid import build_grid
-    from evtms.benches.sweep import run_sweep
-    from evtms.luts.io import write_lut
 
     t0 = time.perf_counter()
     bench = BENCHES[component]
-    ds = run_sweep(bench, build_grid(bench, grid, {}), params, grid_name=grid)
-    write_lut(ds, path)
+    sweep_to_file(bench, build_grid(bench, grid, {}), params, path, grid_name=grid)
     return f"{grid}/{component}", time.perf_counter() - t0
 
 
