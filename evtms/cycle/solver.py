@@ -16,20 +16,28 @@ pressure ``p_B``:
   subcools more: the residual falls monotonically);
 - outer loop: the valve is isenthalpic (``h_D = h_C``), the evaporator inlet
   pressure is ``p_A`` plus the evaporator's own pressure drop (fixed point,
-  three passes), and ``p_A`` is the root of the outlet superheat minus its
+  one pass per iterate from the previous iterate's drop), and ``p_A`` is the root of the outlet superheat minus its
   setpoint (a higher suction pressure means less temperature difference to the
   air and more mass flow, so less superheat).
 
-Both roots are found by the Illinois variant of regula falsi on brackets
-from physics (saturation just above the ambient for the condenser, just below
-the cabin air for the evaporator) clipped to the models' ranges, vectorised
-over all operating points at once. A point whose residual does not change
-sign on its bracket, or whose models return NaN, gets a status and the reason.
+Both roots are found by regula falsi with the Anderson-Bjorck modification
+(the Illinois halving where that fails), vectorised over all operating points
+at once, in saturation temperature. Each search starts from a first guess
+(the inner root at the previous suction iterate, or a physics guess: condensing
+13 K above the ambient, evaporating 23 K below the cabin air) and one secant
+step from it, which brackets the root in most points after two evaluations;
+the other points fall back to the whole range from physics (saturation just
+above the ambient for the condenser, just below the cabin air for the
+evaporator) clipped to the models' ranges. A point whose residual does not
+change sign on that range, or whose models return NaN, gets a status and the
+reason.
 
 References
 ----------
 Dowell, M., Jarratt, P. (1971). A modified regula falsi method for computing
 the root of an equation. BIT 11, 168-174 (the Illinois algorithm).
+Anderson, N., Bjorck, A. (1973). A new high order method of regula falsi type
+for computing a root of an equation. BIT 13, 253-264.
 Stoecker, W. F., Jones, J. W. (1982). Refrigeration and Air Conditioning,
 2nd ed., ch. 15 (system simulation by balancing components).
 """
@@ -62,6 +70,16 @@ VALID_CYCLE_FLAGS = (STATUS_CONVERGED, STATUS_VALVE_BEYOND_MAX)
 
 #: Scale [J/(kg K)] that turns the suction enthalpy residual into about kelvin of superheat.
 _CP_SCALE = 1000.0
+#: Relative step in saturation temperature [1] below which a pressure root counts as found.
+_XTOL = 1e-8
+#: Residual tolerances: condenser closure [1] and suction superheat [K].
+_INNER_FTOL = 1e-6
+_OUTER_FTOL = 1e-4
+#: Fixed-point passes for the evaporator-inlet pressure per suction iterate (warm-started).
+_DP_PASSES = 1
+#: Typical slopes of the closures in saturation temperature [1/K]: condenser, suction superheat.
+_INNER_SLOPE = -0.075
+_OUTER_SLOPE = -4.0
 
 INPUTS = ("speed", "fan", "blower", "T_amb", "RH_amb", "T_cabin", "RH_cabin", "superheat", "subcooling")
 
@@ -124,7 +142,7 @@ def bracketed_root(
     ftol: float,
     maxiter: int = 80,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Vectorised root of a decreasing residual on [lo, hi], Illinois regula falsi.
+    """Vectorised root of a decreasing residual on [lo, hi], modified regula falsi.
 
     ``fun(x, idx)`` returns the residuals of points ``idx`` at ``x`` and a
     reason string per point (non-empty where the residual is NaN). The
@@ -173,19 +191,77 @@ def bracketed_root(
         hi[act[to_hi & ~dead]] = xn[to_hi & ~dead]
         lo[act[to_lo & ~dead]] = xn[to_lo & ~dead]
         # Finite residual: it replaces the end of its sign; an end kept twice in a
-        # row has its residual halved (the Illinois modification).
+        # row has its residual scaled down so that the next step moves it.
         upd = ~nan & ~conv
         pos, neg = upd & (f > 0), upd & (f <= 0)
         i_pos, i_neg = act[pos], act[neg]
+        # Anderson-Bjorck scaling of the kept end: 1 - f_new/f_replaced, or the
+        # Illinois 1/2 where that is not positive (or the replaced end was NaN).
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m_pos = 1.0 - f[pos] / f_lo[i_pos]
+            m_neg = 1.0 - f[neg] / f_hi[i_neg]
+        m_pos = np.where(m_pos > 0, m_pos, 0.5)
+        m_neg = np.where(m_neg > 0, m_neg, 0.5)
         lo[i_pos], f_lo[i_pos] = xn[pos], f[pos]
-        f_hi[i_pos] = np.where(kept[i_pos] == 1, 0.5 * f_hi[i_pos], f_hi[i_pos])
+        f_hi[i_pos] = np.where(kept[i_pos] == 1, m_pos * f_hi[i_pos], f_hi[i_pos])
         kept[i_pos] = 1
         hi[i_neg], f_hi[i_neg] = xn[neg], f[neg]
-        f_lo[i_neg] = np.where(kept[i_neg] == -1, 0.5 * f_lo[i_neg], f_lo[i_neg])
+        f_lo[i_neg] = np.where(kept[i_neg] == -1, m_neg * f_lo[i_neg], f_lo[i_neg])
         kept[i_neg] = -1
     state[state == 0] = 3
     reason[state == 1] = ""
     return x, state, reason
+
+
+class _Scattered:
+    """The latest evaluation of every point, gathered from evaluations of subsets.
+
+    Holds a (nested) dict of per-point arrays as returned by
+    ``CycleSolver._discharge_side``; ``put(i, r)`` writes the results of the
+    points ``i``.
+    """
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.data: dict | None = None
+
+    def _empty(self, r: dict) -> dict:
+        out = {}
+        for k, v in r.items():
+            if isinstance(v, dict):
+                out[k] = self._empty(v)
+            elif v.dtype == object:
+                out[k] = np.full(self.n, "", dtype=object)
+            else:
+                out[k] = np.full(self.n, np.nan)
+        return out
+
+    def _put(self, dst: dict, i: np.ndarray, r: dict) -> None:
+        for k, v in r.items():
+            if isinstance(v, dict):
+                self._put(dst[k], i, v)
+            else:
+                dst[k][i] = v
+
+    def put(self, i: np.ndarray, r: dict) -> None:
+        if self.data is None:
+            self.data = self._empty(r)
+        self._put(self.data, i, r)
+
+    def result(self, failed: np.ndarray, reason: np.ndarray) -> dict:
+        """The gathered dict; points that ``failed`` get NaN and their ``reason``."""
+
+        def blank(d: dict) -> None:
+            for k, v in d.items():
+                if isinstance(v, dict):
+                    blank(v)
+                elif k == "reason":
+                    v[failed] = reason[failed]
+                else:
+                    v[failed] = np.nan
+
+        blank(self.data)
+        return self.data
 
 
 class CycleSolver:
@@ -226,54 +302,113 @@ class CycleSolver:
         """Root in pressure of ``residual(p, idx)`` for the points ``idx`` of a bracket.
 
         Iterates on the saturation temperature, in which both closures are close
-        to linear; marks points whose model left its envelope (with its reason)
-        or that did not converge in ``status`` and ``reason``.
+        to linear; ``lo`` and ``hi`` are saturation temperatures [K]. Marks
+        points whose model left its envelope (with its reason) or that did not
+        converge in ``status`` and ``reason``.
         """
 
         def fun(t_sat, i):
             return residual(self.sat.pressure(t_sat), i)
 
-        t_lo, t_hi = self.sat.temperature(lo[idx]), self.sat.temperature(hi[idx])
-        root, state, why = bracketed_root(fun, t_lo, t_hi, f_lo[idx], f_hi[idx], idx, 1e-8, ftol)
+        root, state, why = bracketed_root(fun, lo[idx], hi[idx], f_lo[idx], f_hi[idx], idx, _XTOL, ftol)
         status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
         status[idx[state == 3]] = STATUS_NOT_CONVERGED
         reason[idx] = np.where(state == 3, f"{what} iteration did not converge", why)
         return self.sat.pressure(root)
 
-    def _solve_discharge(self, ops: dict, p_A: np.ndarray, guess: np.ndarray | None = None) -> dict:
+    def _bracket(self, residual, t_lo, t_hi, t_guess, slope, max_step) -> dict:
+        """Bracket the root of a residual that falls with the saturation temperature.
+
+        ``residual(p, i)`` gives the residuals and reasons of the points ``i``
+        at pressures ``p``. Where ``t_guess`` [K] lies inside ``(t_lo, t_hi)``
+        the residual is evaluated there and after one secant step with the
+        estimated ``slope`` [1/K] (< 0), overshot 1.5 times and by 0.01 K and
+        at most ``max_step`` [K], so that it usually changes sign between the
+        two: that pair is the bracket. Elsewhere, and where it does not change
+        sign, the bracket is ``[t_lo, t_hi]`` narrowed by what the evaluated
+        points showed, and its remaining ends are evaluated.
+
+        Returns
+        -------
+        dict
+            ``lo, hi`` [K], ``f_lo, f_hi``, ``why_lo, why_hi`` (reasons of NaN
+            residuals) per point, ``slope`` (secant slope of the two guess
+            points, NaN where not evaluated) and ``searched``: True where the
+            ends are the whole range (so a residual of one sign on both means
+            that there is no root in it).
+        """
+        n = t_lo.size
+        everyone = np.arange(n)
+        a, b = t_lo.copy(), t_hi.copy()
+        fa, fb = np.full(n, np.nan), np.full(n, np.nan)
+        wa, wb = np.full(n, "", dtype=object), np.full(n, "", dtype=object)
+        need_a, need_b = np.ones(n, bool), np.ones(n, bool)
+        new_slope = np.full(n, np.nan)
+        g = np.nonzero(np.isfinite(t_guess) & (t_guess > t_lo) & (t_guess < t_hi))[0]
+        if g.size:
+            t_g = t_guess[g]
+            f_g, w_g = residual(self.sat.pressure(t_g), g)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                step = -1.5 * f_g / slope[g] + np.sign(f_g) * 0.01
+            t_2 = np.clip(t_g + np.clip(np.nan_to_num(step), -max_step, max_step), t_lo[g], t_hi[g])
+            f_2, w_2 = residual(self.sat.pressure(t_2), g)
+            for t, f, w in ((t_g, f_g, w_g), (t_2, f_2, w_2)):
+                above = np.isfinite(f) & (f > 0) & (t > a[g])  # the root lies above t
+                k = g[above]
+                a[k], fa[k], wa[k], need_a[k] = t[above], f[above], w[above], False
+                below = np.isfinite(f) & (f <= 0) & (t < b[g])
+                k = g[below]
+                b[k], fb[k], wb[k], need_b[k] = t[below], f[below], w[below], False
+            with np.errstate(invalid="ignore", divide="ignore"):
+                new_slope[g] = (f_2 - f_g) / (t_2 - t_g)
+        searched = need_a & need_b
+        for t, f, w, need in ((a, fa, wa, need_a), (b, fb, wb, need_b)):
+            k = everyone[need]
+            if k.size:
+                f[k], w[k] = residual(self.sat.pressure(t[k]), k)
+        return {
+            "lo": a,
+            "hi": b,
+            "f_lo": fa,
+            "f_hi": fb,
+            "why_lo": wa,
+            "why_hi": wb,
+            "slope": new_slope,
+            "searched": searched,
+        }
+
+    def _solve_discharge(self, ops: dict, p_A: np.ndarray, idx: np.ndarray) -> dict:
         """Discharge pressure p_B for each suction pressure: the condenser-outlet condition.
 
-        ``guess`` (NaN where unknown), the root at a nearby suction pressure,
-        narrows the bracket to +-2 % where the residual changes sign there.
+        ``idx`` are the points' indices in the whole batch. The first guess is
+        the root at the previous suction iterate, with the slope found there;
+        without one, condensing 13 K above the ambient air (the middle of the
+        default circuit's envelope). Returns ``p_B``, ``status``, ``reason``
+        and ``side``: the discharge side at the root (the solver's last
+        evaluation, not a new one).
         """
         n = p_A.size
         pr_lo, pr_hi = self._pr
         lo = np.maximum(self.sat.pressure(ops["T_amb"] + 0.5), pr_lo * p_A)
         lo = np.maximum(lo, self._p_discharge[0])
         hi = np.minimum(np.full(n, self._p_discharge[1]), pr_hi * p_A)
-        f_lo, f_hi = np.full(n, np.nan), np.full(n, np.nan)
-        r_lo, r_hi = np.full(n, "", dtype=object), np.full(n, "", dtype=object)
-        narrow = np.zeros(n, bool)
-        if guess is not None and np.isfinite(guess).any():
-            g = np.nonzero(np.isfinite(guess) & (guess > lo) & (guess < hi))[0]
-            sub = {k: v[g] for k, v in ops.items()}
-            a, b = np.maximum(lo[g], guess[g] / 1.05), np.minimum(hi[g], guess[g] * 1.05)
-            ea, eb = self._discharge_side(sub, p_A[g], a), self._discharge_side(sub, p_A[g], b)
-            ok = (ea["residual"] > 0) & (eb["residual"] < 0)
-            k = g[ok]
-            lo[k], hi[k], f_lo[k], f_hi[k] = a[ok], b[ok], ea["residual"][ok], eb["residual"][ok]
-            narrow[k] = True
-        wide = np.nonzero(~narrow)[0]
-        if wide.size:
-            sub = {k: v[wide] for k, v in ops.items()}
-            e_lo = self._discharge_side(sub, p_A[wide], lo[wide])
-            e_hi = self._discharge_side(sub, p_A[wide], hi[wide])
-            f_lo[wide], f_hi[wide] = e_lo["residual"], e_hi["residual"]
-            r_lo[wide], r_hi[wide] = e_lo["reason"], e_hi["reason"]
+        last = _Scattered(n)
+
+        def residual(pb, i):
+            r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], pb)
+            last.put(i, r)
+            return r["residual"], r["reason"]
+
+        known = np.isfinite(self._guess[idx])
+        t_guess = np.where(known, self.sat.temperature(self._guess[idx]), ops["T_amb"] + 13.0)
+        slope = np.where(known & (self._slope[idx] < 0), self._slope[idx], _INNER_SLOPE)
+        br = self._bracket(residual, self.sat.temperature(lo), self.sat.temperature(hi), t_guess, slope, 10.0)
+        self._slope[idx] = np.where(br["slope"] < 0, br["slope"], self._slope[idx])
+        f_lo, f_hi = br["f_lo"], br["f_hi"]
         status = np.full(n, STATUS_CONVERGED, np.int8)
         reason = np.full(n, "", dtype=object)
-        cold = np.isfinite(f_lo) & (f_lo <= 0)
-        hot = ~cold & np.isfinite(f_hi) & (f_hi >= 0)
+        cold = br["searched"] & np.isfinite(f_lo) & (f_lo <= 0)
+        hot = br["searched"] & ~cold & np.isfinite(f_hi) & (f_hi >= 0)
         status[cold | hot] = STATUS_CONDENSER_NO_ROOT
         reason[cold] = "the condenser outlet is below its target even at the lowest discharge pressure searched"
         reason[hot] = [
@@ -283,28 +418,38 @@ class CycleSolver:
         bad_pa = ~np.isfinite(p_A)
         status[bad_pa] = STATUS_OUTSIDE_ENVELOPE
         p_B = np.full(n, np.nan)
-        idx = np.nonzero(status == STATUS_CONVERGED)[0]
-        if idx.size:
-
-            def residual(pb, i):
-                r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], pb)
-                return r["residual"], r["reason"]
-
-            p_B[idx] = self._pressure_root(
-                residual, lo, hi, f_lo, f_hi, idx, 1e-7, status, reason, "discharge-pressure"
+        todo = np.nonzero(status == STATUS_CONVERGED)[0]
+        if todo.size:
+            p_B[todo] = self._pressure_root(
+                residual, br["lo"], br["hi"], f_lo, f_hi, todo, _INNER_FTOL, status, reason, "discharge-pressure"
             )
-        p_B[status != STATUS_CONVERGED] = np.nan
-        return {"p_B": p_B, "status": status, "reason": reason}
+        failed = status != STATUS_CONVERGED
+        p_B[failed] = np.nan
+        if last.data is None:  # nothing evaluated (no valid suction pressure)
+            side = self._discharge_side(ops, p_A, p_B)
+        else:  # each converged point's last evaluation was at its root
+            side = last.result(failed, reason)
+        return {"p_B": p_B, "status": status, "reason": reason, "side": side}
 
-    def _suction_side(self, ops: dict, p_A: np.ndarray, idx: np.ndarray, full: bool = False) -> dict:
+    def _suction_side(self, ops: dict, p_A: np.ndarray, idx: np.ndarray, final: bool = False) -> dict:
         """Superheat residual at suction pressure p_A (with the inner discharge solve).
 
         ``idx`` are the points' indices in the whole batch, for the warm start
-        of the discharge pressure from the previous suction iterate.
+        of the discharge pressure from the previous suction iterate. With
+        ``final``, p_A is each point's root, the suction iterate last
+        evaluated: the components are evaluated once more (with every output
+        variable) at that iterate's discharge and evaporator-inlet pressures,
+        without solving again.
         """
-        dis = self._solve_discharge(ops, p_A, self._guess[idx])
-        self._guess[idx] = np.where(np.isfinite(dis["p_B"]), dis["p_B"], self._guess[idx])
-        side = self._discharge_side(ops, p_A, dis["p_B"])
+        if final:
+            p_B = self._guess[idx]
+            side = self._discharge_side(ops, p_A, p_B)
+            dis = {"p_B": p_B, "status": np.full(p_A.size, STATUS_CONVERGED, np.int8), "reason": side["reason"]}
+            dis["status"][~np.isfinite(p_B)] = STATUS_OUTSIDE_ENVELOPE
+        else:
+            dis = self._solve_discharge(ops, p_A, idx)
+            self._guess[idx] = np.where(np.isfinite(dis["p_B"]), dis["p_B"], self._guess[idx])
+            side = dis["side"]
         comp, cond = side["comp"], side["cond"]
         saturated = ops["subcooling"] <= 0
         h_D = self.sat.liquid_enthalpy(cond["p_out"])
@@ -313,11 +458,12 @@ class CycleSolver:
         # Evaporator inlet = outlet pressure + its own drop: a fixed point, warm-started
         # from the drop at the previous suction iterate (the drop changes slowly).
         p_D = p_A + self._dp_guess[idx]
-        for _ in range(2):
-            evap = self.models.evaporator(comp["mdot"], ops["blower"], p_D, h_D, ops["T_cabin"], ops["RH_cabin"])
-            drop = np.where(np.isfinite(evap["p_out"]), p_D - evap["p_out"], self._dp_guess[idx])
-            p_D = p_A + drop
-        self._dp_guess[idx] = drop
+        if not final:
+            for _ in range(_DP_PASSES):
+                evap = self.models.evaporator(comp["mdot"], ops["blower"], p_D, h_D, ops["T_cabin"], ops["RH_cabin"])
+                drop = np.where(np.isfinite(evap["p_out"]), p_D - evap["p_out"], self._dp_guess[idx])
+                p_D = p_A + drop
+            self._dp_guess[idx] = drop
         evap = self.models.evaporator(comp["mdot"], ops["blower"], p_D, h_D, ops["T_cabin"], ops["RH_cabin"])
         # The valve holds the outlet at the superheat setpoint, i.e. at the compressor's
         # suction state A. The residual compares enthalpies (scaled to about kelvin):
@@ -336,7 +482,7 @@ class CycleSolver:
         reason[bad] = np.where(side["reason"][bad] != "", side["reason"][bad], evap["reason"][bad])
         residual = np.where(status == STATUS_CONVERGED, sh, np.nan)
         out = {"residual": residual, "status": status, "reason": reason}
-        if full:
+        if final:
             out.update(p_B=dis["p_B"], p_D=p_D, side=side, evap=evap)
         return out
 
@@ -361,43 +507,46 @@ class CycleSolver:
         # A hair inside the compressor's pressure-ratio range, so that p_B/p_A stays on its grid.
         self._pr = (max(limits["pr"][0], 1.0) * (1 + 1e-9), limits["pr"][1] * (1 - 1e-9))
         p_lo_lim, p_hi_lim = limits["p_suction"]
-        # Evaporating 45 K below the cabin air leaves a large superheat: the low end of the bracket.
-        lo = np.maximum(self.sat.pressure(ops["T_cabin"] - 45.0), p_lo_lim)
-        hi = np.minimum(self.sat.pressure(ops["T_cabin"] - 0.5), p_hi_lim)
+        # Evaporating 45 K below the cabin air leaves a large superheat: the low end of the range.
+        t_lo = self.sat.temperature(np.maximum(self.sat.pressure(ops["T_cabin"] - 45.0), p_lo_lim))
+        t_hi = self.sat.temperature(np.minimum(self.sat.pressure(ops["T_cabin"] - 0.5), p_hi_lim))
         self._guess = np.full(n, np.nan)
         self._dp_guess = np.zeros(n)
+        self._slope = np.full(n, np.nan)
         self.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
-        everyone = np.arange(n)
-        e_lo = self._suction_side(ops, lo, everyone)
-        e_hi = self._suction_side(ops, hi, everyone)
-        f_lo, f_hi = e_lo["residual"], e_hi["residual"]
+
+        def residual(pa, i):
+            r = self._suction_side({k: v[i] for k, v in ops.items()}, pa, i)
+            return r["residual"], r["reason"]
+
+        # First guess: evaporating 23 K below the cabin air, the middle of the default
+        # circuit's envelope; the superheat falls about 4 K per kelvin above it.
+        br = self._bracket(residual, t_lo, t_hi, ops["T_cabin"] - 23.0, np.full(n, _OUTER_SLOPE), 15.0)
+        f_lo, f_hi = br["f_lo"], br["f_hi"]
         status = np.full(n, STATUS_CONVERGED, np.int8)
         reason = np.full(n, "", dtype=object)
-        low = np.isfinite(f_lo) & (f_lo <= 0)
-        high = ~low & np.isfinite(f_hi) & (f_hi >= 0)
+        low = br["searched"] & np.isfinite(f_lo) & (f_lo <= 0)
+        high = br["searched"] & ~low & np.isfinite(f_hi) & (f_hi >= 0)
         status[low | high] = STATUS_EVAPORATOR_NO_ROOT
         reason[low] = "the superheat stays below its setpoint even at the lowest suction pressure searched"
         reason[high] = "the superheat stays above its setpoint up to saturation at the cabin air temperature"
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
         status[both] = STATUS_OUTSIDE_ENVELOPE
-        reason[both] = np.where(e_lo["reason"][both] != "", e_lo["reason"][both], e_hi["reason"][both])
+        reason[both] = np.where(br["why_lo"][both] != "", br["why_lo"][both], br["why_hi"][both])
         p_A = np.full(n, np.nan)
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
-
-            def residual(pa, i):
-                r = self._suction_side({k: v[i] for k, v in ops.items()}, pa, i)
-                return r["residual"], r["reason"]
-
-            p_A[idx] = self._pressure_root(residual, lo, hi, f_lo, f_hi, idx, 1e-4, status, reason, "suction-pressure")
+            p_A[idx] = self._pressure_root(
+                residual, br["lo"], br["hi"], f_lo, f_hi, idx, _OUTER_FTOL, status, reason, "suction-pressure"
+            )
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
 
     def _final_states(self, ops: dict, p_A: np.ndarray, status: np.ndarray, reason: np.ndarray) -> dict:
         self.models.detailed(True)
         try:
-            fin = self._suction_side(ops, p_A, np.arange(p_A.size), full=True)
+            fin = self._suction_side(ops, p_A, np.arange(p_A.size), final=True)
             return self._collect(ops, p_A, status, reason, fin)
         finally:
             self.models.detailed(False)
