@@ -54,7 +54,16 @@ def lut_is_current(path: Path, component: str, grid: str, params: Parameters) ->
         ds = open_lut(path)
     except LutFormatError:
         return False
+    from evtms.benches import BENCHES
+
     a = ds.attrs
+    bench = BENCHES[component]
+    preset = bench.presets.get(grid, {})
+    # The preset's axes and the bench's variables too: they change between
+    # development builds of one version.
+    same_grid = list(ds["status"].dims) == list(preset) and all(
+        np.array_equal(ds[k].values, np.asarray(v, float)) for k, v in preset.items()
+    )
     return (
         a.get("grid") == grid
         and a.get("component") == component
@@ -62,6 +71,8 @@ def lut_is_current(path: Path, component: str, grid: str, params: Parameters) ->
         and a.get("coolprop_version") == coolprop_version()
         and a.get("parameters") == params.component_json(component)
         and a.get("environment") == params.environment_json()
+        and same_grid
+        and set(bench.outputs) - set(preset) <= set(ds.data_vars)
     )
 
 

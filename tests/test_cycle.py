@@ -43,12 +43,8 @@ def test_lut_cycle_matches_direct_reference(comparison):
     assert ok.sum() >= 20
     for name in ("p_A", "p_B", "Q_evap", "COP"):
         err = np.abs(lut[name][ok] / direct[name][ok] - 1)
-        # Measured (README): median under 1 %, nine points in ten under 2 %, the worst
-        # (low speed with a large blower, where the outlet nears the air temperature and
-        # the superheat condition turns flat) under 4 % (3.6 % measured). The issue asks 1 %.
-        assert np.median(err) < 0.01, (name, np.median(err))
-        assert np.quantile(err, 0.9) < 0.02, (name, np.quantile(err, 0.9))
-        assert err.max() < 0.04, (name, err.max())
+        # Measured (README): at most 0.9 % on every quantity, the median 0.1-0.3 %.
+        assert err.max() < 0.01, (name, err.max(), int(np.argmax(err)))
 
 
 def test_direct_cycle_conserves_energy_and_lut_balance_below_half_percent(comparison):
@@ -154,10 +150,14 @@ def test_cli_sweep_and_reports(tmp_path, cycle_luts_dir):
 
 def test_subcooled_condenser_outlet(cycle_luts):
     points = OperatingPoints(speed=[0.4, 0.8], fan=0.6, blower=0.5, T_amb=303.15, T_cabin=300.15, subcooling=3.0)
-    curve = Fluid().saturation_curve()
+    fluid = Fluid()
+    curve = fluid.saturation_curve()
     direct = run_cycle(points)
     lut = run_cycle(points, cycle_luts)
-    for r, tol in ((direct, 0.05), (lut, 1.5)):  # the LUT's outlet temperature is interpolated: about 1 K off
+    for r, tol in ((direct, 0.05), (lut, 0.3)):
         assert np.isin(r["status"], VALID_CYCLE_FLAGS).all()
-        np.testing.assert_allclose(curve.temperature(r["p_C"]) - r["T_C"], 3.0, atol=tol)
-    np.testing.assert_allclose(lut["COP"], direct["COP"], rtol=0.02)
+        # The outlet's real temperature (a CoolProp flash of its p and h) is 3 K below saturation.
+        T_out = fluid.state("PH", r["p_C"], r["h_C"], ("T",))["T"]
+        np.testing.assert_allclose(curve.temperature(r["p_C"]) - T_out, 3.0, atol=tol)
+        np.testing.assert_allclose(r["T_C"], T_out, atol=0.05)
+    np.testing.assert_allclose(lut["COP"], direct["COP"], rtol=0.01)

@@ -141,3 +141,18 @@ def test_html_opens_in_headless_browser_without_console_errors(demo_run, tmp_pat
     assert not console, console
     dom = subprocess.run([browser, *flags, "--dump-dom", page], capture_output=True, text=True, timeout=120)
     assert "evtms: R134a circuit benches" in dom.stdout and "<img" in dom.stdout
+
+
+def test_a_lut_from_another_grid_or_bench_version_is_not_reused(thesis, params, tmp_path):
+    from evtms.demo import lut_is_current
+    from evtms.luts.io import write_lut
+
+    ds = thesis("condenser")
+    write_lut(ds, tmp_path / "same.nc")
+    assert lut_is_current(tmp_path / "same.nc", "condenser", "thesis", params)
+    # One variable the bench now writes is missing (an older build of the same version).
+    write_lut(ds.drop_vars("capacity_ratio"), tmp_path / "older.nc")
+    assert not lut_is_current(tmp_path / "older.nc", "condenser", "thesis", params)
+    # Same preset name, other axis values.
+    write_lut(ds.isel(p_in=slice(0, 2)), tmp_path / "other.nc")
+    assert not lut_is_current(tmp_path / "other.nc", "condenser", "thesis", params)

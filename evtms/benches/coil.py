@@ -195,6 +195,8 @@ def _air_inlet_arrays(T: np.ndarray, RH: np.ndarray, p: float) -> dict[str, np.n
 
 #: Largest coil fraction searched for the fraction needed to finish a phase change.
 _F_SEARCH_MAX = 1e3
+#: Coil fraction at which a zone's heat rate gives its slope at zero length [1].
+_F_SLOPE = 1e-6
 #: Cap of the capacity ratio (coil fraction available over needed), for finite LUT values.
 CAPACITY_RATIO_MAX = 1e3
 
@@ -301,7 +303,9 @@ def solve_coil(
     dict of str to numpy.ndarray
         ``Q`` heat from refrigerant to air [W], ``Q_latent`` [W] (<= 0),
         ``h_out`` [J/kg], ``p_out`` [Pa], ``dp`` [Pa], ``T_out`` [K],
-        ``x_out`` [1], ``T_air_out`` [K], ``T_surface_min`` coldest wall
+        ``x_out`` [1], ``h_out_continued`` [J/kg] (``h_out`` where the outlet
+        reaches the coil's last zone, else continued linearly past the phase
+        boundary), ``T_air_out`` [K], ``T_surface_min`` coldest wall
         surface [K], ``T_surface_eff`` coldest zone-mean effective surface of
         the wet-coil method [K] (evaporator), ``T_dew_air_in`` [K],
         ``m_condensate`` [kg/s], ``H_condensate`` enthalpy flow of the
@@ -375,12 +379,18 @@ def solve_coil(
     # Boundary enthalpy a zone of the march starts from when it is not the inlet zone.
     entry_h = {1: h_v, 0: h_l} if mode == "condenser" else {1: h_l, 2: h_v}
     f_needed = np.zeros(n)  # coil fraction needed to finish the phase change
+    # Heat rate per coil fraction of the last zone at zero length [W], where the
+    # outlet does not reach that zone: it continues the outlet enthalpy past the
+    # phase boundary (see ``h_out_continued``).
+    last_zone_slope = np.full(n, np.nan)
     for pos, zone in enumerate(order):
         is_last = pos == len(order) - 1
         live = (start_pos <= pos) & ~done & (f_rem > 0)
         # Zones before the last are also evaluated where the coil already ended, as
-        # if it were longer: the fraction needed to finish the phase change.
-        path = live | ((start_pos <= pos) & ~(bad_props | bad_direction) & (not is_last))
+        # if it were longer: the fraction needed to finish the phase change. The last
+        # zone is set up there too, for its slope at zero length.
+        ok = (start_pos <= pos) & ~(bad_props | bad_direction)
+        path = live | (ok & (not is_last)) | (ok & is_last & done & np.isfinite(f_needed))
         if not path.any():
             continue
         idx = np.nonzero(path)[0]
@@ -426,6 +436,11 @@ def solve_coil(
             )
         if not is_last:
             f_needed[idx] += model.fraction_needed(Q_needed, two_phase)
+        else:
+            short = np.nonzero(~live[idx])[0]
+            if short.size:  # the heat rate is linear in the fraction at zero length
+                small = np.full(short.size, _F_SLOPE)
+                last_zone_slope[idx[short]] = model.subset(short).rate(small) / _F_SLOPE
 
         # From here on, only the zone's share of the real coil.
         sub = np.nonzero(live[idx])[0]
@@ -485,6 +500,14 @@ def solve_coil(
 
     # --- outlet states -----------------------------------------------------
     h_out = h_in + sign * Q / mdot
+    # Where the outlet stops short of the last zone (a two-phase evaporator outlet, a
+    # condenser outlet not fully condensed), continue the last zone's outlet enthalpy
+    # to the negative length 1 - f_needed with its zero-length slope: equal to h_out
+    # in the last zone and C1-continuous at the phase boundary, so interpolation
+    # across that boundary does not see the kink h_out has there.
+    short = np.isfinite(last_zone_slope) & np.isfinite(f_needed)
+    h_continued = h_out.copy()
+    h_continued[short] = (entry_h[order[-1]] + sign * (1.0 - f_needed) * last_zone_slope / mdot)[short]
     p_out = p_in - dp
     bad_dp = ~(p_out > fluid.p_triple)
     p_ok = np.where(bad_dp, np.nan, p_out)
@@ -519,6 +542,7 @@ def solve_coil(
         "h_air_out": h_air_out,
         "m_dry_air": m_da,
         "w_air_out": w_air_out,
+        "h_out_continued": h_continued,
         "capacity_ratio": np.where(
             f_needed > 1.0 / CAPACITY_RATIO_MAX, 1.0 / np.maximum(f_needed, 1e-300), CAPACITY_RATIO_MAX
         ),

@@ -46,7 +46,19 @@ from evtms.params import Parameters
 STATUS_NOT_WARMER_THAN_AIR = 3
 STATUS_DP_EXCEEDS_INLET = 4
 
-OUTPUTS = ("status", "Q", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp", "capacity_ratio")
+OUTPUTS = (
+    "status",
+    "Q",
+    "h_in",
+    "h_out",
+    "T_out",
+    "p_out",
+    "x_out",
+    "T_air_out",
+    "dp",
+    "capacity_ratio",
+    "h_out_continued",
+)
 
 
 def inlet_enthalpy(inputs: dict[str, np.ndarray], fluid: Fluid) -> np.ndarray:
@@ -90,7 +102,7 @@ def coil_bench_outputs(
         ],
         p_in.size,
     )
-    keys = ("Q", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp", "capacity_ratio")
+    keys = ("Q", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp", "capacity_ratio", "h_out_continued")
     out = {k: np.asarray(res[k], float).copy() for k in keys}
     out["h_in"] = h_in
     return out, status, res

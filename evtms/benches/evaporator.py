@@ -48,7 +48,20 @@ STATUS_NOT_COLDER_THAN_AIR = 3
 STATUS_FROST_RISK = 10
 FREEZING_POINT = 273.15  # K
 
-OUTPUTS = ("status", "Q", "Q_latent", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp", "capacity_ratio")
+OUTPUTS = (
+    "status",
+    "Q",
+    "Q_latent",
+    "h_in",
+    "h_out",
+    "T_out",
+    "p_out",
+    "x_out",
+    "T_air_out",
+    "dp",
+    "capacity_ratio",
+    "h_out_continued",
+)
 
 
 def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
@@ -108,14 +121,16 @@ BENCH = Bench(
             "T_res": (250.0, 265.0, 280.0),
         },
         # Cycle envelope (README): cabin air 15-35 degC at RH 0.2-0.8, blower 0.1-1,
-        # evaporating -35 to 29 degC (every 2 K of saturation temperature).
+        # evaporating -35 to 29 degC (every 2 K of saturation temperature). Air every
+        # 2 K: with 4 K the LUT cycle's suction pressure was up to 1.2 % off the direct
+        # physics, with 2 K within 0.8 % (README, accuracy).
         "cycle": {
-            "mdot": tuple(np.geomspace(0.002, 0.15, 16)),
+            "mdot": tuple(np.geomspace(0.003, 0.15, 16)),
             "blower": tuple(np.geomspace(0.1, 1.0, 12)),
             "p_in": pressure_nodes(np.arange(-35.0, 30.0, 2.0)),
             "h_in": tuple(np.linspace(200e3, 350e3, 5)),
             "T_res": (280.0,),
-            "T_air_in": tuple(np.arange(15.0, 35.1, 4.0) + 273.15),
+            "T_air_in": tuple(np.arange(15.0, 35.1, 2.0) + 273.15),
             "RH_air_in": tuple(np.linspace(0.2, 0.8, 7)),
         },
     },

@@ -24,28 +24,33 @@ if TYPE_CHECKING:
 Result = dict[str, np.ndarray]
 
 #: Variables the solver needs while it iterates (the fewer, the faster the LUT gathers).
+#: The coils' outlet enthalpy is ``h_out_continued``: equal to ``h_out`` where the cycle
+#: closes (a superheated evaporator outlet, a subcooled condenser outlet) and smooth
+#: across the phase boundary, where ``h_out`` has a kink that interpolation smears
+#: over a whole cell.
 ITERATION_OUTPUTS = {
     "compressor": ("mdot", "h_in", "h_out"),
     # With a saturated-liquid outlet the condenser closes on capacity_ratio alone;
-    # a subcooled target needs the outlet quality and enthalpy as well.
+    # a subcooled target needs the outlet enthalpy as well.
     "condenser": ("capacity_ratio", "p_out"),
-    "condenser_subcooled": ("capacity_ratio", "p_out", "x_out", "h_out"),
-    "evaporator": ("h_out", "p_out"),
+    "condenser_subcooled": ("capacity_ratio", "p_out", "h_out_continued"),
+    "evaporator": ("h_out_continued", "p_out"),
     "expansion_valve": ("dp",),
 }
 
 #: Variables whose interpolation gets the quadratic (curvature) correction: the coils'
 #: closure and outlet variables, which curve strongly between nodes.
 CURVED = {
-    "condenser": ("capacity_ratio", "x_out", "h_out", "T_out"),
-    "evaporator": ("h_out", "Q_latent"),
+    "compressor": ("mdot", "h_out", "T_out", "W"),
+    "condenser": ("capacity_ratio", "h_out_continued"),
+    "evaporator": ("h_out_continued", "Q_latent"),
 }
 
 #: Variables each component model returns for the final states.
 COMPONENT_OUTPUTS = {
     "compressor": ("mdot", "h_in", "h_out", "T_out", "W"),
-    "condenser": ("h_out", "p_out", "T_out", "x_out", "capacity_ratio"),
-    "evaporator": ("Q_latent", "h_out", "p_out"),
+    "condenser": ("p_out", "capacity_ratio", "h_out_continued"),
+    "evaporator": ("Q_latent", "h_out_continued", "p_out"),
     "expansion_valve": ("dp",),
 }
 

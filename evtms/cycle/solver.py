@@ -291,8 +291,9 @@ class CycleSolver:
         # Saturated-liquid outlet: the capacity ratio (coil over the coil needed to
         # condense fully) is smooth where x_out has its kink, exactly at this target.
         residual = 1.0 - cond["capacity_ratio"]
-        if "x_out" in cond:  # present whenever some point targets a subcooled outlet
-            residual = np.where(ops["subcooling"] > 0, cond["x_out"] - x_target, residual)
+        if "h_out_continued" in cond:  # present whenever some point targets a subcooled outlet
+            x_out = (cond["h_out_continued"] - h_l) / (h_v - h_l)
+            residual = np.where(ops["subcooling"] > 0, x_out - x_target, residual)
         # Refrigerant not warmer than the air condenses nothing: far above the target.
         residual = np.where(_says(cond["reason"], "not_warmer_than_air") & np.isfinite(comp["mdot"]), 1.0, residual)
         reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
@@ -453,8 +454,8 @@ class CycleSolver:
         comp, cond = side["comp"], side["cond"]
         saturated = ops["subcooling"] <= 0
         h_D = self.sat.liquid_enthalpy(cond["p_out"])
-        if "h_out" in cond:
-            h_D = np.where(saturated, h_D, cond["h_out"])
+        if "h_out_continued" in cond:
+            h_D = np.where(saturated, h_D, cond["h_out_continued"])
         # Evaporator inlet = outlet pressure + its own drop: a fixed point, warm-started
         # from the drop at the previous suction iterate (the drop changes slowly).
         p_D = p_A + self._dp_guess[idx]
@@ -470,7 +471,7 @@ class CycleSolver:
         # interpolated outlet enthalpy stays smooth where the LUT's outlet temperature
         # has its kink (outlet turning two-phase), and matching it keeps the cycle's
         # energy balance.
-        sh = (evap["h_out"] - comp["h_in"]) / _CP_SCALE
+        sh = (evap["h_out_continued"] - comp["h_in"]) / _CP_SCALE
         # An inlet not colder than the air evaporates nothing: the outlet stays at h_D.
         sh = np.where(
             _says(evap["reason"], "not_colder_than_air") & np.isfinite(h_D), (h_D - comp["h_in"]) / _CP_SCALE, sh
@@ -559,11 +560,14 @@ class CycleSolver:
         comp, cond = side["comp"], side["cond"]
         mdot = comp["mdot"]
         # State C: with a saturated-liquid outlet it is that condition at the LUT's
-        # outlet pressure (the LUT's own h_out has its kink exactly there).
+        # outlet pressure (the LUT's own h_out has its kink exactly there); a subcooled
+        # liquid is T_sat minus its enthalpy below saturation over the liquid's cp, as
+        # its target was set.
         p_C = cond["p_out"]
         saturated = ops["subcooling"] <= 0
-        h_C = np.where(saturated, self.sat.liquid_enthalpy(p_C), cond["h_out"])
-        T_C = np.where(saturated, self.sat.temperature(p_C), cond["T_out"])
+        h_l, T_sat = self.sat.liquid_enthalpy(p_C), self.sat.temperature(p_C)
+        h_C = np.where(saturated, h_l, cond["h_out_continued"])
+        T_C = np.where(saturated, T_sat, T_sat - (h_l - h_C) / self.sat.liquid_cp(p_C))
         # The valve's orifice law makes dp go with mdot^2 at a given inlet state, so the
         # opening that passes mdot at the cycle's dp follows from the nominal-opening dp
         # at a small reference flow (valid on every valve grid).
@@ -588,12 +592,12 @@ class CycleSolver:
             "T_D": self.sat.temperature(fin["p_D"]),
             "h_D": h_C.copy(),
             "mdot": mdot,
-            "Q_evap": -mdot * (evap["h_out"] - h_C),
+            "Q_evap": -mdot * (evap["h_out_continued"] - h_C),
             "Q_latent": evap["Q_latent"],
             "Q_cond": mdot * (h_B - h_C),
             "W": comp["W"],
             "W_fluid": mdot * (h_B - comp["h_in"]),
-            "h_A_evap": evap["h_out"],
+            "h_A_evap": evap["h_out_continued"],
             "dp_valve": dp_valve,
             "valve_opening": opening,
         }

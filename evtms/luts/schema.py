@@ -136,6 +136,10 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "eta_vol": ("1", "volumetric efficiency"),
     # evtms extension (not required by the format): a smooth closure variable for cycles.
     "capacity_ratio": ("1", "coil length over the length needed to finish the phase change"),
+    "h_out_continued": (
+        "J kg-1",
+        "outlet enthalpy continued smoothly past the phase boundary (h_out where the outlet is in the last zone)",
+    ),
 }
 
 #: Component -> axes of the thesis order.
