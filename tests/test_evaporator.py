@@ -127,3 +127,47 @@ def test_thesis_trends(ds):
     assert (np.diff(q, axis=3) < 0).all()
     # The downstream reservoir has no effect.
     assert np.array_equal(q[..., 0], q[..., 1]) and np.array_equal(q[..., 0], q[..., 2])
+
+
+@pytest.mark.parametrize(
+    "component, mdot, air, h_in, p_range",
+    [
+        # Evaporator: the outlet turns from superheated to two-phase as p_in rises.
+        (
+            "evaporator",
+            0.0222,
+            {"blower": 0.76, "T_air_in": 297.8, "RH_air_in": 0.6},
+            250e3,
+            (380e3, 500e3),
+            "x_out > 1",
+        ),
+        # Condenser: from two-phase to subcooled as p_in rises.
+        ("condenser", 0.03, {"fan": 0.5, "T_air_in": 305.0}, 440e3, (0.95e6, 1.35e6)),
+    ],
+)
+def test_h_out_continued_equals_h_out_in_the_last_zone_and_is_smooth_past_it(
+    component, mdot, air, h_in, p_range, params, fluid
+):
+    from evtms.benches import BENCHES
+
+    p = np.linspace(*p_range, 41)
+    n = p.size
+    inputs = {"mdot": np.full(n, mdot), "p_in": p, "h_in": np.full(n, h_in), "T_res": np.full(n, 290.0)}
+    inputs.update({k: np.full(n, v) for k, v in air.items()})
+    out = BENCHES[component].evaluate(inputs, params, fluid)
+    assert (out["status"] == 0).all()
+    x = out["x_out"]
+    in_last = (x > 1) if component == "evaporator" else (x < 0)  # superheated / subcooled outlet
+    assert 5 < in_last.sum() < n - 5  # the sweep crosses the phase boundary
+    np.testing.assert_array_equal(out["h_out_continued"][in_last], out["h_out"][in_last])
+    assert (out["h_out_continued"][~in_last] != out["h_out"][~in_last]).all()
+    # Across the boundary (between points b and b + 1) h_out's slope jumps by a factor
+    # of 2.5-4; the continuation keeps it within 1.5 (C1; only its curvature jumps).
+    b = np.nonzero(in_last[1:] != in_last[:-1])[0][0]
+
+    def slope_jump(h):
+        before, after = np.diff(h)[b - 1], np.diff(h)[b + 1]
+        return max(before / after, after / before)
+
+    assert slope_jump(out["h_out"]) > 2.5
+    assert slope_jump(out["h_out_continued"]) < 1.5

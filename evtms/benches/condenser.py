@@ -131,8 +131,11 @@ def condenser_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid
         ``dp`` [Pa], ``capacity_ratio`` [1] (coil length over the length
         needed to condense to saturated liquid: > 1 subcooled outlet, < 1
         two-phase outlet; a smooth function of the inputs where ``x_out`` has
-        a kink, which the cycle solver uses) and ``status`` (int8, see
-        :data:`FLAGS`).
+        a kink, which the cycle solver uses), ``h_out_continued`` [J/kg]
+        (``h_out`` for a subcooled outlet; otherwise the liquid zone's heat
+        rate continued linearly to the negative length ``1 -
+        1/capacity_ratio``, for the cycle's subcooling target) and ``status``
+        (int8, see :data:`FLAGS`).
     """
     out, status, _ = coil_bench_outputs(inputs, params, fluid, "condenser")
     finish_status(status, out, (0,))

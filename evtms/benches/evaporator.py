@@ -85,6 +85,10 @@ def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, flui
         ``h_in``, ``h_out`` [J/kg], ``T_out`` [K], ``p_out`` [Pa],
         ``x_out`` [1], ``T_air_out`` [K], ``dp`` [Pa], ``capacity_ratio`` [1]
         (coil length over the length needed to evaporate to saturated vapour),
+        ``h_out_continued`` [J/kg] (``h_out`` for a superheated outlet; for a
+        two-phase outlet the superheated zone's heat rate continued linearly
+        to the negative length ``1 - 1/capacity_ratio``: smooth where
+        ``h_out`` has its kink, for the cycle's superheat closure) and
         ``status`` (int8, see :data:`FLAGS`).
     """
     out, status, res = coil_bench_outputs(inputs, params, fluid, "evaporator")
