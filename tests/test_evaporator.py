@@ -139,7 +139,6 @@ def test_thesis_trends(ds):
             {"blower": 0.76, "T_air_in": 297.8, "RH_air_in": 0.6},
             250e3,
             (380e3, 500e3),
-            "x_out > 1",
         ),
         # Condenser: from two-phase to subcooled as p_in rises.
         ("condenser", 0.03, {"fan": 0.5, "T_air_in": 305.0}, 440e3, (0.95e6, 1.35e6)),
