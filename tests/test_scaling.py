@@ -102,11 +102,11 @@ def test_killed_sweep_resumes_and_recomputes_only_missing_chunks(tmp_path):
     cmd = [sys.executable, "-m", "evtms.cli", "bench", "evaporator", *grid, "--chunk-points", "100", "-o", str(out)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and len(list(partial.glob("chunk_*.npz"))) < 8:
+    while time.monotonic() < deadline and len(list(partial.glob("chunk_*.npy"))) < 8:
         time.sleep(0.02)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    saved = len(list(partial.glob("chunk_*.npz")))
+    saved = len(list(partial.glob("chunk_*.npy")))
     assert 8 <= saved < 48 and not out.exists()  # killed part-way, and no half-written output
     res = runner.invoke(app, ["bench", "evaporator", *grid, "--chunk-points", "100", "-o", str(out), "--resume"])
     assert res.exit_code == 0, res.output

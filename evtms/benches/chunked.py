@@ -5,10 +5,14 @@ point whose leading indices (the first ``lead`` axes, in C order) flatten to
 ``k``, so it is both a contiguous range of the flat grid and a rectangular
 slab of the LUT. Each finished chunk is saved at once (atomically) in a
 ``<output>.partial`` folder beside the output, with a manifest of the sweep's
-inputs; ``resume=True`` reuses the chunks of an interrupted sweep with the same
-manifest and computes only the missing ones. At the end the chunks are streamed
-into the netCDF file (written to a temporary file and renamed), so memory is
-bounded by the chunk size and the number of chunks in flight, not by the grid.
+inputs, by the process that computed it when that process sees the folder
+(local workers, a cluster on a shared file system), else by the main process;
+``resume=True`` reuses the chunks of an interrupted sweep with the same
+manifest and computes only the missing ones. The main process writes each
+chunk into the netCDF file as it finishes (a temporary file in the partial
+folder, renamed over the output when the last chunk is in), so writing
+overlaps computing and memory is bounded by the chunk size and the number of
+chunks in flight, not by the grid.
 
 Runners compute chunks: :class:`InProcessRunner` (plain NumPy, no dask
 import) and :class:`DaskRunner` (a ``dask.distributed`` client: local worker
@@ -25,6 +29,7 @@ import math
 import os
 import shutil
 import time
+import uuid
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +43,7 @@ from evtms.params import Parameters
 
 Progress = Callable[[int, int], None]
 DEFAULT_CHUNK_POINTS = 16384
+WINDOW = 3
 
 
 @dataclass(frozen=True)
@@ -145,12 +151,18 @@ class DaskRunner:
         import dask.config
 
         self._cluster = None
-        # dask's nannies start workers with MALLOC_TRIM_THRESHOLD_=64 KiB, which hands
-        # every freed large array back to the OS; the benches allocate and free many
-        # chunk-sized arrays, and run about 1.7x slower so. Keep glibc's default.
+        # Worker processes of a local cluster (also those a nanny restarts after a
+        # crash, hence set for the process, not just around the start):
+        # - glibc trims the malloc heap of the thread a task runs in (not the main
+        #   thread) as soon as its top is free, so the benches' many chunk-sized
+        #   temporaries fault their pages in again for every array: about 15 % slower
+        #   than in the main thread. A 64 MiB trim threshold and 16 MiB top pad keep
+        #   them (dask's own 64 KiB trim threshold made it 1.7x slower).
+        # - dask's statistical profiler samples every task thread's stack every
+        #   10 ms, for the dashboard: off.
         environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
-        environ.pop("MALLOC_TRIM_THRESHOLD_", None)
-        dask.config.set({"distributed.nanny.pre-spawn-environ": environ})
+        environ.update(MALLOC_TRIM_THRESHOLD_=str(64 << 20), MALLOC_TOP_PAD_=str(16 << 20))
+        dask.config.set({"distributed.nanny.pre-spawn-environ": environ, "distributed.worker.profile.enabled": False})
         if scheduler is not None:
             try:
                 self.client = Client(scheduler, timeout="10s")
@@ -173,7 +185,7 @@ class DaskRunner:
         from distributed import as_completed
 
         pending = list(chunks)
-        window = 3 * self.workers
+        window = WINDOW * self.workers
         futures = {}
         queue = as_completed()
         while pending and len(futures) < window:
@@ -199,13 +211,48 @@ class DaskRunner:
 
 
 class _Job:
-    """A picklable chunk job: the bench, its grid, the parameters and the plan."""
+    """A picklable chunk job: the bench, its grid, the parameters and the plan.
 
-    def __init__(self, bench_name: str, grid: dict, params: Parameters, plan: ChunkPlan) -> None:
+    With ``partial`` and ``token``, a process that sees the partial folder
+    (its ``token`` file holds ``token``: a local worker, or a cluster on a
+    shared file system) saves the chunk there itself and returns None, so the
+    chunk's arrays never travel back to the main process; elsewhere it
+    returns the arrays.
+    """
+
+    def __init__(
+        self,
+        bench_name: str,
+        grid: dict,
+        params: Parameters,
+        plan: ChunkPlan,
+        partial: str | None = None,
+        token: str | None = None,
+    ) -> None:
         self.bench_name, self.grid, self.params, self.plan = bench_name, grid, params, plan
+        self.partial, self.token = partial, token
 
-    def __call__(self, k: int) -> dict[str, np.ndarray]:
-        return compute_chunk(self.bench_name, self.grid, self.params, self.plan, k)
+    def __call__(self, k: int) -> dict[str, np.ndarray] | None:
+        arrays = compute_chunk(self.bench_name, self.grid, self.params, self.plan, k)
+        if self.partial is not None and _sees_folder(self.partial, self.token):
+            _save_chunk(Path(self.partial), k, arrays)
+            return None
+        return arrays
+
+
+def _sees_folder(folder: str, token: str | None) -> bool:
+    """True if this process sees ``folder`` as the main process does (its token file matches)."""
+    cache = _sees_folder.__dict__.setdefault("cache", {})
+    key = (folder, token)
+    if key not in cache:
+        try:
+            cache[key] = token is not None and (Path(folder) / _TOKEN).read_text() == token
+        except OSError:
+            cache[key] = False
+    return cache[key]
+
+
+_TOKEN = "token"
 
 
 @dataclass
@@ -238,22 +285,33 @@ def _manifest(bench: Bench, grid: dict, params: Parameters, grid_name: str, plan
     return json.loads(json.dumps(manifest))  # as it reads back from disk (tuples become lists)
 
 
+def _chunk_file(folder: Path, k: int) -> Path:
+    return folder / f"chunk_{k:06d}.npy"
+
+
 def _save_chunk(folder: Path, k: int, arrays: dict[str, np.ndarray]) -> None:
-    tmp = folder / f".chunk_{k:06d}.tmp.npz"
+    """Save chunk ``k`` atomically as one (variables, points) float64 array, in ``arrays``' order.
+
+    One plain ``.npy`` per chunk: loading it parses one header (an ``.npz`` parses
+    a zip directory and a header per variable, which the main process would pay
+    for every chunk). The int8 status is exact in float64.
+    """
+    stacked = np.stack([np.asarray(a, np.float64) for a in arrays.values()])
+    tmp = folder / f".chunk_{k:06d}.tmp.npy"
     with open(tmp, "wb") as fh:
-        np.savez(fh, **arrays)
-    os.replace(tmp, folder / f"chunk_{k:06d}.npz")
+        np.save(fh, stacked)
+    os.replace(tmp, _chunk_file(folder, k))
 
 
 def _done_chunks(folder: Path, plan: ChunkPlan, names: list[str]) -> set[int]:
     done = set()
-    for f in folder.glob("chunk_*.npz"):
+    for f in folder.glob("chunk_*.npy"):
         try:
             k = int(f.stem.split("_")[1])
-            with np.load(f) as z:
-                if k < plan.count and all(z[n].shape == (plan.block,) for n in names):
-                    done.add(k)
-        except (OSError, ValueError, KeyError):
+            # Memory-mapped: reads the header only; a truncated file fails to map.
+            if k < plan.count and np.load(f, mmap_mode="r").shape == (len(names), plan.block):
+                done.add(k)
+        except (OSError, ValueError):
             continue  # a damaged chunk is recomputed
     return done
 
@@ -313,85 +371,112 @@ def sweep_to_file(
     finished = len(done) * plan.block
     if progress is not None:
         progress(finished, plan.points)
-    job = _Job(bench.name, grid, params, plan)
-    for k, arrays in runner.run(job, todo):
-        _save_chunk(partial, k, arrays)
-        finished += plan.block
-        if progress is not None:
-            progress(finished, plan.points)
-    invalid = _assemble(bench, grid, params, grid_name, plan, partial, path, names)
+    token = uuid.uuid4().hex
+    (partial / _TOKEN).write_text(token)
+    job = _Job(bench.name, grid, params, plan, str(partial), token)
+    with _LutWriter(bench, grid, params, grid_name, plan, path, names, partial) as writer:
+        # Chunks go into the file as they finish (those of an earlier run first),
+        # so that writing overlaps the computing.
+        for k in sorted(done):
+            writer.add(partial, k)
+        for k, arrays in runner.run(job, todo):
+            if arrays is not None:  # computed where the partial folder is not visible
+                _save_chunk(partial, k, arrays)
+            writer.add(partial, k)
+            finished += plan.block
+            if progress is not None:
+                progress(finished, plan.points)
     shutil.rmtree(partial)
     return SweepSummary(
-        path, plan.points, plan.count, len(todo), len(done), invalid, time.perf_counter() - t0, runner.name
+        path, plan.points, plan.count, len(todo), len(done), writer.invalid, time.perf_counter() - t0, runner.name
     )
 
 
-def _assemble(
-    bench: Bench,
-    grid: dict[str, np.ndarray],
-    params: Parameters,
-    grid_name: str,
-    plan: ChunkPlan,
-    partial: Path,
-    path: Path,
-    names: list[str],
-) -> int:
-    """Stream the chunk files into the LUT file (atomically); returns the invalid-point count."""
-    import netCDF4
+class _LutWriter:
+    """The LUT file, filled chunk by chunk as they finish.
 
-    from evtms.benches.sweep import bench_attributes
-    from evtms.luts.io import global_attributes
+    It is written as ``lut.nc.tmp`` inside the partial folder (which holds all
+    of an unfinished sweep's state and is removed at the end) and renamed to
+    ``path`` only when every chunk is in it: an interrupted sweep never
+    leaves a partial file at ``path``.
+    """
 
-    attrs = global_attributes(**bench_attributes(bench, params, grid_name))
-    trailing = plan.shape[plan.lead :]
-    # Each chunk is written once, so HDF5's per-variable chunk cache (netCDF's default
-    # is tens of MB per variable) buys nothing and would grow memory with the grid.
-    previous = netCDF4.get_chunk_cache()
-    netCDF4.set_chunk_cache(size=1 << 20, nelems=61, preemption=1.0)
-    try:
-        _write_chunks(bench, grid, plan, partial, path, names, attrs, trailing)
-    finally:
-        netCDF4.set_chunk_cache(*previous)
-    return _count_invalid(bench, plan, partial)
+    def __init__(self, bench, grid, params, grid_name, plan, path, names, partial: Path) -> None:
+        self.bench, self.grid, self.plan, self.path, self.names = bench, grid, plan, path, names
+        self.params, self.grid_name = params, grid_name
+        self.trailing = plan.shape[plan.lead :]
+        self.tmp = partial / "lut.nc.tmp"
+        self.invalid = 0
+        self.written: set[int] = set()
+        self.nc = None
 
+    def __enter__(self) -> _LutWriter:
+        import netCDF4
 
-def _count_invalid(bench: Bench, plan: ChunkPlan, partial: Path) -> int:
-    invalid = 0
-    for k in range(plan.count):
-        with np.load(partial / f"chunk_{k:06d}.npz") as z:
-            invalid += int((~np.isin(z["status"], bench.valid_flags)).sum())
-    return invalid
+        from evtms.benches.sweep import bench_attributes
+        from evtms.luts.io import axis_attributes, global_attributes, variable_attributes
 
+        # Each chunk is written once, so HDF5's per-variable chunk cache (netCDF's default
+        # is tens of MB per variable) buys nothing and would grow memory with the grid.
+        self._previous_cache = netCDF4.get_chunk_cache()
+        netCDF4.set_chunk_cache(size=1 << 20, nelems=61, preemption=1.0)
+        try:
+            nc = self.nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+            for name, values in self.grid.items():
+                nc.createDimension(name, len(values))
+                var = nc.createVariable(name, "f8", (name,))
+                var[:] = values
+                var.setncatts(axis_attributes(name))
+            chunksizes = tuple([1] * self.plan.lead) + tuple(self.trailing)
+            self.variables = {}
+            for name in self.names:
+                is_status = name == "status"
+                var = nc.createVariable(
+                    name,
+                    "i1" if is_status else "f8",
+                    tuple(self.grid),
+                    fill_value=None if is_status else np.nan,
+                    chunksizes=chunksizes,
+                )
+                var.setncatts(variable_attributes(name, self.bench.flags, self.bench.valid_flags))
+                self.variables[name] = var
+            nc.setncatts(global_attributes(**bench_attributes(self.bench, self.params, self.grid_name)))
+            nc.set_auto_maskandscale(False)  # plain arrays go in; NaN already is the fill value
+        except BaseException:
+            self._discard()
+            raise
+        return self
 
-def _write_chunks(bench, grid, plan, partial, path, names, attrs, trailing) -> None:
-    """Create the LUT file and stream every chunk into its slab (atomically)."""
-    import netCDF4
+    def add(self, partial: Path, k: int) -> None:
+        """Write saved chunk ``k`` into its slab of the file."""
+        stacked = np.load(_chunk_file(partial, k))
+        index = self.plan.index(k) + (slice(None),) * len(self.trailing)
+        for name, values in zip(self.names, stacked, strict=True):
+            if name == "status":
+                values = values.astype(np.int8)
+                self.invalid += int((~np.isin(values, self.bench.valid_flags)).sum())
+            self.variables[name][index] = values.reshape(self.trailing)
+        self.written.add(k)
 
-    from evtms.luts.io import atomic_output, axis_attributes, variable_attributes
+    def _discard(self) -> None:
+        import netCDF4
 
-    dims = tuple(grid)
-    with atomic_output(path) as tmp, netCDF4.Dataset(tmp, "w", format="NETCDF4") as nc:
-        for name, values in grid.items():
-            nc.createDimension(name, len(values))
-            var = nc.createVariable(name, "f8", (name,))
-            var[:] = values
-            var.setncatts(axis_attributes(name))
-        chunksizes = tuple([1] * plan.lead) + tuple(trailing)
-        variables = {}
-        for name in names:
-            is_status = name == "status"
-            var = nc.createVariable(
-                name,
-                "i1" if is_status else "f8",
-                dims,
-                fill_value=None if is_status else np.nan,
-                chunksizes=chunksizes,
-            )
-            var.setncatts(variable_attributes(name, bench.flags, bench.valid_flags))
-            variables[name] = var
-        nc.setncatts(attrs)
-        for k in range(plan.count):
-            with np.load(partial / f"chunk_{k:06d}.npz") as z:
-                index = plan.index(k) + (slice(None),) * len(trailing)
-                for name in names:
-                    variables[name][index] = z[name].reshape(trailing)
+        if self.nc is not None and self.nc.isopen():
+            self.nc.close()
+        self.tmp.unlink(missing_ok=True)
+        netCDF4.set_chunk_cache(*self._previous_cache)
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        import netCDF4
+
+        if exc_type is not None:
+            self._discard()
+            return False
+        self.nc.close()
+        netCDF4.set_chunk_cache(*self._previous_cache)
+        if len(self.written) != self.plan.count:  # a runner that skipped chunks: a bug
+            self.tmp.unlink(missing_ok=True)
+            missing = sorted(set(range(self.plan.count)) - self.written)[:3]
+            raise RuntimeError(f"the sweep ended with chunks {missing} not written")
+        os.replace(self.tmp, self.path)
+        return False
