@@ -198,3 +198,28 @@ def test_a_worker_killed_mid_sweep_loses_nothing(tmp_path):
     )
     assert_same_lut(tmp_path / "d.nc", tmp_path / "ref.nc")
     assert distributed is not None
+
+
+def test_a_worker_saves_its_chunk_only_where_it_sees_the_partial_folder(tmp_path):
+    from evtms.benches.chunked import _TOKEN, ChunkPlan, _Job, _save_chunk
+    from evtms.params import Parameters
+
+    grid = {
+        "mdot": np.array([0.004, 0.006]),
+        "fan": np.array([0.5]),
+        "p_in": np.array([1e6]),
+        "T_in": np.array([340.0, 350.0]),
+        "T_res": np.array([300.0]),
+    }
+    plan = ChunkPlan.for_grid((2, 1, 1, 2, 1), 2)  # two chunks of two points
+    (tmp_path / _TOKEN).write_text("this-sweep")
+    seen = _Job("condenser", grid, Parameters(), plan, str(tmp_path), "this-sweep")(1)
+    assert seen is None and (tmp_path / "chunk_000001.npy").exists()
+    # Another sweep's token (a worker on another machine with a folder of that name):
+    # the arrays travel back to the main process, which saves them.
+    elsewhere = _Job("condenser", grid, Parameters(), plan, str(tmp_path), "other-sweep")(0)
+    assert set(elsewhere) >= {"status", "Q", "h_out"} and not (tmp_path / "chunk_000000.npy").exists()
+    _save_chunk(tmp_path, 0, elsewhere)
+    a, b = np.load(tmp_path / "chunk_000000.npy"), np.load(tmp_path / "chunk_000001.npy")
+    assert a.shape == b.shape == (len(elsewhere), 2)
+    np.testing.assert_array_equal(a[list(elsewhere).index("Q")], elsewhere["Q"])
