@@ -11,14 +11,20 @@ pressure ``p_B``:
 - inner loop, for a given ``p_A``: the compressor at ``(speed, T_A, p_A,
   p_B/p_A)`` with ``T_A = T_sat(p_A) + superheat`` gives ``mdot`` and
   ``h_B``; the condenser at ``(mdot, fan, p_B, h_B, ambient air)`` gives its
-  outlet quality; ``p_B`` is the root of ``x_out - x_target`` (a higher
-  discharge pressure raises the saturation temperature and so condenses and
-  subcools more: the residual falls monotonically);
+  outlet; ``p_B`` is the root of ``1 - capacity_ratio`` for a saturated-liquid
+  outlet, or of the outlet quality (from ``h_out_continued``) minus its
+  target for a subcooled one (a higher discharge pressure raises the
+  saturation temperature and so condenses and subcools more: the residual
+  falls monotonically);
 - outer loop: the valve is isenthalpic (``h_D = h_C``), the evaporator inlet
   pressure is ``p_A`` plus the evaporator's own pressure drop (fixed point,
-  one pass per iterate from the previous iterate's drop), and ``p_A`` is the root of the outlet superheat minus its
-  setpoint (a higher suction pressure means less temperature difference to the
-  air and more mass flow, so less superheat).
+  one pass per iterate from the previous iterate's drop), and ``p_A`` is the
+  root of the outlet enthalpy (``h_out_continued``) minus the suction
+  enthalpy at the superheat setpoint (a higher suction pressure means less
+  temperature difference to the air and more mass flow, so less superheat).
+  ``h_out_continued`` equals ``h_out`` where the outlets lie in the coils'
+  last zone and has no kink where they change phase (see
+  ``evtms.benches.coil.solve_coil``).
 
 Both roots are found by regula falsi with the Anderson-Bjorck modification
 (the Illinois halving where that fails), vectorised over all operating points
