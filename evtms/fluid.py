@@ -443,6 +443,7 @@ class SaturationCurve:
         self.T = sat["T"]
         self.h_l, self.h_v = sat["h_l"], sat["h_v"]
         self.cp_l = sat["cp_l"]
+        self.rho_l = sat["rho_l"]
 
     def _at(self, table: np.ndarray, p: np.ndarray) -> np.ndarray:
         return np.interp(np.log(np.asarray(p, float)), self._log_p, table, left=np.nan, right=np.nan)
@@ -462,6 +463,10 @@ class SaturationCurve:
     def vapour_enthalpy(self, p: np.ndarray) -> np.ndarray:
         """Saturated-vapour enthalpy [J/kg] at ``p`` [Pa]."""
         return self._at(self.h_v, p)
+
+    def liquid_density(self, p: np.ndarray) -> np.ndarray:
+        """Saturated-liquid density [kg/m3] at ``p`` [Pa]."""
+        return self._at(self.rho_l, p)
 
     def liquid_cp(self, p: np.ndarray) -> np.ndarray:
         """Saturated-liquid heat capacity [J/(kg K)] at ``p`` [Pa]."""

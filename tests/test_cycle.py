@@ -95,6 +95,30 @@ def test_outside_the_envelope_names_the_axis(cycle_luts):
     assert np.isnan(r["p_A"][0]) and np.isnan(r["COP"][0])
 
 
+def test_a_root_beyond_a_lut_pressure_axis_is_outside_the_envelope_not_its_end(cycle_luts):
+    # Hot ambient, small fan, fast compressor: the direct physics condenses at 3.7 MPa,
+    # beyond the condenser LUT's p_in axis (up to 3.29 MPa, 91 degC). The LUT cycle must
+    # not return the axis' end as a root.
+    point = OperatingPoints(
+        speed=0.935, fan=0.132, blower=0.867, T_amb=309.69, T_cabin=297.8, RH_cabin=0.74, superheat=5.8
+    )
+    direct = run_cycle(point)
+    assert np.isin(direct["status"], VALID_CYCLE_FLAGS).all()
+    assert direct["p_B"][0] > float(cycle_luts["condenser"]["p_in"].max())
+    lut = run_cycle(point, cycle_luts)
+    assert lut["status"][0] == STATUS_OUTSIDE_ENVELOPE
+    assert "condenser LUT axis p_in" in lut["reason"][0]
+    assert np.isnan(lut["p_B"][0])
+
+
+def test_valve_opening_matches_the_direct_reference(comparison):
+    _, lut, direct = comparison
+    ok = np.isin(lut["status"], VALID_CYCLE_FLAGS) & np.isin(direct["status"], VALID_CYCLE_FLAGS)
+    # The orifice law with the valve's area; LUT states within 1 %, so the opening within 2 %.
+    np.testing.assert_allclose(lut["valve_opening"][ok], direct["valve_opening"][ok], rtol=0.02)
+    assert (lut["status"] == direct["status"]).mean() >= 0.9
+
+
 def test_cli_cycle_run_and_envelope_error(cycle_luts_dir):
     res = runner.invoke(
         app,

@@ -97,7 +97,6 @@ def run_cycle(
     fluid = fluid or Fluid(params.fluid, params.backend)
     models = LutModels(luts) if luts is not None else DirectModels(params, fluid)
     solver = CycleSolver(models, SaturationCurve(fluid))
-    solver.max_opening = params.expansion_valve.capacity_max / params.expansion_valve.capacity_nominal
     result = solver.solve(points)
     bal = energy_balance(result)
     result["balance_residual"], result["balance_relative"] = bal["residual"], bal["relative"]

@@ -1,7 +1,8 @@
 """Component models for the cycle solver: from LUTs, or the bench physics directly.
 
-Both classes answer the same four calls on arrays of operating points and
-return NaN plus a reason string where they cannot: :class:`LutModels`
+Both classes answer the same calls (the compressor, condenser and evaporator
+on arrays of operating points, the valve's parameters) and return NaN plus a
+reason string where they cannot: :class:`LutModels`
 interpolates LUT files (the fast path for control work) and names the LUT
 axis a query leaves; :class:`DirectModels` calls the bench functions (the
 accuracy reference) and names the bench's status.
@@ -14,9 +15,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms.benches.expansion_valve import nominal_opening
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
-from evtms.params import Parameters
+from evtms.params import ExpansionValveParams, Parameters
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -123,18 +125,15 @@ class DirectModels:
             },
         )
 
-    def valve(self, h_in, p_in, mdot) -> Result:
-        return self._run("expansion_valve", {"h_in": h_in, "p_in": p_in, "mdot": mdot})
-
     def detailed(self, on: bool) -> None:
         """The bench functions always return every variable."""
 
     def subcooled_targets(self, on: bool) -> None:
         """The bench functions always return every variable."""
 
-    def valve_reference_flow(self) -> float:
-        """A small mass flow [kg/s] at which the nominal-opening valve passes liquid."""
-        return 1e-3
+    def valve(self) -> tuple[ExpansionValveParams, float]:
+        """The valve's parameters and its flow area at the nominal opening [m2]."""
+        return self.params.expansion_valve, nominal_opening(self.params.expansion_valve, self.fluid)
 
     def limits(self) -> dict[str, tuple[float, float]]:
         """Ranges the solver may search: the fluid's saturation range, and pressure
@@ -148,6 +147,8 @@ class DirectModels:
             "p_suction": (2.5e4, 0.9 * self.fluid.p_crit),
             "p_discharge": (1e5, 0.98 * self.fluid.p_crit),
             "pr": (1.0, pr_max),
+            # Physical limits, not a LUT's: the solver reports no root there.
+            "axes": {"p_suction": (None, None), "p_discharge": (None, None), "pr": (None, None)},
         }
 
 
@@ -221,26 +222,31 @@ class LutModels:
     ----------
     luts : mapping of str to xarray.Dataset
         ``condenser``, ``evaporator``, ``expansion_valve`` and ``compressor``
-        LUTs. The coils and the valve must have ``h_in`` inlet axes (a
-        two-phase inlet has no (p, T)) and the compressor a ``p_in`` axis, as
-        the ``cycle`` grid preset writes them.
+        LUTs. The coils must have ``h_in`` inlet axes (a two-phase inlet has
+        no (p, T)) and the compressor a ``p_in`` axis, as the ``cycle`` grid
+        preset writes them. Of the valve's LUT the cycle uses its parameters
+        (see :meth:`valve`).
     """
 
     name = "lut"
 
     def __init__(self, luts: dict[str, xr.Dataset]) -> None:
-        need = {"condenser": "h_in", "evaporator": "h_in", "expansion_valve": "h_in", "compressor": "p_in"}
+        need = {"condenser": "h_in", "evaporator": "h_in", "expansion_valve": None, "compressor": "p_in"}
         self.luts = {}
         for component, axis in need.items():
             if component not in luts:
                 raise EvtmsInputError(f"the cycle needs a {component} LUT; none was given")
             ds = luts[component]
+            if axis is None:
+                continue
             if axis not in ds.dims:
                 raise EvtmsInputError(
                     f"the {component} LUT has axes {', '.join(ds.dims)}; cycle work needs {axis!r} "
                     "(write it with --grid cycle)"
                 )
             self.luts[component] = _LutComponent(component, ds, CURVED.get(component, ()))
+        self.valve_attrs = dict(luts["expansion_valve"].attrs)
+        self._valve: tuple[ExpansionValveParams, float] | None = None
 
     def detailed(self, on: bool) -> None:
         """Return every variable (final states) or only those the iterations need."""
@@ -264,20 +270,36 @@ class LutModels:
             {"mdot": mdot, "blower": blower, "p_in": p_in, "h_in": h_in, "T_air_in": T_air, "RH_air_in": RH_air}
         )
 
-    def valve(self, h_in, p_in, mdot) -> Result:
-        return self.luts["expansion_valve"]({"h_in": h_in, "p_in": p_in, "mdot": mdot})
+    def valve(self) -> tuple[ExpansionValveParams, float]:
+        """The valve's parameters, as its LUT was made with, and its flow area at the nominal opening [m2].
 
-    def valve_reference_flow(self) -> float:
-        """The valve LUT's smallest mass flow [kg/s]."""
-        return self.luts["expansion_valve"].ranges["mdot"][0]
+        The cycle sets the valve's pressure drop; what it asks of the valve is
+        the opening that passes the cycle's flow at that drop. Its LUT's dp at
+        a saturated-liquid inlet would be interpolated across the kink the
+        inlet density has there (4-50 % off); the valve's own orifice law with
+        the area of its parameters is exact.
+        """
+        if self._valve is None:
+            attrs = self.valve_attrs
+            valve = ExpansionValveParams(**json.loads(attrs["parameters"])["expansion_valve"])
+            fluid = Fluid(attrs.get("fluid", "R134a"), json.loads(attrs["parameters"]).get("backend", "HEOS"))
+            self._valve = (valve, nominal_opening(valve, fluid))
+        return self._valve
 
     def limits(self) -> dict[str, tuple[float, float]]:
         """Pressure ranges the solver may search: where the LUTs have data."""
         evap = self.luts["evaporator"].ranges["p_in"]
         comp = self.luts["compressor"].ranges["p_in"]
         cond = self.luts["condenser"].ranges["p_in"]
+        e, c = "evaporator LUT axis p_in", "compressor LUT axis p_in"
         return {
             "p_suction": (max(evap[0], comp[0]), min(evap[1], comp[1])),
             "p_discharge": cond,
             "pr": self.luts["compressor"].ranges["pr"],
+            # Which LUT axis each limit is, for the reason of a point beyond it.
+            "axes": {
+                "p_suction": (e if evap[0] >= comp[0] else c, e if evap[1] <= comp[1] else c),
+                "p_discharge": ("condenser LUT axis p_in", "condenser LUT axis p_in"),
+                "pr": ("compressor LUT axis pr", "compressor LUT axis pr"),
+            },
         }

@@ -137,6 +137,27 @@ def _says(reasons: np.ndarray, words: str) -> np.ndarray:
     return np.array([words in r for r in reasons], dtype=bool)
 
 
+def _bound(candidates: list[tuple[np.ndarray | float, str | None]], upper: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The tightest of several bounds per point, and the LUT axis it is (None: a physical bound)."""
+    values = np.stack(np.broadcast_arrays(*[np.asarray(v, float) for v, _ in candidates]))
+    which = np.argmin(values, axis=0) if upper else np.argmax(values, axis=0)
+    names = np.array([name for _, name in candidates], dtype=object)[which]
+    return np.take_along_axis(values, which[None, :], axis=0)[0], names
+
+
+def _no_root(status, reason, where, axes, bound, physical_reason: str, beyond: str) -> None:
+    """Reasons (and statuses) of the points ``where`` whose residual keeps one sign up to ``bound`` [Pa].
+
+    Where that bound is a LUT axis (``axes``), the point lies outside the
+    envelope: status 1 and the axis named. Elsewhere the bound is physical and
+    the status the caller set stands, with ``physical_reason``.
+    """
+    lut = where & np.array([a is not None for a in axes], dtype=bool)
+    status[lut] = STATUS_OUTSIDE_ENVELOPE
+    reason[lut] = [f"{beyond} {b:.4g} Pa, the end of the {a}" for b, a in zip(bound[lut], axes[lut], strict=True)]
+    reason[where & ~lut] = physical_reason
+
+
 def bracketed_root(
     fun: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
     lo: np.ndarray,
@@ -147,6 +168,8 @@ def bracketed_root(
     xtol: float,
     ftol: float,
     maxiter: int = 80,
+    why_lo: np.ndarray | None = None,
+    why_hi: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Vectorised root of a decreasing residual on [lo, hi], modified regula falsi.
 
@@ -156,7 +179,10 @@ def bracketed_root(
     (its model left its envelope there), in which case that end's sign is
     taken as known and the step is a bisection until both ends are finite. A
     NaN inside the bracket joins the end that is NaN; with both ends finite,
-    it ends the point's search with its reason.
+    it ends the point's search with its reason. A bracket that shrinks onto
+    a NaN end with the residual still away from zero has no root inside the
+    models' envelope: the point fails with that end's reason (``why_lo``,
+    ``why_hi``: the reasons of NaN ends given, else the NaN met inside).
 
     Returns
     -------
@@ -174,6 +200,10 @@ def bracketed_root(
     state = np.zeros(n, np.int8)
     reason = np.full(n, "", dtype=object)
     kept = np.zeros(n, np.int8)  # end kept by the last update: -1 lo, +1 hi
+    end_why = {
+        k: np.full(n, "", dtype=object) if w is None else np.asarray(w, dtype=object).copy()
+        for k, w in (("lo", why_lo), ("hi", why_hi))
+    }
     for _ in range(maxiter):
         act = np.nonzero(state == 0)[0]
         if act.size == 0:
@@ -187,7 +217,8 @@ def bracketed_root(
         x[act] = xn
         nan = ~np.isfinite(f)
         small = np.abs(b - a) < xtol * np.abs(xn)
-        conv = ~nan & ((np.abs(f) < ftol) | small)
+        finite_ends = np.isfinite(fa) & np.isfinite(fb)
+        conv = ~nan & ((np.abs(f) < ftol) | (small & finite_ends))
         state[act[conv]] = 1
         to_hi = nan & ~np.isfinite(fb)
         to_lo = nan & ~to_hi & ~np.isfinite(fa)
@@ -196,9 +227,17 @@ def bracketed_root(
         reason[act[nan]] = why[nan]
         hi[act[to_hi & ~dead]] = xn[to_hi & ~dead]
         lo[act[to_lo & ~dead]] = xn[to_lo & ~dead]
+        end_why["hi"][act[to_hi]] = why[to_hi]
+        end_why["lo"][act[to_lo]] = why[to_lo]
+        # Shrunk onto a NaN end with the residual away from zero: the root lies beyond it.
+        edge = ~nan & ~conv & small
+        state[act[edge]] = 2
+        at_hi = ~np.isfinite(fb)
+        reason[act[edge]] = np.where(at_hi, end_why["hi"][act], end_why["lo"][act])[edge]
+        reason[act[edge & (reason[act] == "")]] = "the root lies where the models return NaN"
         # Finite residual: it replaces the end of its sign; an end kept twice in a
         # row has its residual scaled down so that the next step moves it.
-        upd = ~nan & ~conv
+        upd = ~nan & ~conv & ~edge
         pos, neg = upd & (f > 0), upd & (f <= 0)
         i_pos, i_neg = act[pos], act[neg]
         # Anderson-Bjorck scaling of the kept end: 1 - f_new/f_replaced, or the
@@ -305,11 +344,11 @@ class CycleSolver:
         reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
         return {"T_A": T_A, "comp": comp, "cond": cond, "residual": residual, "reason": reason}
 
-    def _pressure_root(self, residual, lo, hi, f_lo, f_hi, idx, ftol, status, reason, what) -> np.ndarray:
+    def _pressure_root(self, residual, br, idx, ftol, status, reason, what) -> np.ndarray:
         """Root in pressure of ``residual(p, idx)`` for the points ``idx`` of a bracket.
 
         Iterates on the saturation temperature, in which both closures are close
-        to linear; ``lo`` and ``hi`` are saturation temperatures [K]. Marks
+        to linear, from the bracket ``br`` of :meth:`_bracket`. Marks
         points whose model left its envelope (with its reason) or that did not
         converge in ``status`` and ``reason``.
         """
@@ -317,7 +356,18 @@ class CycleSolver:
         def fun(t_sat, i):
             return residual(self.sat.pressure(t_sat), i)
 
-        root, state, why = bracketed_root(fun, lo[idx], hi[idx], f_lo[idx], f_hi[idx], idx, _XTOL, ftol)
+        root, state, why = bracketed_root(
+            fun,
+            br["lo"][idx],
+            br["hi"][idx],
+            br["f_lo"][idx],
+            br["f_hi"][idx],
+            idx,
+            _XTOL,
+            ftol,
+            why_lo=br["why_lo"][idx],
+            why_hi=br["why_hi"][idx],
+        )
         status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
         status[idx[state == 3]] = STATUS_NOT_CONVERGED
         reason[idx] = np.where(state == 3, f"{what} iteration did not converge", why)
@@ -340,9 +390,10 @@ class CycleSolver:
         dict
             ``lo, hi`` [K], ``f_lo, f_hi``, ``why_lo, why_hi`` (reasons of NaN
             residuals) per point, ``slope`` (secant slope of the two guess
-            points, NaN where not evaluated) and ``searched``: True where the
-            ends are the whole range (so a residual of one sign on both means
-            that there is no root in it).
+            points, NaN where not evaluated) and ``lo_is_end``, ``hi_is_end``:
+            True where that end is the range's own end (an end from a guess
+            point always has the sign of its side, so a residual of the wrong
+            sign there means that the range holds no root).
         """
         n = t_lo.size
         everyone = np.arange(n)
@@ -368,7 +419,7 @@ class CycleSolver:
                 b[k], fb[k], wb[k], need_b[k] = t[below], f[below], w[below], False
             with np.errstate(invalid="ignore", divide="ignore"):
                 new_slope[g] = (f_2 - f_g) / (t_2 - t_g)
-        searched = need_a & need_b
+        lo_is_end, hi_is_end = need_a.copy(), need_b.copy()
         for t, f, w, need in ((a, fa, wa, need_a), (b, fb, wb, need_b)):
             k = everyone[need]
             if k.size:
@@ -381,7 +432,8 @@ class CycleSolver:
             "why_lo": wa,
             "why_hi": wb,
             "slope": new_slope,
-            "searched": searched,
+            "lo_is_end": lo_is_end,
+            "hi_is_end": hi_is_end,
         }
 
     def _solve_discharge(self, ops: dict, p_A: np.ndarray, idx: np.ndarray) -> dict:
@@ -395,10 +447,16 @@ class CycleSolver:
         evaluation, not a new one).
         """
         n = p_A.size
-        pr_lo, pr_hi = self._pr
-        lo = np.maximum(self.sat.pressure(ops["T_amb"] + 0.5), pr_lo * p_A)
-        lo = np.maximum(lo, self._p_discharge[0])
-        hi = np.minimum(np.full(n, self._p_discharge[1]), pr_hi * p_A)
+        (pr_lo, pr_hi), axes = self._pr, self._axes
+        lo, lo_axis = _bound(
+            [
+                (self.sat.pressure(ops["T_amb"] + 0.5), None),
+                (pr_lo * p_A, axes["pr"][0]),
+                (self._p_discharge[0], axes["p_discharge"][0]),
+            ],
+            upper=False,
+        )
+        hi, hi_axis = _bound([(self._p_discharge[1], axes["p_discharge"][1]), (pr_hi * p_A, axes["pr"][1])], upper=True)
         last = _Scattered(n)
 
         def residual(pb, i):
@@ -414,22 +472,33 @@ class CycleSolver:
         f_lo, f_hi = br["f_lo"], br["f_hi"]
         status = np.full(n, STATUS_CONVERGED, np.int8)
         reason = np.full(n, "", dtype=object)
-        cold = br["searched"] & np.isfinite(f_lo) & (f_lo <= 0)
-        hot = br["searched"] & ~cold & np.isfinite(f_hi) & (f_hi >= 0)
+        cold = br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0)
+        hot = br["hi_is_end"] & ~cold & np.isfinite(f_hi) & (f_hi >= 0)
         status[cold | hot] = STATUS_CONDENSER_NO_ROOT
-        reason[cold] = "the condenser outlet is below its target even at the lowest discharge pressure searched"
-        reason[hot] = [
-            f"the condenser cannot reach its outlet condition up to the highest discharge pressure {h:.4g} Pa"
-            for h in hi[hot]
-        ]
+        _no_root(
+            status,
+            reason,
+            cold,
+            lo_axis,
+            lo,
+            "the condenser outlet is below its target even at the lowest discharge pressure searched",
+            "the condenser outlet condition lies below the discharge pressure",
+        )
+        _no_root(
+            status,
+            reason,
+            hot,
+            hi_axis,
+            hi,
+            "the condenser cannot reach its outlet condition up to the highest discharge pressure searched",
+            "the condenser outlet condition lies above the discharge pressure",
+        )
         bad_pa = ~np.isfinite(p_A)
         status[bad_pa] = STATUS_OUTSIDE_ENVELOPE
         p_B = np.full(n, np.nan)
         todo = np.nonzero(status == STATUS_CONVERGED)[0]
         if todo.size:
-            p_B[todo] = self._pressure_root(
-                residual, br["lo"], br["hi"], f_lo, f_hi, todo, _INNER_FTOL, status, reason, "discharge-pressure"
-            )
+            p_B[todo] = self._pressure_root(residual, br, todo, _INNER_FTOL, status, reason, "discharge-pressure")
         failed = status != STATUS_CONVERGED
         p_B[failed] = np.nan
         if last.data is None:  # nothing evaluated (no valid suction pressure)
@@ -510,13 +579,21 @@ class CycleSolver:
         ops = points.subset(np.arange(len(points)))
         n = len(points)
         limits = self.models.limits()
-        self._p_discharge = limits["p_discharge"]
+        # A hair inside the pressure ranges: the saturation temperature <-> pressure
+        # round trip must not step off a LUT's last node.
+        self._p_discharge = (limits["p_discharge"][0] * (1 + 1e-9), limits["p_discharge"][1] * (1 - 1e-9))
         # A hair inside the compressor's pressure-ratio range, so that p_B/p_A stays on its grid.
         self._pr = (max(limits["pr"][0], 1.0) * (1 + 1e-9), limits["pr"][1] * (1 - 1e-9))
-        p_lo_lim, p_hi_lim = limits["p_suction"]
+        p_lo_lim, p_hi_lim = limits["p_suction"][0] * (1 + 1e-9), limits["p_suction"][1] * (1 - 1e-9)
+        self._axes = limits["axes"]
         # Evaporating 45 K below the cabin air leaves a large superheat: the low end of the range.
-        t_lo = self.sat.temperature(np.maximum(self.sat.pressure(ops["T_cabin"] - 45.0), p_lo_lim))
-        t_hi = self.sat.temperature(np.minimum(self.sat.pressure(ops["T_cabin"] - 0.5), p_hi_lim))
+        lo, lo_axis = _bound(
+            [(self.sat.pressure(ops["T_cabin"] - 45.0), None), (p_lo_lim, self._axes["p_suction"][0])], upper=False
+        )
+        hi, hi_axis = _bound(
+            [(self.sat.pressure(ops["T_cabin"] - 0.5), None), (p_hi_lim, self._axes["p_suction"][1])], upper=True
+        )
+        t_lo, t_hi = self.sat.temperature(lo), self.sat.temperature(hi)
         self._guess = np.full(n, np.nan)
         self._dp_guess = np.zeros(n)
         self._slope = np.full(n, np.nan)
@@ -532,11 +609,27 @@ class CycleSolver:
         f_lo, f_hi = br["f_lo"], br["f_hi"]
         status = np.full(n, STATUS_CONVERGED, np.int8)
         reason = np.full(n, "", dtype=object)
-        low = br["searched"] & np.isfinite(f_lo) & (f_lo <= 0)
-        high = br["searched"] & ~low & np.isfinite(f_hi) & (f_hi >= 0)
+        low = br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0)
+        high = br["hi_is_end"] & ~low & np.isfinite(f_hi) & (f_hi >= 0)
         status[low | high] = STATUS_EVAPORATOR_NO_ROOT
-        reason[low] = "the superheat stays below its setpoint even at the lowest suction pressure searched"
-        reason[high] = "the superheat stays above its setpoint up to saturation at the cabin air temperature"
+        _no_root(
+            status,
+            reason,
+            low,
+            lo_axis,
+            lo,
+            "the superheat stays below its setpoint even at the lowest suction pressure searched",
+            "the superheat setpoint lies below the suction pressure",
+        )
+        _no_root(
+            status,
+            reason,
+            high,
+            hi_axis,
+            hi,
+            "the superheat stays above its setpoint up to saturation at the cabin air temperature",
+            "the superheat setpoint lies above the suction pressure",
+        )
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
         status[both] = STATUS_OUTSIDE_ENVELOPE
@@ -544,9 +637,7 @@ class CycleSolver:
         p_A = np.full(n, np.nan)
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
-            p_A[idx] = self._pressure_root(
-                residual, br["lo"], br["hi"], f_lo, f_hi, idx, _OUTER_FTOL, status, reason, "suction-pressure"
-            )
+            p_A[idx] = self._pressure_root(residual, br, idx, _OUTER_FTOL, status, reason, "suction-pressure")
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
 
@@ -574,14 +665,15 @@ class CycleSolver:
         h_l, T_sat = self.sat.liquid_enthalpy(p_C), self.sat.temperature(p_C)
         h_C = np.where(saturated, h_l, cond["h_out_continued"])
         T_C = np.where(saturated, T_sat, T_sat - (h_l - h_C) / self.sat.liquid_cp(p_C))
-        # The valve's orifice law makes dp go with mdot^2 at a given inlet state, so the
-        # opening that passes mdot at the cycle's dp follows from the nominal-opening dp
-        # at a small reference flow (valid on every valve grid).
-        m_ref = self.models.valve_reference_flow()
-        valve = self.models.valve(h_C, p_C, np.full(mdot.shape, m_ref))
+        # The opening (over the nominal) that passes mdot at the cycle's valve drop, by
+        # the valve's orifice law for a liquid inlet, mdot = S sqrt(2 rho_in dp); a
+        # subcooled liquid's density is the saturated liquid's at its temperature.
+        valve, area = self.models.valve()
+        self.max_opening = valve.capacity_max / valve.capacity_nominal
         dp_valve = p_C - fin["p_D"]
+        rho_C = self.sat.liquid_density(np.where(saturated, p_C, self.sat.pressure(T_C)))
         with np.errstate(invalid="ignore", divide="ignore"):
-            opening = mdot / m_ref * np.sqrt(valve["dp"] / dp_valve)
+            opening = mdot / (area * np.sqrt(2.0 * rho_C * dp_valve))
         # Heat flows as mdot times each component's enthalpy change, the outlet from its own model.
         h_B = comp["h_out"]
         res = {
@@ -610,7 +702,7 @@ class CycleSolver:
         with np.errstate(invalid="ignore", divide="ignore"):
             res["COP"] = -res["Q_evap"] / res["W"]
         ok = status == STATUS_CONVERGED
-        bad_valve = ok & (valve["reason"] == "") & (opening > self.max_opening)
+        bad_valve = ok & (opening > self.max_opening)
         status[bad_valve] = STATUS_VALVE_BEYOND_MAX
         reason[bad_valve] = "the valve would need more than its maximum opening to hold the superheat"
         invalid = ~np.isin(status, VALID_CYCLE_FLAGS)
@@ -622,5 +714,5 @@ class CycleSolver:
         res["reason"] = reason
         return res
 
-    #: Maximum over nominal opening of the thermostatic valve (capacity 4000 W / 2000 W).
-    max_opening = 2.0
+    #: Maximum over nominal opening of the valve (its maximum over nominal capacity), set by solve.
+    max_opening = np.nan
