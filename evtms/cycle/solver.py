@@ -145,17 +145,27 @@ def _bound(candidates: list[tuple[np.ndarray | float, str | None]], upper: bool)
     return np.take_along_axis(values, which[None, :], axis=0)[0], names
 
 
-def _no_root(status, reason, where, axes, bound, physical_reason: str, beyond: str) -> None:
-    """Reasons (and statuses) of the points ``where`` whose residual keeps one sign up to ``bound`` [Pa].
+def _range_status(br: dict, lo, lo_axis, hi, hi_axis, code: int, below: tuple, above: tuple):
+    """Status and reason per point of a bracket ``br`` of :meth:`CycleSolver._bracket`.
 
-    Where that bound is a LUT axis (``axes``), the point lies outside the
-    envelope: status 1 and the axis named. Elsewhere the bound is physical and
-    the status the caller set stands, with ``physical_reason``.
+    A residual of one sign up to an end of the range [``lo``, ``hi``] (Pa)
+    means no root in it. Where that end is a LUT axis (``lo_axis``,
+    ``hi_axis``; None for a physical bound) the point is outside the envelope
+    (status 1, the axis named, text ``below[1]`` / ``above[1]`` and the
+    pressure); elsewhere it gets ``code`` and ``below[0]`` / ``above[0]``.
     """
-    lut = where & np.array([a is not None for a in axes], dtype=bool)
-    status[lut] = STATUS_OUTSIDE_ENVELOPE
-    reason[lut] = [f"{beyond} {b:.4g} Pa, the end of the {a}" for b, a in zip(bound[lut], axes[lut], strict=True)]
-    reason[where & ~lut] = physical_reason
+    status = np.full(lo.size, STATUS_CONVERGED, np.int8)
+    reason = np.full(lo.size, "", dtype=object)
+    f_lo, f_hi = br["f_lo"], br["f_hi"]
+    low = br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0)
+    high = br["hi_is_end"] & ~low & np.isfinite(f_hi) & (f_hi >= 0)
+    for where, axes, bound, (physical, beyond) in ((low, lo_axis, lo, below), (high, hi_axis, hi, above)):
+        lut = where & np.array([a is not None for a in axes], dtype=bool)
+        status[where] = code
+        status[lut] = STATUS_OUTSIDE_ENVELOPE
+        reason[where & ~lut] = physical
+        reason[lut] = [f"{beyond} {b:.4g} Pa, the end of the {a}" for b, a in zip(bound[lut], axes[lut], strict=True)]
+    return status, reason
 
 
 def bracketed_root(
@@ -469,29 +479,21 @@ class CycleSolver:
         slope = np.where(known & (self._slope[idx] < 0), self._slope[idx], _INNER_SLOPE)
         br = self._bracket(residual, self.sat.temperature(lo), self.sat.temperature(hi), t_guess, slope, 10.0)
         self._slope[idx] = np.where(br["slope"] < 0, br["slope"], self._slope[idx])
-        f_lo, f_hi = br["f_lo"], br["f_hi"]
-        status = np.full(n, STATUS_CONVERGED, np.int8)
-        reason = np.full(n, "", dtype=object)
-        cold = br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0)
-        hot = br["hi_is_end"] & ~cold & np.isfinite(f_hi) & (f_hi >= 0)
-        status[cold | hot] = STATUS_CONDENSER_NO_ROOT
-        _no_root(
-            status,
-            reason,
-            cold,
-            lo_axis,
+        status, reason = _range_status(
+            br,
             lo,
-            "the condenser outlet is below its target even at the lowest discharge pressure searched",
-            "the condenser outlet condition lies below the discharge pressure",
-        )
-        _no_root(
-            status,
-            reason,
-            hot,
-            hi_axis,
+            lo_axis,
             hi,
-            "the condenser cannot reach its outlet condition up to the highest discharge pressure searched",
-            "the condenser outlet condition lies above the discharge pressure",
+            hi_axis,
+            STATUS_CONDENSER_NO_ROOT,
+            (
+                "the condenser outlet is below its target even at the lowest discharge pressure searched",
+                "the condenser outlet condition lies below the discharge pressure",
+            ),
+            (
+                "the condenser cannot reach its outlet condition up to the highest discharge pressure searched",
+                "the condenser outlet condition lies above the discharge pressure",
+            ),
         )
         bad_pa = ~np.isfinite(p_A)
         status[bad_pa] = STATUS_OUTSIDE_ENVELOPE
@@ -606,30 +608,23 @@ class CycleSolver:
         # First guess: evaporating 23 K below the cabin air, the middle of the default
         # circuit's envelope; the superheat falls about 4 K per kelvin above it.
         br = self._bracket(residual, t_lo, t_hi, ops["T_cabin"] - 23.0, np.full(n, _OUTER_SLOPE), 15.0)
-        f_lo, f_hi = br["f_lo"], br["f_hi"]
-        status = np.full(n, STATUS_CONVERGED, np.int8)
-        reason = np.full(n, "", dtype=object)
-        low = br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0)
-        high = br["hi_is_end"] & ~low & np.isfinite(f_hi) & (f_hi >= 0)
-        status[low | high] = STATUS_EVAPORATOR_NO_ROOT
-        _no_root(
-            status,
-            reason,
-            low,
-            lo_axis,
+        status, reason = _range_status(
+            br,
             lo,
-            "the superheat stays below its setpoint even at the lowest suction pressure searched",
-            "the superheat setpoint lies below the suction pressure",
-        )
-        _no_root(
-            status,
-            reason,
-            high,
-            hi_axis,
+            lo_axis,
             hi,
-            "the superheat stays above its setpoint up to saturation at the cabin air temperature",
-            "the superheat setpoint lies above the suction pressure",
+            hi_axis,
+            STATUS_EVAPORATOR_NO_ROOT,
+            (
+                "the superheat stays below its setpoint even at the lowest suction pressure searched",
+                "the superheat setpoint lies below the suction pressure",
+            ),
+            (
+                "the superheat stays above its setpoint up to saturation at the cabin air temperature",
+                "the superheat setpoint lies above the suction pressure",
+            ),
         )
+        f_lo, f_hi = br["f_lo"], br["f_hi"]
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
         status[both] = STATUS_OUTSIDE_ENVELOPE
