@@ -43,6 +43,7 @@ from evtms.params import Parameters
 
 Progress = Callable[[int, int], None]
 DEFAULT_CHUNK_POINTS = 16384
+#: Chunks in flight per dask worker: enough to keep each busy while results come back.
 WINDOW = 3
 
 
