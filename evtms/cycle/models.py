@@ -174,9 +174,11 @@ class _LutComponent:
             else self.fast
         )
         self.needs_subcooled = False
-        self.full = Interpolator.from_dataset(
-            ds, list(COMPONENT_OUTPUTS[component]), out_of_range="nan", curvature=curvature
-        )
+        # The final states need a few more variables: a table of those alone, added to
+        # the widest iteration table's (the tables hold each variable with its curvature
+        # columns, so a table of every variable would repeat the largest ones).
+        extra = [v for v in COMPONENT_OUTPUTS[component] if v not in self.subcooled.variables]
+        self.extra = Interpolator.from_dataset(ds, extra, out_of_range="nan", curvature=curvature) if extra else None
         self.detailed = False
         self.ranges = {d: (float(ds[d].values[0]), float(ds[d].values[-1])) for d in self.dims}
         env = json.loads(ds.attrs.get("environment", "{}"))
@@ -204,8 +206,10 @@ class _LutComponent:
                 off = (np.abs(x - fixed) > 1e-9) & (reasons == "")
                 for i in np.nonzero(off)[0]:
                     reasons[i] = f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
-        itp = self.full if self.detailed else (self.subcooled if self.needs_subcooled else self.fast)
+        itp = self.subcooled if (self.needs_subcooled or self.detailed) else self.fast
         out = itp(cols)
+        if self.detailed and self.extra is not None:
+            out.update(self.extra(cols))
         bad = reasons != ""
         for v in out.values():
             v[bad] = np.nan
