@@ -37,7 +37,6 @@ ITERATION_OUTPUTS = {
     "condenser": ("capacity_ratio", "p_out"),
     "condenser_subcooled": ("capacity_ratio", "p_out", "h_out_continued"),
     "evaporator": ("h_out_continued", "p_out"),
-    "expansion_valve": ("dp",),
 }
 
 #: Variables whose interpolation gets the quadratic (curvature) correction: the coils'
@@ -53,7 +52,6 @@ COMPONENT_OUTPUTS = {
     "compressor": ("mdot", "h_in", "h_out", "T_out", "W"),
     "condenser": ("p_out", "capacity_ratio", "h_out_continued"),
     "evaporator": ("Q_latent", "h_out_continued", "p_out"),
-    "expansion_valve": ("dp",),
 }
 
 
