@@ -46,8 +46,8 @@ from evtms.params import Parameters
 STATUS_NOT_WARMER_THAN_AIR = 3
 STATUS_DP_EXCEEDS_INLET = 4
 
-OUTPUTS = (
-    "status",
+#: What the coil model gives both coil benches (``coil_bench_outputs``), in file order.
+COIL_OUTPUTS = (
     "Q",
     "h_in",
     "h_out",
@@ -59,6 +59,7 @@ OUTPUTS = (
     "capacity_ratio",
     "h_out_continued",
 )
+OUTPUTS = ("status", *COIL_OUTPUTS)
 
 
 def inlet_enthalpy(inputs: dict[str, np.ndarray], fluid: Fluid) -> np.ndarray:
@@ -102,8 +103,7 @@ def coil_bench_outputs(
         ],
         p_in.size,
     )
-    keys = ("Q", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp", "capacity_ratio", "h_out_continued")
-    out = {k: np.asarray(res[k], float).copy() for k in keys}
+    out = {k: np.asarray(res[k], float).copy() for k in COIL_OUTPUTS if k != "h_in"}
     out["h_in"] = h_in
     return out, status, res
 

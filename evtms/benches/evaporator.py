@@ -40,7 +40,7 @@ from evtms.benches.base import (
     finish_status,
     pressure_nodes,
 )
-from evtms.benches.condenser import STATUS_DP_EXCEEDS_INLET, coil_bench_outputs
+from evtms.benches.condenser import COIL_OUTPUTS, STATUS_DP_EXCEEDS_INLET, coil_bench_outputs
 from evtms.fluid import Fluid
 from evtms.params import Parameters
 
@@ -48,20 +48,8 @@ STATUS_NOT_COLDER_THAN_AIR = 3
 STATUS_FROST_RISK = 10
 FREEZING_POINT = 273.15  # K
 
-OUTPUTS = (
-    "status",
-    "Q",
-    "Q_latent",
-    "h_in",
-    "h_out",
-    "T_out",
-    "p_out",
-    "x_out",
-    "T_air_out",
-    "dp",
-    "capacity_ratio",
-    "h_out_continued",
-)
+# The coil's outputs with the latent part of Q after Q.
+OUTPUTS = ("status", "Q", "Q_latent", *(k for k in COIL_OUTPUTS if k != "Q"))
 
 
 def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
