@@ -11,13 +11,24 @@ are named after the components, for example::
 
     [environment]
     T = 308.15                 # K
+
+Every parameter declares its physically sensible range once, beside its
+default (``_param(default, lo, hi, units)``, kept as the field's
+``metadata["range"]``, a :class:`Range`); a few relations between parameters
+(``capacity_max >= capacity_nominal``, ...) are listed in ``_RELATIONS``.
+:func:`load_parameters` and :meth:`Parameters.validate` refuse anything else
+with one line naming the table, the key, the value and what is allowed.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import math
+import os
+import stat
 import sys
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,6 +40,99 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
+#: CoolProp backends a parameter file or ``--backend`` may name.
+BACKENDS = ("HEOS", "BICUBIC&HEOS")
+
+#: Largest parameter file read [bytes]; a parameter file is a few hundred bytes.
+MAX_PARAMS_BYTES = 1024 * 1024
+
+
+@dataclass(frozen=True)
+class Range:
+    """The values one parameter may take.
+
+    Attributes
+    ----------
+    lo, hi : float
+        Bounds, in the parameter's units.
+    units : str
+        Units of the parameter (``"1"`` for a pure number).
+    lo_open, hi_open : bool
+        Whether the bound itself is excluded.
+    whole : bool
+        Whether only whole numbers are allowed (counts).
+    """
+
+    lo: float
+    hi: float
+    units: str = "1"
+    lo_open: bool = False
+    hi_open: bool = False
+    whole: bool = False
+
+    def contains(self, value: float) -> bool:
+        """Whether ``value`` (a finite or non-finite number) is allowed."""
+        if isinstance(value, float) and not math.isfinite(value):
+            return False
+        if self.whole and int(value) != value:
+            return False
+        above = value > self.lo if self.lo_open else value >= self.lo
+        below = value < self.hi if self.hi_open else value <= self.hi
+        return above and below
+
+    def describe(self, name: str) -> str:
+        """The range in words, e.g. ``0 < fin_efficiency <= 1`` or ``1 <= n_tubes <= 1000 (whole number)``."""
+        lo_op = "<" if self.lo_open else "<="
+        hi_op = "<" if self.hi_open else "<="
+        units = "" if self.units == "1" else f" {self.units}"
+        whole = " (whole number)" if self.whole else ""
+        return f"{_number(self.lo)} {lo_op} {name} {hi_op} {_number(self.hi)}{units}{whole}"
+
+
+def _param(
+    default: Any,
+    lo: float,
+    hi: float,
+    units: str = "1",
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    whole: bool = False,
+) -> Any:
+    """A dataclass field with its default and its allowed range (``metadata["range"]``, ``metadata["units"]``)."""
+    rng = Range(lo, hi, units, lo_open, hi_open, whole)
+    return field(default=default, metadata={"range": rng, "units": units})
+
+
+def _length(default: float, hi: float = 10.0) -> Any:
+    """A geometric length [m]: 0 < value <= ``hi``."""
+    return _param(default, 0.0, hi, "m", lo_open=True)
+
+
+def _area(default: float) -> Any:
+    """A heat-transfer or flow area [m2]: 0 < value <= 1000."""
+    return _param(default, 0.0, 1000.0, "m2", lo_open=True)
+
+
+def _fraction(default: float) -> Any:
+    """An efficiency [1]: 0 < value <= 1."""
+    return _param(default, 0.0, 1.0, lo_open=True)
+
+
+def _fouling(default: float) -> Any:
+    """A fouling factor [m2 K/W]: 0 <= value < 0.01."""
+    return _param(default, 0.0, 0.01, "m2 K/W", hi_open=True)
+
+
+def _count(default: int, hi: int = 1000) -> Any:
+    """A count [1]: whole number, 1 <= value <= ``hi``."""
+    return _param(default, 1, hi, whole=True)
+
+
+def _temperature(default: float) -> Any:
+    """A refrigerant temperature [K]: 150 <= value <= 500."""
+    return _param(default, 150.0, 500.0, "K")
+
 
 @dataclass(frozen=True)
 class Environment:
@@ -37,19 +141,19 @@ class Environment:
     Attributes
     ----------
     p : float
-        Air pressure [Pa].
+        Air pressure [Pa], 50 kPa to 200 kPa.
     T : float
-        Air temperature [K].
+        Air temperature [K], 200 K to 400 K.
     RH : float
-        Relative humidity [1].
+        Relative humidity [1], 0 to 1.
     co2_fraction : float
-        CO2 mole fraction [1]; carried for parity with Simscape, no effect.
+        CO2 mole fraction [1], 0 to 0.05; carried for parity with Simscape, no effect.
     """
 
-    p: float = 101325.0
-    T: float = 303.15
-    RH: float = 0.4
-    co2_fraction: float = 4e-4
+    p: float = _param(101325.0, 50e3, 200e3, "Pa")
+    T: float = _param(303.15, 200.0, 400.0, "K")
+    RH: float = _param(0.4, 0.0, 1.0)
+    co2_fraction: float = _param(4e-4, 0.0, 0.05)
 
 
 @dataclass(frozen=True)
@@ -62,65 +166,66 @@ class CoilParams:
     Attributes
     ----------
     n_tubes : int
-        Number of flat tubes [1].
+        Number of flat tubes [1], 1 to 1000; ``n_tubes * tube_thickness < core_height``.
     core_length : float
-        Tube length across the air stream [m].
+        Tube length across the air stream [m], (0, 10].
     core_height : float
-        Core height [m].
+        Core height [m], (0, 10].
     tube_depth : float
-        Tube width along the air flow [m].
+        Tube width along the air flow [m], (0, 1].
     tube_thickness : float
-        Tube outer thickness [m].
+        Tube outer thickness [m], (0, 0.1].
     n_channels : int
-        Refrigerant channels per tube [1].
+        Refrigerant channels per tube [1], 1 to 1000.
     fin_spacing : float
-        Fin spacing [m].
+        Fin spacing [m], (0, 0.1].
     area_air_free : float
-        Minimum free-flow area on the air side [m2].
+        Minimum free-flow area on the air side [m2], (0, 1000], at most the
+        frontal area ``core_length * core_height``.
     area_air_primary : float
-        Air-side primary (tube) area [m2].
+        Air-side primary (tube) area [m2], (0, 1000].
     area_air_fin : float
-        Air-side fin area [m2].
+        Air-side fin area [m2], (0, 1000].
     area_ref : float
-        Refrigerant-side heat-transfer area [m2].
+        Refrigerant-side heat-transfer area [m2], (0, 1000].
     fan_flow_max : float
-        Air volume flow at fan/blower fraction 1 [m3/s].
+        Air volume flow at fan/blower fraction 1 [m3/s], (0, 100].
     fin_efficiency : float
-        Fin efficiency [1].
+        Fin efficiency [1], (0, 1].
     fouling_air, fouling_ref : float
-        Fouling factors [m2 K/W] (0.1 m2K/kW = 1e-4 m2K/W).
+        Fouling factors [m2 K/W], [0, 0.01) (0.1 m2K/kW = 1e-4 m2K/W).
     wall_thickness : float
-        Tube wall thickness [m].
+        Tube wall thickness [m], (0, 0.01], less than half the tube thickness and depth.
     wall_conductivity : float
-        Tube wall conductivity [W/(m K)].
+        Tube wall conductivity [W/(m K)], (0, 2000].
     roughness : float
-        Channel wall roughness for the friction factor [m].
+        Channel wall roughness for the friction factor [m], [0, 0.001].
     nu_laminar : float
-        Fully developed laminar Nusselt number, constant wall temperature [1].
+        Fully developed laminar Nusselt number, constant wall temperature [1], (0, 100].
     air_nu_coeffs : tuple of float
-        (a, b, c) in the air-side Nu = a Re^b Pr^c [1].
+        (a, b, c) in the air-side Nu = a Re^b Pr^c [1], each in (0, 10].
     """
 
-    n_tubes: int = 40
-    core_length: float = 1.26
-    core_height: float = 0.39
-    tube_depth: float = 0.015
-    tube_thickness: float = 0.002
-    n_channels: int = 12
-    fin_spacing: float = 0.5e-3
-    area_air_free: float = 0.391
-    area_air_primary: float = 1.48
-    area_air_fin: float = 23.4
-    area_ref: float = 2.22
-    fan_flow_max: float = 0.88
-    fin_efficiency: float = 0.7
-    fouling_air: float = 1e-4
-    fouling_ref: float = 1e-4
-    wall_thickness: float = 0.1e-3
-    wall_conductivity: float = 240.0
-    roughness: float = 15e-6
-    nu_laminar: float = 3.66
-    air_nu_coeffs: tuple[float, float, float] = (0.27, 0.63, 0.36)
+    n_tubes: int = _count(40)
+    core_length: float = _length(1.26)
+    core_height: float = _length(0.39)
+    tube_depth: float = _length(0.015, 1.0)
+    tube_thickness: float = _length(0.002, 0.1)
+    n_channels: int = _count(12)
+    fin_spacing: float = _length(0.5e-3, 0.1)
+    area_air_free: float = _area(0.391)
+    area_air_primary: float = _area(1.48)
+    area_air_fin: float = _area(23.4)
+    area_ref: float = _area(2.22)
+    fan_flow_max: float = _param(0.88, 0.0, 100.0, "m3/s", lo_open=True)
+    fin_efficiency: float = _fraction(0.7)
+    fouling_air: float = _fouling(1e-4)
+    fouling_ref: float = _fouling(1e-4)
+    wall_thickness: float = _length(0.1e-3, 0.01)
+    wall_conductivity: float = _param(240.0, 0.0, 2000.0, "W/(m K)", lo_open=True)
+    roughness: float = _param(15e-6, 0.0, 1e-3, "m")
+    nu_laminar: float = _param(3.66, 0.0, 100.0, lo_open=True)
+    air_nu_coeffs: tuple[float, float, float] = _param((0.27, 0.63, 0.36), 0.0, 10.0, lo_open=True)
 
 
 def _evaporator_coil() -> CoilParams:
@@ -143,37 +248,37 @@ class CompressorParams:
     Attributes
     ----------
     displacement : float
-        Swept volume per revolution [m3] (80 cm3).
+        Swept volume per revolution [m3] (80 cm3), (0, 0.01].
     speed_max : float
-        Shaft speed at speed fraction 1 [rev/min].
+        Shaft speed at speed fraction 1 [rev/min], (0, 100000].
     eta_isentropic : float
-        Isentropic efficiency [1].
+        Isentropic efficiency [1], (0, 1].
     eta_vol_nominal : float
-        Volumetric efficiency at the nominal pressure ratio [1].
+        Volumetric efficiency at the nominal pressure ratio [1], (0, 1].
     pr_nominal : float
-        Nominal pressure ratio [1].
+        Nominal pressure ratio [1], (1, 50].
     p_in_nominal : float
-        Nominal suction pressure [Pa].
+        Nominal suction pressure [Pa], 1 kPa to 10 MPa.
     T_in_nominal : float
-        Nominal suction temperature [K].
+        Nominal suction temperature [K], 150 K to 500 K.
     eta_mechanical : float
-        Mechanical efficiency [1].
+        Mechanical efficiency [1], (0, 1].
     polytropic_exponent : float
-        Re-expansion exponent of the clearance gas [1].
+        Re-expansion exponent of the clearance gas [1], 1 to 2.
     suction_superheat : float
-        Superheat that sets the suction pressure of the ``thesis`` grid [K].
+        Superheat that sets the suction pressure of the ``thesis`` grid [K], 0 K to 100 K.
     """
 
-    displacement: float = 80e-6
-    speed_max: float = 3600.0
-    eta_isentropic: float = 0.65
-    eta_vol_nominal: float = 0.9
-    pr_nominal: float = 4.6
-    p_in_nominal: float = 0.3e6
-    T_in_nominal: float = 284.15
-    eta_mechanical: float = 0.95
-    polytropic_exponent: float = 1.2
-    suction_superheat: float = 10.0
+    displacement: float = _param(80e-6, 0.0, 0.01, "m3", lo_open=True)
+    speed_max: float = _param(3600.0, 0.0, 100_000.0, "rev/min", lo_open=True)
+    eta_isentropic: float = _fraction(0.65)
+    eta_vol_nominal: float = _fraction(0.9)
+    pr_nominal: float = _param(4.6, 1.0, 50.0, lo_open=True)
+    p_in_nominal: float = _param(0.3e6, 1e3, 10e6, "Pa")
+    T_in_nominal: float = _temperature(284.15)
+    eta_mechanical: float = _fraction(0.95)
+    polytropic_exponent: float = _param(1.2, 1.0, 2.0)
+    suction_superheat: float = _param(10.0, 0.0, 100.0, "K")
 
 
 @dataclass(frozen=True)
@@ -183,36 +288,91 @@ class ExpansionValveParams:
     Attributes
     ----------
     capacity_nominal : float
-        Evaporator capacity at the nominal opening [W].
+        Evaporator capacity at the nominal opening [W], (0, 1 MW].
     capacity_max : float
-        Capacity at the maximum opening [W].
+        Capacity at the maximum opening [W], (0, 1 MW], at least ``capacity_nominal``.
     T_cond_nominal : float
-        Nominal condensing temperature [K].
+        Nominal condensing temperature [K], 150 K to 500 K, above ``T_evap_nominal``.
     T_evap_nominal : float
-        Nominal evaporating temperature [K].
+        Nominal evaporating temperature [K], 150 K to 500 K.
     subcooling_nominal : float
-        Nominal liquid subcooling at the valve inlet [K].
+        Nominal liquid subcooling at the valve inlet [K], 0 K to 100 K.
     superheat_nominal : float
-        Superheat at the nominal opening [K].
+        Superheat at the nominal opening [K], (0, 100] K, above ``superheat_static``.
     superheat_static : float
-        Superheat below which the valve is closed [K].
+        Superheat below which the valve is closed [K], 0 K to 100 K.
     port_diameter : float
-        Port diameter [m]; the opening area cannot exceed the port area.
+        Port diameter [m], (0, 0.1]; the opening area cannot exceed the port area.
     """
 
-    capacity_nominal: float = 2000.0
-    capacity_max: float = 4000.0
-    T_cond_nominal: float = 313.15
-    T_evap_nominal: float = 274.15
-    subcooling_nominal: float = 5.0
-    superheat_nominal: float = 10.0
-    superheat_static: float = 5.0
-    port_diameter: float = 0.010
+    capacity_nominal: float = _param(2000.0, 0.0, 1e6, "W", lo_open=True)
+    capacity_max: float = _param(4000.0, 0.0, 1e6, "W", lo_open=True)
+    T_cond_nominal: float = _temperature(313.15)
+    T_evap_nominal: float = _temperature(274.15)
+    subcooling_nominal: float = _param(5.0, 0.0, 100.0, "K")
+    superheat_nominal: float = _param(10.0, 0.0, 100.0, "K", lo_open=True)
+    superheat_static: float = _param(5.0, 0.0, 100.0, "K")
+    port_diameter: float = _length(0.010, 0.1)
+
+
+@dataclass(frozen=True)
+class _Relation:
+    """A relation ``left op right(obj)`` two or more parameters of one table must keep."""
+
+    left: str
+    op: str
+    right: Callable[[Any], float]
+    text: str
+    keys: tuple[str, ...]
+
+    def holds(self, obj: Any) -> bool:
+        a, b = getattr(obj, self.left), self.right(obj)
+        return {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b}[self.op]
+
+
+#: Relations between the parameters of one table, checked after the ranges.
+_RELATIONS: dict[type, tuple[_Relation, ...]] = {
+    CoilParams: (
+        _Relation("wall_thickness", "<", lambda c: c.tube_thickness / 2, "tube_thickness / 2", ("tube_thickness",)),
+        _Relation("wall_thickness", "<", lambda c: c.tube_depth / 2, "tube_depth / 2", ("tube_depth",)),
+        _Relation(
+            "n_tubes",
+            "<",
+            lambda c: c.core_height / c.tube_thickness,
+            "core_height / tube_thickness",
+            ("core_height", "tube_thickness"),
+        ),
+        _Relation(
+            "area_air_free",
+            "<=",
+            lambda c: c.core_length * c.core_height,
+            "core_length * core_height",
+            ("core_length", "core_height"),
+        ),
+    ),
+    ExpansionValveParams: (
+        _Relation("capacity_max", ">=", lambda v: v.capacity_nominal, "capacity_nominal", ("capacity_nominal",)),
+        _Relation("T_cond_nominal", ">", lambda v: v.T_evap_nominal, "T_evap_nominal", ("T_evap_nominal",)),
+        _Relation("superheat_nominal", ">", lambda v: v.superheat_static, "superheat_static", ("superheat_static",)),
+    ),
+}
+
+_SECTIONS = ("environment", "condenser", "evaporator", "compressor", "expansion_valve")
 
 
 @dataclass(frozen=True)
 class Parameters:
-    """Every parameter a bench or a cycle uses, with the spec's defaults."""
+    """Every parameter a bench or a cycle uses, with the spec's defaults.
+
+    Attributes
+    ----------
+    fluid : str
+        CoolProp fluid name (checked when the fluid is loaded).
+    backend : str
+        CoolProp backend, one of :data:`BACKENDS`.
+    environment, condenser, evaporator, compressor, expansion_valve
+        The tables of a parameter file.
+    """
 
     fluid: str = "R134a"
     backend: str = "HEOS"
@@ -238,73 +398,340 @@ class Parameters:
             component: dataclasses.asdict(getattr(self, component)),
         }
 
+    def validate(self) -> None:
+        """Check every parameter against its range and the relations between them.
 
-# Parameters that are fractions (0..1], and those that may be zero.
-_FRACTIONS = {"RH", "co2_fraction", "fin_efficiency", "eta_isentropic", "eta_vol_nominal", "eta_mechanical"}
-_MAY_BE_ZERO = {"RH", "co2_fraction", "fouling_air", "fouling_ref", "roughness"}
+        Raises
+        ------
+        EvtmsInputError
+            One line like ``[condenser] n_tubes = -3 is not allowed; allowed: 1 <= n_tubes <= 1000
+            (whole number)``.
+        """
+        check_fluid_name(self.fluid)
+        check_backend(self.backend)
+        for section in _SECTIONS:
+            obj = getattr(self, section)
+            for f in dataclasses.fields(obj):
+                _convert(f, getattr(obj, f.name), f"[{section}]")
+            _check_relations(obj, f"[{section}]", set())
 
-_SECTIONS = ("environment", "condenser", "evaporator", "compressor", "expansion_valve")
+    def differences(self, other: Parameters, sections: Iterable[str] | None = None) -> list[str]:
+        """Dotted names of the parameters whose values differ from ``other``'s.
+
+        Parameters
+        ----------
+        other : Parameters
+            The parameters to compare with.
+        sections : iterable of str, optional
+            Compare only these top-level names (``"fluid"``, ``"backend"``,
+            ``"condenser"``, ...); all by default.
+
+        Returns
+        -------
+        list of str
+            For example ``["condenser.n_tubes", "fluid"]``, sorted.
+        """
+        a, b = _flatten(self), _flatten(other)
+        keep = None if sections is None else set(sections)
+        return sorted(
+            k for k in a.keys() | b.keys() if (keep is None or k.split(".")[0] in keep) and a.get(k) != b.get(k)
+        )
+
+    def differences_from_lut(self, component: str, parameters_json: str) -> list[str]:
+        """Dotted names where these parameters contradict a LUT's ``parameters`` attribute.
+
+        Compares ``fluid``, ``backend`` and ``component``'s table with the
+        values the LUT of ``component`` was computed with.
+
+        Raises
+        ------
+        EvtmsInputError
+            ``parameters_json`` is not a parameters attribute of ``component``.
+        """
+        component = component.replace("-", "_")
+        lut = parameters_from_json(component, parameters_json)
+        return self.differences(lut, ("fluid", "backend", component))
+
+
+def _flatten(params: Parameters) -> dict[str, Any]:
+    """``{"fluid": ..., "condenser.n_tubes": ..., ...}`` of ``params``."""
+    out: dict[str, Any] = {}
+    for key, value in dataclasses.asdict(params).items():
+        if isinstance(value, dict):
+            out.update({f"{key}.{k}": v for k, v in value.items()})
+        else:
+            out[key] = value
+    return out
+
+
+def check_backend(backend: object) -> str:
+    """``backend`` if it is one of :data:`BACKENDS`.
+
+    Raises
+    ------
+    EvtmsInputError
+        ``backend = "X" is not allowed; allowed: HEOS, BICUBIC&HEOS``.
+    """
+    if not isinstance(backend, str) or backend not in BACKENDS:
+        raise EvtmsInputError(f"backend = {_show(backend)} is not allowed; allowed: {', '.join(BACKENDS)}")
+    return backend
+
+
+def check_fluid_name(fluid: object) -> str:
+    """``fluid`` if it can be a CoolProp fluid name: a short printable string.
+
+    Whether CoolProp knows the fluid is checked when it is loaded.
+
+    Raises
+    ------
+    EvtmsInputError
+        Not a string, empty, longer than 100 characters or with control characters.
+    """
+    if not isinstance(fluid, str) or not fluid.strip() or len(fluid) > 100 or not fluid.isprintable():
+        raise EvtmsInputError(f'fluid = {_show(fluid)} is not allowed; allowed: a CoolProp fluid name such as "R134a"')
+    return fluid
+
+
+def _number(v: float) -> str:
+    """``v`` in the fewest digits that give it back (12 significant at most)."""
+    if isinstance(v, int):
+        return str(v)
+    return f"{v:.12g}"
+
+
+def _show(value: object) -> str:
+    """``value`` as it would be written in TOML, on one line."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return (
+            "nan"
+            if math.isnan(value)
+            else ("inf" if value == math.inf else "-inf" if value == -math.inf else repr(value))
+        )
+    if isinstance(value, int):
+        text = str(value)
+        return text if len(text) <= 30 else f"{text[:12]}...({len(text)} digits)"
+    if isinstance(value, str):
+        return json.dumps(value if len(value) <= 60 else value[:60] + "...")
+    if isinstance(value, (list, tuple)):
+        shown = ", ".join(_show(v) for v in list(value)[:6])
+        return f"[{shown}{', ...' if len(value) > 6 else ''}]"
+    if isinstance(value, dict):
+        return "{...}"
+    return json.dumps(str(value))
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _convert(f: dataclasses.Field, value: Any, where: str) -> Any:
+    """``value`` of field ``f`` as the dataclass holds it, checked against the field's range."""
+    rng: Range = f.metadata["range"]
+    key = f.name
+    if isinstance(value, dict):
+        raise EvtmsInputError(f"{where} {key} is a table, not a value; allowed: {rng.describe(key)}")
+    if isinstance(f.default, tuple):
+        n = len(f.default)
+        allowed = f"a list of {n} numbers, each {rng.describe('value')}"
+        if not isinstance(value, (list, tuple)) or len(value) != n:
+            raise EvtmsInputError(f"{where} {key} = {_show(value)} is not allowed; allowed: {allowed}")
+        if not all(_is_number(v) and rng.contains(v) for v in value):
+            raise EvtmsInputError(f"{where} {key} = {_show(value)} is not allowed; allowed: {allowed}")
+        return tuple(float(v) for v in value)
+    if not _is_number(value):
+        raise EvtmsInputError(f"{where} {key} = {_show(value)} is not a number; allowed: {rng.describe(key)}")
+    if not rng.contains(value):
+        raise EvtmsInputError(f"{where} {key} = {_show(value)} is not allowed; allowed: {rng.describe(key)}")
+    return int(value) if rng.whole else float(value)
+
+
+def _check_relations(obj: Any, where: str, given: set[str]) -> None:
+    """Refuse ``obj`` if it breaks a relation; blame a parameter the user gave (``given``) if any."""
+    for rel in _RELATIONS.get(type(obj), ()):
+        if rel.holds(obj):
+            continue
+        involved = (rel.left, *rel.keys)
+        blamed = next((k for k in involved if k in given), rel.left)
+        others = ", ".join(f"{k} = {_number(getattr(obj, k))}" for k in involved if k != blamed)
+        raise EvtmsInputError(
+            f"{where} {blamed} = {_number(getattr(obj, blamed))} is not allowed with {others}; "
+            f"allowed: {rel.left} {rel.op} {rel.text}"
+        )
 
 
 def _override(obj: Any, values: dict[str, Any], where: str) -> Any:
-    """Copy of dataclass ``obj`` with ``values`` replaced, each checked by name and type."""
+    """Copy of dataclass ``obj`` with ``values`` replaced, each checked by name, type and range."""
     fields = {f.name: f for f in dataclasses.fields(obj)}
     changes: dict[str, Any] = {}
     for key, value in values.items():
         if key not in fields:
             allowed = ", ".join(sorted(fields))
-            raise EvtmsInputError(f"{where}: unknown parameter {key!r}; allowed: {allowed}")
-        current = getattr(obj, key)
-        if isinstance(current, tuple):
-            if not isinstance(value, list) or len(value) != len(current):
-                raise EvtmsInputError(f"{where}.{key}: {value!r} is not a list of {len(current)} numbers")
-            value = tuple(float(v) for v in value)
-        elif isinstance(current, bool) or not isinstance(value, (int, float)) or isinstance(value, bool):
-            raise EvtmsInputError(f"{where}.{key}: {value!r} is not a number")
-        elif isinstance(current, int) and not isinstance(current, bool):
-            if int(value) != value or value <= 0:
-                raise EvtmsInputError(f"{where}.{key}: {value!r} is not a positive whole number")
-            value = int(value)
+            raise EvtmsInputError(f"{where} unknown parameter {key!r}; allowed: {allowed}")
+        changes[key] = _convert(fields[key], value, where)
+    new = dataclasses.replace(obj, **changes)
+    _check_relations(new, where, set(changes))
+    return new
+
+
+def _apply(data: dict[str, Any], base: Parameters, sections: tuple[str, ...]) -> Parameters:
+    """``base`` with the top-level keys and tables of ``data`` (parsed TOML or JSON) applied."""
+    changes: dict[str, Any] = {}
+    for section, values in data.items():
+        if section == "fluid":
+            changes[section] = check_fluid_name(values)
+        elif section == "backend":
+            changes[section] = check_backend(values)
+        elif section in sections:
+            if not isinstance(values, dict):
+                raise EvtmsInputError(
+                    f"{section} = {_show(values)} is not a table; allowed: a [{section}] table of parameters"
+                )
+            changes[section] = _override(getattr(base, section), values, f"[{section}]")
         else:
-            value = float(value)
-        if isinstance(value, float) and not (value > 0 or (key in _MAY_BE_ZERO and value == 0)):
-            raise EvtmsInputError(f"{where}.{key}: {value!r} must be positive")
-        if key in _FRACTIONS and value > 1:
-            raise EvtmsInputError(f"{where}.{key}: {value!r} must be at most 1")
-        changes[key] = value
-    return dataclasses.replace(obj, **changes)
+            allowed = ", ".join(["fluid", "backend"] + [f"[{s}]" for s in sections])
+            raise EvtmsInputError(f"unknown table or key {section!r}; allowed: {allowed}")
+    return dataclasses.replace(base, **changes)
+
+
+_KINDS = (
+    (stat.S_ISFIFO, "a named pipe (FIFO)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _not_regular(mode: int) -> str | None:
+    """What a non-regular file of ``mode`` is, or None for a regular file."""
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    return next((kind for test, kind in _KINDS if test(mode)), "not a regular file")
+
+
+def _read_params_file(path: Path) -> str:
+    """The text of a parameter file, refusing anything that is not a small regular UTF-8 text file.
+
+    The file's type is checked with ``os.stat`` before it is opened (a named
+    pipe would block, a device would never end), and again on the open file.
+    """
+    name = repr(str(path))
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise EvtmsInputError(f"params file {name} cannot be read: {reason}") from None
+    kind = _not_regular(st.st_mode)
+    if kind is not None:
+        raise EvtmsInputError(f"params file {name} is {kind}; allowed: a TOML text file")
+    if st.st_size > MAX_PARAMS_BYTES:
+        raise EvtmsInputError(
+            f"params file {name} has {st.st_size:,} bytes; allowed: at most {MAX_PARAMS_BYTES:,} bytes (1 MiB)"
+        )
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
+    try:
+        fd = os.open(path, flags)
+        with os.fdopen(fd, "rb") as fh:
+            kind = _not_regular(os.fstat(fh.fileno()).st_mode)
+            if kind is not None:  # replaced between the stat and the open
+                raise EvtmsInputError(f"params file {name} is {kind}; allowed: a TOML text file")
+            raw = fh.read(MAX_PARAMS_BYTES + 1)
+    except OSError as exc:
+        raise EvtmsInputError(f"params file {name} cannot be read: {exc.strerror or exc}") from None
+    if len(raw) > MAX_PARAMS_BYTES:
+        raise EvtmsInputError(f"params file {name} is larger than {MAX_PARAMS_BYTES:,} bytes (1 MiB); allowed: less")
+    if b"\x00" in raw:
+        raise EvtmsInputError(f"params file {name} is a binary file (it holds NUL bytes); allowed: a TOML text file")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise EvtmsInputError(
+            f"params file {name} is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); "
+            "save it as UTF-8"
+        ) from None
+    return text.removeprefix("\ufeff")
 
 
 def load_parameters(path: str | Path | None = None) -> Parameters:
     """Default parameters, overridden by a TOML file if ``path`` is given.
 
+    Parameters
+    ----------
+    path : str or Path, optional
+        A regular UTF-8 TOML file of at most :data:`MAX_PARAMS_BYTES` with
+        top-level ``fluid``/``backend`` and tables named after the components.
+
     Raises
     ------
     EvtmsInputError
-        The file is missing, is not valid TOML, or names an unknown table,
-        parameter or a value of the wrong type.
+        One line naming the file and what is wrong: it is missing, not a
+        regular file (a folder, a named pipe, a device), too large, empty,
+        binary, not UTF-8 or not valid TOML; or it names an unknown table or
+        parameter, or a value of the wrong type or outside its range, e.g.
+        ``params file 'p.toml': [condenser] n_tubes = -3 is not allowed;
+        allowed: 1 <= n_tubes <= 1000 (whole number)``.
     """
     params = Parameters()
     if path is None:
         return params
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise EvtmsInputError(f"params file {str(path)!r} cannot be read: {exc.strerror or exc}") from None
+    name = repr(str(path))
+    text = _read_params_file(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise EvtmsInputError(f"params file {str(path)!r} is not valid TOML: {exc}") from None
-    changes: dict[str, Any] = {}
-    for section, values in data.items():
-        if section in ("fluid", "backend"):
-            if not isinstance(values, str):
-                raise EvtmsInputError(f"params file {str(path)!r}: {section} must be a string")
-            changes[section] = values
+        reason = " ".join(str(exc).split())
+        raise EvtmsInputError(f"params file {name} is not valid TOML: {reason}") from None
+    if not data:
+        raise EvtmsInputError(f"params file {name} is empty; give at least one [table]")
+    try:
+        return _apply(data, params, _SECTIONS)
+    except EvtmsInputError as exc:
+        raise EvtmsInputError(f"params file {name}: {exc}") from None
+
+
+def parameters_from_json(component: str, parameters_json: str, environment_json: str | None = None) -> Parameters:
+    """The parameters a LUT of ``component`` records, the others at their defaults.
+
+    Parameters
+    ----------
+    component : str
+        The LUT's component (``condenser``, ``expansion_valve``, ...).
+    parameters_json : str
+        The LUT's ``parameters`` attribute (:meth:`Parameters.component_json`).
+    environment_json : str, optional
+        The LUT's ``environment`` attribute (:meth:`Parameters.environment_json`).
+
+    Raises
+    ------
+    EvtmsInputError
+        The text is not JSON of an object, or names another component, an
+        unknown parameter or a value outside its range.
+    """
+    component = component.replace("-", "_")
+    if component not in _SECTIONS or component == "environment":
+        allowed = ", ".join(s for s in _SECTIONS if s != "environment")
+        raise EvtmsInputError(f"unknown component {component!r}; allowed: {allowed}")
+    params = Parameters()
+    for attr, text, sections in (
+        ("parameters", parameters_json, (component,)),
+        ("environment", environment_json, ("environment",)),
+    ):
+        if text is None:
             continue
-        if section not in _SECTIONS or not isinstance(values, dict):
-            allowed = ", ".join(("fluid", "backend") + _SECTIONS)
-            raise EvtmsInputError(f"params file {str(path)!r}: unknown table {section!r}; allowed: {allowed}")
-        changes[section] = _override(getattr(params, section), values, section)
-    return dataclasses.replace(params, **changes)
+        try:
+            data = json.loads(text)
+        except (TypeError, ValueError) as exc:
+            raise EvtmsInputError(f"LUT attribute {attr!r} is not JSON: {exc}") from None
+        if not isinstance(data, dict):
+            raise EvtmsInputError(f"LUT attribute {attr!r} is not a JSON object of parameters")
+        if attr == "environment":
+            data = {"environment": data}
+        try:
+            params = _apply(data, params, sections)
+        except EvtmsInputError as exc:
+            raise EvtmsInputError(f"LUT attribute {attr!r}: {exc}") from None
+    return params

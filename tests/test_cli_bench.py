@@ -64,6 +64,10 @@ BAD = [
     (["-a", "p_in=1:2:3psi"], "psi", "allowed: Pa, kPa, MPa, bar"),
     (["-a", "fan=abc"], "abc", "start:stop:count"),
     (["--grid", "nosuch"], "nosuch", "allowed: thesis"),
+    (["-a", "fan=50"], "fan", "did you mean 50%?"),
+    (["-a", "p_in=1"], "p_in", "did you mean 1MPa?"),
+    (["-a", "mdot=1:2:1000000000"], "1,000,000,000 points", "--max-points"),
+    (["-a", "T_in=340", "-a", "h_in=420kJ/kg"], "T_in and h_in", "give one of them"),
 ]
 
 
@@ -91,7 +95,8 @@ def test_unknown_bench(tmp_path):
 def test_missing_and_malformed_params_file(tmp_path):
     out = tmp_path / "c.nc"
     res = run("bench", "condenser", "--params", str(tmp_path / "none.toml"), "-o", str(out))
-    assert res.exit_code == 2 and "none.toml" in res.stderr and "cannot be read" in res.stderr
+    assert res.exit_code == 2 and "none.toml" in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert "cannot be read" in res.stderr or "no such file" in res.stderr
     bad = tmp_path / "bad.toml"
     bad.write_text("[condenser\nn_tubes = 3\n")
     res = run("bench", "condenser", "--params", str(bad), "-o", str(out))
