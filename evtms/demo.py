@@ -44,35 +44,46 @@ class DemoResult:
 
 
 def lut_is_current(path: Path, component: str, grid: str, params: Parameters) -> bool:
-    """True if ``path`` is a valid LUT made with these inputs and the current versions."""
+    """True if ``path`` is a valid LUT made with these inputs and the current versions.
+
+    Reads the file's header only (the data stay on disk). The preset's inputs
+    must match: those of several values as the file's axes (same order and
+    values), those of one value as its fixed inputs. A file of an older
+    format version is not current (it is rewritten in the current one).
+    """
+    from evtms.benches import BENCHES
     from evtms.fluid import coolprop_version
-    from evtms.luts import LutFormatError, open_lut
+    from evtms.luts import LutFormatError
+    from evtms.luts.schema import FORMAT_VERSION
+    from evtms.luts.validate import read_lut_metadata
 
     if not path.exists():
         return False
     try:
-        ds = open_lut(path)
+        meta = read_lut_metadata(path, component)
     except LutFormatError:
         return False
-    from evtms.benches import BENCHES
-
-    a = ds.attrs
+    a = meta.attrs
     bench = BENCHES[component]
-    preset = bench.presets.get(grid, {})
+    preset = {k: np.asarray(v, float) for k, v in bench.presets.get(grid, {}).items()}
     # The preset's axes and the bench's variables too: they change between
     # development builds of one version.
-    same_grid = list(ds["status"].dims) == list(preset) and all(
-        np.array_equal(ds[k].values, np.asarray(v, float)) for k, v in preset.items()
+    axes = {k: v for k, v in preset.items() if v.size > 1}
+    fixed = {k: float(v[0]) for k, v in preset.items() if v.size == 1}
+    same_grid = (
+        list(meta.dims) == list(axes)
+        and all(np.array_equal(meta.axes[k], v) for k, v in axes.items())
+        and meta.fixed == fixed
     )
     return (
-        a.get("grid") == grid
-        and a.get("component") == component
+        meta.version == FORMAT_VERSION
+        and a.get("grid") == grid
         and a.get("evtms_version") == __version__
         and a.get("coolprop_version") == coolprop_version()
         and a.get("parameters") == params.component_json(component)
         and a.get("environment") == params.environment_json()
         and same_grid
-        and set(bench.outputs) - set(preset) <= set(ds.data_vars)
+        and set(bench.outputs) - set(preset) <= set(meta.variables)
     )
 
 

@@ -1,4 +1,4 @@
-"""LUT files per shared/spec/lut-format.md, read back with plain netCDF4."""
+"""LUT files per docs/lut-format.md (format version 2), read back with plain netCDF4."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from evtms.benches import BENCHES
 from evtms.benches.grid import build_grid
 from evtms.benches.sweep import run_sweep
 from evtms.luts.io import write_lut
-from evtms.luts.schema import AXES, COMPONENT_AXES, COMPONENT_VARIABLES, REQUIRED_GLOBAL_ATTRS, VARIABLES
+from evtms.luts.schema import AXES, COMPONENT_VARIABLES, REQUIRED_GLOBAL_ATTRS, VARIABLES
 
 SMALL = {
     "mdot": np.array([0.005, 0.007]),
@@ -34,19 +34,32 @@ def written(tmp_path_factory, params, fluid):
 
 
 def test_plain_netcdf4_reads_axes_units_and_order(written):
+    axes = ("mdot", "fan", "T_in")  # p_in and T_res take one value: fixed inputs, not dimensions
     with netCDF4.Dataset(written[0]) as nc:
         assert nc.data_model == "NETCDF4"
-        assert tuple(nc.dimensions) == COMPONENT_AXES["condenser"]
-        for name in COMPONENT_AXES["condenser"]:
+        assert nc.lut_format_version == 2
+        assert tuple(nc.dimensions) == axes
+        assert json.loads(nc.fixed_inputs) == {
+            "p_in": {"value": 1.0e6, "units": "Pa"},
+            "T_res": {"value": 300.0, "units": "K"},
+        }
+        for name in axes:
             var = nc.variables[name]
             assert var.dtype == np.float64 and var.dimensions == (name,)
             assert var.units == AXES[name].units and var.long_name
+            assert "_FillValue" not in var.ncattrs()
             assert np.all(np.diff(var[:]) > 0)
         for name in COMPONENT_VARIABLES["condenser"]:
             var = nc.variables[name]
-            assert var.dimensions == COMPONENT_AXES["condenser"]
+            assert var.dimensions == axes
             assert var.units == VARIABLES[name][0] and var.long_name
             assert var.dtype == (np.int8 if name == "status" else np.float64)
+            filters = var.filters()
+            assert filters["zlib"] and filters["shuffle"] and filters["complevel"] == 4
+            if name != "status":
+                assert var.evtms_storage == "lossless"
+                values = var[:].filled(np.nan) if np.ma.isMaskedArray(var[:]) else var[:]
+                assert list(var.actual_range) == [np.nanmin(values), np.nanmax(values)]
 
 
 def test_status_flags_and_global_attributes(written, params):

@@ -39,6 +39,7 @@ import numpy as np
 from evtms import __version__
 from evtms.benches.base import Bench
 from evtms.errors import EvtmsInputError
+from evtms.luts.io import LutStorage
 from evtms.params import Parameters
 
 Progress = Callable[[int, int], None]
@@ -328,6 +329,7 @@ def sweep_to_file(
     chunk_points: int = DEFAULT_CHUNK_POINTS,
     resume: bool = False,
     progress: Progress | None = None,
+    storage: LutStorage | None = None,
 ) -> SweepSummary:
     """Sweep ``bench`` over ``grid`` chunk by chunk and write the LUT to ``path``.
 
@@ -375,7 +377,7 @@ def sweep_to_file(
     token = uuid.uuid4().hex
     (partial / _TOKEN).write_text(token)
     job = _Job(bench.name, grid, params, plan, str(partial), token)
-    with _LutWriter(bench, grid, params, grid_name, plan, path, names, partial) as writer:
+    with _LutWriter(bench, grid, params, grid_name, plan, path, names, partial, storage=storage) as writer:
         # Chunks go into the file as they finish (those of an earlier run first),
         # so that writing overlaps the computing.
         for k in sorted(done):
@@ -400,22 +402,49 @@ class _LutWriter:
     of an unfinished sweep's state and is removed at the end) and renamed to
     ``path`` only when every chunk is in it: an interrupted sweep never
     leaves a partial file at ``path``.
+
+    Format version 2: an input with one value in the grid is evaluated by the
+    bench but written as a fixed input (global attribute ``fixed_inputs``),
+    not as a dimension, so every slab is written squeezed. Variables are
+    stored as :func:`evtms.luts.io.variable_storage` and
+    :func:`evtms.luts.io.store_values` decide (compressed; lossy only if
+    ``storage`` says so), with the ``actual_range`` of the stored values.
     """
 
-    def __init__(self, bench, grid, params, grid_name, plan, path, names, partial: Path) -> None:
+    def __init__(self, bench, grid, params, grid_name, plan, path, names, partial: Path, storage=None) -> None:
+        from evtms.luts.io import fixed_axes
+
         self.bench, self.grid, self.plan, self.path, self.names = bench, grid, plan, path, names
         self.params, self.grid_name = params, grid_name
-        self.trailing = plan.shape[plan.lead :]
+        self.storage = storage or LutStorage()
+        self.axes, self.fixed = fixed_axes(grid)
+        self.keep = [i for i, n in enumerate(plan.shape) if n > 1]  # grid dimensions that are file dimensions
         self.tmp = partial / "lut.nc.tmp"
         self.invalid = 0
         self.written: set[int] = set()
+        self.ranges: dict[str, list] = {}
         self.nc = None
+
+    def _slab(self, k: int) -> tuple[tuple, tuple[int, ...]]:
+        """(index into the file's variables, shape of the squeezed slab) of chunk ``k``."""
+        index = tuple(self.plan.index(k))
+        index += (slice(None),) * (len(self.plan.shape) - len(index))
+        file_index = tuple(index[i] for i in self.keep)
+        shape = tuple(len(range(self.plan.shape[i])[index[i]]) for i in self.keep if isinstance(index[i], slice))
+        return file_index, shape
 
     def __enter__(self) -> _LutWriter:
         import netCDF4
 
         from evtms.benches.sweep import bench_attributes
-        from evtms.luts.io import axis_attributes, global_attributes, variable_attributes
+        from evtms.luts.io import (
+            axis_attributes,
+            axis_storage,
+            global_attributes,
+            storage_attributes,
+            variable_attributes,
+            variable_storage,
+        )
 
         # Each chunk is written once, so HDF5's per-variable chunk cache (netCDF's default
         # is tens of MB per variable) buys nothing and would grow memory with the grid.
@@ -423,25 +452,28 @@ class _LutWriter:
         netCDF4.set_chunk_cache(size=1 << 20, nelems=61, preemption=1.0)
         try:
             nc = self.nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
-            for name, values in self.grid.items():
+            for name, values in self.axes.items():
                 nc.createDimension(name, len(values))
-                var = nc.createVariable(name, "f8", (name,))
+                var = nc.createVariable(name, dimensions=(name,), **axis_storage())
                 var[:] = values
                 var.setncatts(axis_attributes(name))
-            chunksizes = tuple([1] * self.plan.lead) + tuple(self.trailing)
+            dims = tuple(self.axes)
+            # The file's chunks are the sweep's chunks (squeezed), so each is compressed once.
+            first = tuple(self.plan.index(0)) + (slice(None),) * len(self.plan.shape)
+            chunksizes = tuple(
+                len(range(self.plan.shape[i])[first[i]]) if isinstance(first[i], slice) else 1 for i in self.keep
+            )
             self.variables = {}
             for name in self.names:
-                is_status = name == "status"
-                var = nc.createVariable(
-                    name,
-                    "i1" if is_status else "f8",
-                    tuple(self.grid),
-                    fill_value=None if is_status else np.nan,
-                    chunksizes=chunksizes,
-                )
-                var.setncatts(variable_attributes(name, self.bench.flags, self.bench.valid_flags))
+                kwargs = variable_storage(name, self.storage, len(dims))
+                if dims:
+                    kwargs["chunksizes"] = chunksizes
+                var = nc.createVariable(name, dimensions=dims, **kwargs)
+                attrs = variable_attributes(name, self.bench.flags, self.bench.valid_flags)
+                var.setncatts(attrs | storage_attributes(name, None, self.storage))
                 self.variables[name] = var
-            nc.setncatts(global_attributes(**bench_attributes(self.bench, self.params, self.grid_name)))
+            attrs = bench_attributes(self.bench, self.params, self.grid_name)
+            nc.setncatts(global_attributes(**attrs, fixed_inputs=self.fixed))
             nc.set_auto_maskandscale(False)  # plain arrays go in; NaN already is the fill value
         except BaseException:
             self._discard()
@@ -449,14 +481,25 @@ class _LutWriter:
         return self
 
     def add(self, partial: Path, k: int) -> None:
-        """Write saved chunk ``k`` into its slab of the file."""
+        """Write saved chunk ``k`` into its (squeezed) slab of the file."""
+        from evtms.luts.io import finite_range, store_values
+
         stacked = np.load(_chunk_file(partial, k))
-        index = self.plan.index(k) + (slice(None),) * len(self.trailing)
+        index, shape = self._slab(k)
         for name, values in zip(self.names, stacked, strict=True):
             if name == "status":
                 values = values.astype(np.int8)
                 self.invalid += int((~np.isin(values, self.bench.valid_flags)).sum())
-            self.variables[name][index] = values.reshape(self.trailing)
+            else:
+                values = store_values(name, values, self.storage)
+                lo, hi = finite_range(values)
+                if lo is not None:
+                    old = self.ranges.setdefault(name, [lo, hi])
+                    old[:] = [min(old[0], lo), max(old[1], hi)]
+            if index:
+                self.variables[name][index] = values.reshape(shape)
+            else:  # every input fixed: scalar variables
+                self.variables[name].assignValue(values.reshape(()))
         self.written.add(k)
 
     def _discard(self) -> None:
@@ -473,6 +516,8 @@ class _LutWriter:
         if exc_type is not None:
             self._discard()
             return False
+        for name, (lo, hi) in self.ranges.items():
+            self.variables[name].setncattr("actual_range", np.array([lo, hi], dtype=self.storage.dtype))
         self.nc.close()
         netCDF4.set_chunk_cache(*self._previous_cache)
         if len(self.written) != self.plan.count:  # a runner that skipped chunks: a bug

@@ -18,6 +18,7 @@ import numpy as np
 from evtms.benches.expansion_valve import nominal_opening
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
+from evtms.luts.validate import fixed_inputs
 from evtms.params import ExpansionValveParams, Parameters
 
 if TYPE_CHECKING:
@@ -180,15 +181,16 @@ class _LutComponent:
         self.detailed = False
         self.ranges = {d: (float(ds[d].values[0]), float(ds[d].values[-1])) for d in self.dims}
         env = json.loads(ds.attrs.get("environment", "{}"))
-        # Air conditions a LUT without air axes was computed at.
-        self.fixed = {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")}
+        # Inputs a LUT was computed at one value of: its fixed inputs, and for air axes
+        # it does not have at all, the air boundary of its environment.
+        self.fixed = {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")} | fixed_inputs(ds)
 
     def __call__(self, query: dict[str, np.ndarray]) -> Result:
         n = len(next(iter(query.values())))
         reasons = _reasons(n)
         cols = {}
         for d in self.dims:
-            if d == "T_res":
+            if d == "T_res" and d not in query:
                 lo, _ = self.ranges[d]
                 cols[d] = np.full(n, lo)  # no effect in steady state; any grid value will do
                 continue
@@ -201,7 +203,7 @@ class _LutComponent:
         for axis, fixed in self.fixed.items():
             if axis in query and axis not in self.dims and fixed is not None:
                 x = np.broadcast_to(np.asarray(query[axis], float), (n,))
-                off = (np.abs(x - fixed) > 1e-9) & (reasons == "")
+                off = ~(np.abs(x - fixed) <= 1e-9 * max(abs(fixed), 1.0)) & (reasons == "")
                 for i in np.nonzero(off)[0]:
                     reasons[i] = f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
         itp = self.subcooled if (self.needs_subcooled or self.detailed) else self.fast
@@ -233,19 +235,27 @@ class LutModels:
     name = "lut"
 
     def __init__(self, luts: dict[str, xr.Dataset]) -> None:
-        need = {"condenser": "h_in", "evaporator": "h_in", "expansion_valve": None, "compressor": "p_in"}
+        # Axes the solver searches along (an input it only sets may be a fixed input of the LUT).
+        need = {
+            "condenser": ("p_in", "h_in"),
+            "evaporator": ("p_in", "h_in"),
+            "expansion_valve": (),
+            "compressor": ("p_in", "pr"),
+        }
         self.luts = {}
-        for component, axis in need.items():
+        for component, axes in need.items():
             if component not in luts:
                 raise EvtmsInputError(f"the cycle needs a {component} LUT; none was given")
             ds = luts[component]
-            if axis is None:
+            if not axes:
                 continue
-            if axis not in ds.dims:
-                raise EvtmsInputError(
-                    f"the {component} LUT has axes {', '.join(ds.dims)}; cycle work needs {axis!r} "
-                    "(write it with --grid cycle)"
-                )
+            dims = list(ds["status"].dims)
+            for axis in axes:
+                if axis not in dims:
+                    raise EvtmsInputError(
+                        f"the {component} LUT has axes {', '.join(dims)}; cycle work needs {axis!r} as an axis "
+                        "(write it with --grid cycle)"
+                    )
             self.luts[component] = _LutComponent(component, ds, CURVED.get(component, ()))
         self.valve_attrs = dict(luts["expansion_valve"].attrs)
         self._valve: tuple[ExpansionValveParams, float] | None = None

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from evtms.errors import EvtmsInputError
-from evtms.luts.validate import valid_flags
+from evtms.luts.validate import fixed_inputs, valid_flags
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -50,34 +50,53 @@ def _flatten(obj: Any, prefix: str = "") -> dict[str, Any]:
 def lut_diff(a: xr.Dataset, b: xr.Dataset) -> LutDiff:
     """Per-variable max and RMS differences on the common grid, and provenance changes.
 
-    The common grid is, per axis, the values both files share exactly. Points
-    valid in both files are compared; ``status_changed`` counts common points
-    whose status differs.
+    The common grid is, per input, the values both files share exactly; an
+    input that is an axis in one file and a fixed input of the other
+    contributes the fixed value (if the axis has it). Points valid in both
+    files are compared; ``status_changed`` counts common points whose status
+    differs.
 
     Raises
     ------
     EvtmsInputError
-        Different components or axes, or no common grid point.
+        Different components or inputs, or no common grid point (among them
+        fixed inputs of different values).
     """
     if a.attrs["component"] != b.attrs["component"]:
         raise EvtmsInputError(f"cannot compare a {a.attrs['component']} LUT with a {b.attrs['component']} LUT")
     dims_a, dims_b = list(a["status"].dims), list(b["status"].dims)
-    if dims_a != dims_b:
-        raise EvtmsInputError(f"axes differ: {', '.join(dims_a)} vs {', '.join(dims_b)}")
-    sel = {}
-    for d in dims_a:
-        common = np.intersect1d(a[d].values, b[d].values)
+    fixed_a, fixed_b = fixed_inputs(a), fixed_inputs(b)
+    inputs_a, inputs_b = dims_a + list(fixed_a), dims_b + list(fixed_b)
+    if set(inputs_a) != set(inputs_b):
+        raise EvtmsInputError(f"inputs differ: {', '.join(inputs_a)} vs {', '.join(inputs_b)}")
+    sel_a, sel_b = {}, {}
+    for d in inputs_a:
+        va = a[d].values if d in dims_a else np.array([fixed_a[d]])
+        vb = b[d].values if d in dims_b else np.array([fixed_b[d]])
+        common = np.intersect1d(va, vb)
         if common.size == 0:
+            if d in fixed_a and d in fixed_b:
+                raise EvtmsInputError(
+                    f"fixed input {d} is {fixed_a[d]:g} in one file and {fixed_b[d]:g} in the other; "
+                    "the files share no grid point"
+                )
             raise EvtmsInputError(f"axis {d} has no value in common; the files share no grid point")
-        sel[d] = common
-    sa, sb = a.sel(sel), b.sel(sel)
-    result = LutDiff(common_shape=tuple(len(v) for v in sel.values()))
-    ok = np.isin(sa["status"].values, valid_flags(a)) & np.isin(sb["status"].values, valid_flags(b))
-    result.status_changed = int((sa["status"].values != sb["status"].values).sum())
+        if d in dims_a and d in dims_b:
+            sel_a[d] = sel_b[d] = common
+        elif d in dims_a:
+            sel_a[d] = common[0]  # the other file's fixed value: this axis drops out
+        elif d in dims_b:
+            sel_b[d] = common[0]
+    dims = [d for d in dims_a if d in dims_b]
+    sa, sb = a.sel(sel_a), b.sel(sel_b)
+    result = LutDiff(common_shape=tuple(len(sel_a[d]) for d in dims))
+    status_a, status_b = sa["status"].transpose(*dims).values, sb["status"].transpose(*dims).values
+    ok = np.isin(status_a, valid_flags(a)) & np.isin(status_b, valid_flags(b))
+    result.status_changed = int((status_a != status_b).sum())
     for v in sa.data_vars:
         if v == "status" or v not in sb.data_vars or sa[v].dtype.kind != "f":
             continue
-        x, y = sa[v].values[ok], sb[v].transpose(*dims_a).values[ok]
+        x, y = sa[v].transpose(*dims).values[ok], sb[v].transpose(*dims).values[ok]
         d = np.abs(x - y)
         scale = np.maximum(np.abs(x), np.abs(y))
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -97,7 +116,13 @@ def lut_diff(a: xr.Dataset, b: xr.Dataset) -> LutDiff:
     for key in sorted(set(pa) | set(pb)):
         if pa.get(key) != pb.get(key):
             result.parameters[key] = (pa.get(key), pb.get(key))
-    for attr in ("evtms_version", "coolprop_version", "fluid", "grid", "environment"):
+    for attr in ("evtms_version", "coolprop_version", "fluid", "grid", "environment", "lut_format_version"):
         if a.attrs.get(attr) != b.attrs.get(attr):
             result.attributes[attr] = (a.attrs.get(attr), b.attrs.get(attr))
+    if fixed_a != fixed_b:
+        result.attributes["fixed_inputs"] = (fixed_a, fixed_b)
+    storage = {v: (a[v].attrs.get("evtms_storage"), b[v].attrs.get("evtms_storage")) for v in sa.data_vars if v in b}
+    for v, (x, y) in storage.items():
+        if x != y and v != "status":
+            result.attributes[f"{v}.evtms_storage"] = (x or "lossless", y or "lossless")
     return result

@@ -49,6 +49,11 @@ class Interpolator:
         (exact for functions quadratic along each axis, error third order in
         the node spacing where the table is smooth). It costs one more gathered
         column per variable and axis. Default off.
+    fixed : mapping of str to float, optional
+        Inputs the table was computed at a single value of (a LUT's
+        ``fixed_inputs``): not axes, but a query (mapping) may name them. A
+        value that differs from the fixed one (beyond 1e-9 relative) is out
+        of range: the policy decides (``clip`` uses the fixed value anyway).
 
     Examples
     --------
@@ -62,9 +67,14 @@ class Interpolator:
         tables: Mapping[str, np.ndarray],
         out_of_range: str = "error",
         curvature: bool | Sequence[str] = False,
+        fixed: Mapping[str, float] | None = None,
     ) -> None:
         _check_policy(out_of_range)
         self.names = tuple(name for name, _ in axes)
+        self.fixed = {k: float(v) for k, v in (fixed or {}).items()}
+        both = set(self.fixed) & set(self.names)
+        if both:
+            raise ValueError(f"{sorted(both)[0]} is both an axis and a fixed input")
         self.axes = [np.ascontiguousarray(values, dtype=np.float64) for _, values in axes]
         shape = tuple(len(a) for a in self.axes)
         for name, a in zip(self.names, self.axes, strict=True):
@@ -98,6 +108,11 @@ class Interpolator:
         self._axes_list: list[list[float]] | None = None
         self._values_list: list[list[float]] | None = None
 
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """Every name a query may give: the axes, then the fixed inputs."""
+        return self.names + tuple(self.fixed)
+
     @classmethod
     def from_dataset(
         cls,
@@ -109,8 +124,11 @@ class Interpolator:
         """Interpolator over the axes of an xarray LUT dataset.
 
         ``variables`` defaults to every float data variable (not ``status``).
+        The dataset's ``fixed_inputs`` become the interpolator's ``fixed``.
         """
-        dims = list(ds[next(iter(ds.data_vars))].dims)
+        from evtms.luts.validate import fixed_inputs
+
+        dims = list(ds["status"].dims if "status" in ds.data_vars else ds[next(iter(ds.data_vars))].dims)
         if variables is None:
             variables = [v for v in ds.data_vars if v != "status" and ds[v].dtype.kind == "f"]
         tables = {}
@@ -118,29 +136,48 @@ class Interpolator:
             if v not in ds.data_vars:
                 raise EvtmsInputError(f"variable {v!r} is not in the LUT; allowed: {', '.join(ds.data_vars)}")
             tables[v] = ds[v].transpose(*dims).values
-        return cls([(d, ds[d].values) for d in dims], tables, out_of_range, curvature)
+        return cls([(d, ds[d].values) for d in dims], tables, out_of_range, curvature, fixed_inputs(ds))
 
     # ------------------------------------------------------------------
     def _prepare(self, query, policy: str) -> tuple[np.ndarray, np.ndarray]:
         """Query as an (n, d) float array, checked against the policy; returns (points, nan_mask)."""
+        outside = None
         if isinstance(query, Mapping):
-            unknown = set(query) - set(self.names)
+            unknown = set(query) - set(self.inputs)
             missing = [n for n in self.names if n not in query]
             if unknown:
-                raise EvtmsInputError(f"unknown axis {sorted(unknown)[0]!r} in query; allowed: {', '.join(self.names)}")
+                raise EvtmsInputError(
+                    f"unknown axis {sorted(unknown)[0]!r} in query; allowed: {', '.join(self.inputs)}"
+                )
             if missing:
                 raise EvtmsInputError(
                     f"query has no value for axis {missing[0]!r}; give all of {', '.join(self.names)}"
                 )
-            cols = np.broadcast_arrays(*[np.asarray(query[n], np.float64).reshape(-1) for n in self.names])
-            pts = np.stack(cols, axis=1)
+            given = [n for n in self.fixed if n in query]
+            names = [*self.names, *given]
+            cols = np.broadcast_arrays(*[np.asarray(query[n], np.float64).reshape(-1) for n in names])
+            if self.names:
+                pts = np.stack(cols[: len(self.names)], axis=1)
+            else:  # every input fixed: one value per query point (one point if none is given)
+                pts = np.zeros((len(cols[0]) if cols else 1, 0))
+            for n, col in zip(given, cols[len(self.names) :], strict=True):
+                v = self.fixed[n]
+                bad = ~(np.abs(col - v) <= 1e-9 * max(abs(v), 1.0))  # NaN queries count as off
+                if not bad.any() or policy == "clip":
+                    continue
+                if policy == "error":
+                    raise EvtmsInputError(
+                        f"{n} = {col[np.argmax(bad)]:g} differs from the LUT's fixed input {n} = {v:g} "
+                        "(it is not an axis); the out-of-range policy is 'error' (use 'clip' or 'nan' to allow it)"
+                    )
+                outside = bad if outside is None else outside | bad
         else:
             pts = np.asarray(query, np.float64)
             if pts.ndim == 1:
                 pts = pts[None, :]
             if pts.shape[1] != len(self.names):
                 raise EvtmsInputError(f"query has {pts.shape[1]} columns; the LUT has axes {', '.join(self.names)}")
-        outside = np.zeros(len(pts), bool)
+        outside = np.zeros(len(pts), bool) if outside is None else outside
         for j, (name, a) in enumerate(zip(self.names, self.axes, strict=True)):
             col = pts[:, j]
             bad = ~((col >= a[0]) & (col <= a[-1]))  # NaN queries count as outside

@@ -1,22 +1,237 @@
-"""Build, write and read LUT datasets per ``shared/spec/lut-format.md``."""
+"""Build and write LUT datasets per ``docs/lut-format.md`` (format version 2).
+
+How a variable is stored (type, compression, fill value, lossy rounding and
+the attributes that record it) is decided here once, by
+:func:`variable_storage`, :func:`store_values` and :func:`storage_attributes`;
+both writers use them: :func:`write_lut` (an xarray dataset, through xarray's
+encoding) and the streaming writer of :func:`evtms.benches.chunked.sweep_to_file`
+(netCDF4, slab by slab).
+"""
 
 from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import json
+import math
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from evtms import __version__
+from evtms.errors import EvtmsInputError
 from evtms.luts.schema import AXES, CONVENTIONS, FORMAT_VERSION, VARIABLES
 
 if TYPE_CHECKING:  # xarray is imported lazily: it costs ~0.5 s
     import xarray as xr
+
+#: zlib level of every data variable: level 4 gives nearly all of level 9's size at a third of its time.
+COMPRESSION_LEVEL = 4
+#: Most significant decimal digits a lossy float32 variable may keep (float32 holds about 7).
+FLOAT32_MAX_DIGITS = 6
+_STORAGE_ATTR = "evtms_storage"
+
+
+@dataclass(frozen=True)
+class LutStorage:
+    """How the float data variables of a LUT are stored; the default is lossless.
+
+    Parameters
+    ----------
+    float32 : bool
+        Store floats as float32 (relative error at most 2**-24, about 6e-8).
+    significant_digits : int, optional
+        Round each float to ``significant_digits`` decimal digits (1..15;
+        1..6 with ``float32``): its binary mantissa keeps enough bits that
+        the relative error is at most ``0.5 * 10**-significant_digits``
+        (float32 rounding included). The zeroed low bits compress well.
+
+    Raises
+    ------
+    EvtmsInputError
+        ``significant_digits`` is not a whole number in the allowed range.
+    """
+
+    float32: bool = False
+    significant_digits: int | None = None
+
+    def __post_init__(self) -> None:
+        d = self.significant_digits
+        if d is None:
+            return
+        top = FLOAT32_MAX_DIGITS if self.float32 else 15
+        if isinstance(d, bool) or not isinstance(d, (int, np.integer)) or not 1 <= d <= top:
+            kind = "float32" if self.float32 else "float64"
+            raise EvtmsInputError(f"significant digits {d!r} is not allowed; allowed: 1 to {top} with {kind} storage")
+
+    @property
+    def lossless(self) -> bool:
+        """True if floats are stored exactly (float64, no rounding)."""
+        return not self.float32 and self.significant_digits is None
+
+    @property
+    def label(self) -> str:
+        """The ``evtms_storage`` attribute: ``lossless``, ``float32``, ``significant_digits=5`` or both."""
+        parts = (["float32"] if self.float32 else []) + (
+            [f"significant_digits={self.significant_digits}"] if self.significant_digits is not None else []
+        )
+        return " ".join(parts) or "lossless"
+
+    @property
+    def relative_error(self) -> float:
+        """Largest relative error of a stored value (0 when lossless)."""
+        if self.significant_digits is not None:
+            return 0.5 * 10.0**-self.significant_digits
+        return 2.0**-24 if self.float32 else 0.0
+
+    @property
+    def dtype(self) -> np.dtype:
+        """The stored type of float variables."""
+        return np.dtype(np.float32 if self.float32 else np.float64)
+
+    @classmethod
+    def parse(cls, label: str) -> LutStorage:
+        """The storage an ``evtms_storage`` attribute describes.
+
+        Raises
+        ------
+        EvtmsInputError
+            ``label`` is not one of the forms :attr:`label` writes.
+        """
+        float32, digits = False, None
+        words = str(label).split()
+        for word in words:
+            if word == "float32" and not float32:
+                float32 = True
+            elif word.startswith("significant_digits=") and digits is None:
+                text = word.partition("=")[2]
+                if not text.isdigit():
+                    raise EvtmsInputError(f"{_STORAGE_ATTR} {label!r}: significant_digits must be a whole number")
+                digits = int(text)
+            elif word != "lossless" or len(words) != 1:
+                raise EvtmsInputError(
+                    f"{_STORAGE_ATTR} {label!r} is not allowed; allowed: lossless, float32, "
+                    "significant_digits=N, float32 significant_digits=N"
+                )
+        return cls(float32, digits)
+
+    def mantissa_bits(self) -> int | None:
+        """Fraction bits kept by the rounding (None: no rounding).
+
+        ``ceil(d log2 10) + 1`` bits bound the rounding error by
+        ``0.25 * 10**-d``, which leaves room for float32's own rounding.
+        """
+        if self.significant_digits is None:
+            return None
+        return math.ceil(self.significant_digits * math.log2(10.0)) + 1
+
+
+def _round_mantissa(values: np.ndarray, bits: int) -> np.ndarray:
+    """Round finite floats to ``bits`` fraction bits (ties away from zero); NaN and inf stay."""
+    info = np.finfo(values.dtype)
+    drop = info.nmant - bits
+    if drop <= 0:
+        return values
+    uint = np.uint32 if values.dtype == np.float32 else np.uint64
+    raw = values.view(uint)
+    mask = uint(~((1 << drop) - 1) & ((1 << (8 * values.dtype.itemsize)) - 1))
+    # Adding half a unit of the last kept bit to the sign-magnitude pattern rounds the
+    # magnitude; a carry into the exponent is the correct rounding up to the next power of 2.
+    rounded = (raw + uint(1 << (drop - 1))) & mask
+    out = rounded.view(values.dtype)
+    finite = np.isfinite(values)
+    overflow = finite & ~np.isfinite(out)
+    if overflow.any():  # the largest floats: truncate instead of rounding to infinity
+        out = np.where(overflow, (raw & mask).view(values.dtype), out)
+    return np.where(finite, out, values)
+
+
+def store_values(name: str, values: np.ndarray, storage: LutStorage | None = None) -> np.ndarray:
+    """``values`` of variable ``name`` as they are stored: int8 status, floats cast and rounded per ``storage``.
+
+    Raises
+    ------
+    EvtmsInputError
+        A finite value does not fit float32 (with ``storage.float32``).
+    """
+    storage = storage or LutStorage()
+    if name == "status":
+        return np.asarray(values, np.int8)
+    values = np.asarray(values)
+    if values.dtype.kind != "f":
+        return values
+    with np.errstate(over="ignore"):
+        out = np.asarray(values, storage.dtype)
+    if storage.float32 and bool(np.any(np.isinf(out) & np.isfinite(values))):
+        raise EvtmsInputError(f"variable {name!r} has values beyond the float32 range; store it as float64")
+    bits = storage.mantissa_bits()
+    if bits is not None:
+        out = _round_mantissa(out, bits)
+    return out
+
+
+def variable_storage(name: str, storage: LutStorage | None = None, ndim: int = 1) -> dict[str, Any]:
+    """``netCDF4.Dataset.createVariable`` keyword arguments of LUT data variable ``name``.
+
+    ``status`` is int8 without fill value, floats are in ``storage``'s type
+    with a NaN fill value; all zlib-compressed (level :data:`COMPRESSION_LEVEL`)
+    with the shuffle filter, except scalars (``ndim`` 0), which HDF5 cannot
+    compress. Axes take :func:`axis_storage`; :func:`xarray_encoding` turns
+    either into an xarray encoding.
+    """
+    storage = storage or LutStorage()
+    if name == "status":
+        kwargs: dict[str, Any] = {"datatype": "i1", "fill_value": None}
+    else:
+        kwargs = {"datatype": storage.dtype.str[1:], "fill_value": storage.dtype.type(np.nan)}
+    if ndim > 0:
+        kwargs.update(zlib=True, complevel=COMPRESSION_LEVEL, shuffle=True)
+    return kwargs
+
+
+def axis_storage() -> dict[str, Any]:
+    """``createVariable`` keyword arguments of an axis: float64, no ``_FillValue`` (CF), uncompressed."""
+    return {"datatype": "f8", "fill_value": None}
+
+
+def xarray_encoding(kwargs: Mapping[str, Any]) -> dict[str, Any]:
+    """The xarray ``to_netcdf`` encoding of :func:`variable_storage`/:func:`axis_storage` keyword arguments."""
+    enc = {"_FillValue": kwargs["fill_value"], "dtype": np.dtype(kwargs["datatype"])}
+    for key in ("zlib", "complevel", "shuffle"):
+        if key in kwargs:
+            enc[key] = kwargs[key]
+    return enc
+
+
+def storage_attributes(name: str, stored: np.ndarray | None, storage: LutStorage | None = None) -> dict[str, Any]:
+    """Attributes a float data variable gets from its storage and its stored values.
+
+    ``evtms_storage`` (``storage.label``) and ``actual_range`` (smallest and
+    largest finite stored value, in the stored type; omitted when there is
+    none, or when ``stored`` is None). ``status`` gets none.
+    """
+    storage = storage or LutStorage()
+    if name == "status":
+        return {}
+    attrs: dict[str, Any] = {_STORAGE_ATTR: storage.label}
+    if stored is not None:
+        lo, hi = finite_range(stored)
+        if lo is not None:
+            attrs["actual_range"] = np.array([lo, hi], dtype=stored.dtype)
+    return attrs
+
+
+def finite_range(values: np.ndarray) -> tuple[float | None, float | None]:
+    """(min, max) of the finite values, or (None, None)."""
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return None, None
+    return finite.min(), finite.max()
 
 
 def variable_attributes(name: str, flags: dict[int, str], valid_flags: tuple[int, ...]) -> dict:
@@ -37,6 +252,22 @@ def axis_attributes(name: str) -> dict:
     return {"units": spec.units, "long_name": spec.long_name}
 
 
+def fixed_inputs_json(values: Mapping[str, float]) -> str:
+    """The ``fixed_inputs`` attribute: JSON object name -> ``{"value": v, "units": u}`` (SI)."""
+    return json.dumps({name: {"value": float(v), "units": AXES[name].units} for name, v in values.items()})
+
+
+def fixed_axes(grid: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], dict[str, float]]:
+    """Split a grid into its axes (two values or more) and its fixed inputs (one value).
+
+    A bench evaluates every input of the grid; the file holds only the
+    inputs that vary as dimensions, the others in ``fixed_inputs``.
+    """
+    axes = {k: np.asarray(v, np.float64) for k, v in grid.items() if np.size(v) > 1}
+    fixed = {k: float(np.asarray(v).reshape(-1)[0]) for k, v in grid.items() if np.size(v) == 1}
+    return axes, fixed
+
+
 def global_attributes(
     *,
     component: str,
@@ -47,8 +278,13 @@ def global_attributes(
     fluid: str,
     coolprop_version: str,
     history: str = "",
+    fixed_inputs: Mapping[str, float] | None = None,
 ) -> dict:
-    """The LUT format's global attributes, stamped with the current UTC time."""
+    """The LUT format's global attributes, stamped with the current UTC time.
+
+    ``fixed_inputs`` maps the inputs that take one value (not axes) to that
+    value in SI units.
+    """
     created = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
     return {
         "Conventions": CONVENTIONS,
@@ -60,6 +296,7 @@ def global_attributes(
         "grid": grid_name,
         "parameters": parameters_json,
         "environment": environment_json,
+        "fixed_inputs": fixed_inputs_json(fixed_inputs or {}),
         "created": created,
         "history": f"{created} {history}".strip(),
         "lut_format_version": np.int32(FORMAT_VERSION),
@@ -79,45 +316,99 @@ def build_dataset(
     Parameters
     ----------
     grid : dict of str to numpy.ndarray
-        Axis name -> strictly increasing values, in dimension order.
+        Axis name -> strictly increasing values, in dimension order. An axis
+        of one value becomes a fixed input (global attribute ``fixed_inputs``),
+        not a dimension.
     outputs : dict of str to numpy.ndarray
         Variable name -> flat array of ``prod(len(axis))`` values in C order
         of the grid (``status`` as int8).
     flags : dict of int to str
         Status codes and their meanings (CF ``flag_values``/``flag_meanings``).
     **attrs
-        Keyword arguments of :func:`global_attributes`.
+        Keyword arguments of :func:`global_attributes` (but ``fixed_inputs``).
     """
     import xarray as xr
 
-    dims = tuple(grid)
-    shape = tuple(len(v) for v in grid.values())
-    coords = {
-        name: xr.Variable(name, np.asarray(values, np.float64), axis_attributes(name)) for name, values in grid.items()
-    }
+    axes, fixed = fixed_axes(grid)
+    dims = tuple(axes)
+    shape = tuple(len(v) for v in axes.values())
+    coords = {name: xr.Variable(name, values, axis_attributes(name)) for name, values in axes.items()}
     data_vars = {}
     for name, flat in outputs.items():
         dtype = np.int8 if name == "status" else np.float64
         data_vars[name] = xr.Variable(
             dims, np.asarray(flat, dtype).reshape(shape), variable_attributes(name, flags, valid_flags)
         )
-    return xr.Dataset(data_vars, coords=coords, attrs=global_attributes(**attrs))
+    return xr.Dataset(data_vars, coords=coords, attrs=global_attributes(**attrs, fixed_inputs=fixed))
 
 
-def write_lut(ds: xr.Dataset, path: str | Path) -> Path:
-    """Write ``ds`` as netCDF-4 to ``path`` atomically.
+def squeeze_fixed_inputs(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` without length-1 dimensions: each becomes an entry of the ``fixed_inputs`` attribute.
 
-    The file is written to a temporary file in the target folder and renamed
-    over the target, so an interrupted write never leaves a partial file at
-    ``path``.
+    A dataset without length-1 dimensions comes back unchanged (but for a
+    ``fixed_inputs`` attribute added if it had none).
     """
+    from evtms.luts.validate import fixed_inputs
+
+    fixed = fixed_inputs(ds)
+    dims = list(ds["status"].dims) if "status" in ds else list(ds.dims)
+    single = [d for d in dims if ds.sizes[d] == 1]
+    for d in single:
+        if d in fixed:
+            raise EvtmsInputError(f"{d!r} is both a length-1 axis and a fixed input of the dataset")
+        fixed[d] = float(ds[d].values[0])
+    out = ds.isel({d: 0 for d in single}, drop=True) if single else ds.copy(deep=False)
+    out.attrs = dict(ds.attrs)
+    out.attrs["fixed_inputs"] = fixed_inputs_json(fixed)
+    return out
+
+
+def write_lut(ds: xr.Dataset, path: str | Path, storage: LutStorage | None = None) -> Path:
+    """Write ``ds`` as a format-version-2 netCDF-4 LUT to ``path`` atomically.
+
+    Length-1 dimensions become ``fixed_inputs``; data variables are compressed
+    (zlib, shuffle) and stored as :class:`LutStorage` says (lossless by
+    default), each float variable with ``evtms_storage`` and ``actual_range``
+    attributes. The file is written to a temporary file in the target folder
+    and renamed over the target, so an interrupted write never leaves a
+    partial file at ``path``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A LUT dataset (from :func:`build_dataset` or :func:`evtms.luts.open_lut`).
+    path : str or Path
+        Target file.
+    storage : LutStorage, optional
+        Lossy storage of the floats (float32 and/or significant digits).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    import xarray as xr
+
+    storage = storage or LutStorage()
     path = Path(path)
-    encoding = {}
-    for name in ds.variables:
-        if name == "status" or name in ds.dims:
-            encoding[name] = {"_FillValue": None}
-        else:
-            encoding[name] = {"_FillValue": np.nan}
+    ds = squeeze_fixed_inputs(ds)
+    dims = list(ds["status"].dims) if "status" in ds else list(ds.dims)
+    # A new dataset of plain variables: no encoding of a file ds was read from comes along.
+    coords, data_vars, encoding = {}, {}, {}
+    for name in dims:
+        attrs = {k: v for k, v in ds[name].attrs.items() if k != "_FillValue"}
+        coords[name] = xr.Variable(name, np.asarray(ds[name].values, np.float64), attrs)
+        encoding[name] = xarray_encoding(axis_storage())
+    for name, da in ds.data_vars.items():
+        stored = store_values(name, da.transpose(*dims).values, storage)
+        attrs = {k: v for k, v in da.attrs.items() if k not in ("actual_range", _STORAGE_ATTR, "_FillValue")}
+        if stored.dtype.kind == "f":
+            attrs.update(storage_attributes(name, stored, storage))
+        data_vars[name] = xr.Variable(dims, stored, attrs)
+        encoding[name] = xarray_encoding(variable_storage(name, storage, len(dims)))
+    attrs = dict(ds.attrs)
+    attrs["lut_format_version"] = np.int32(FORMAT_VERSION)
+    ds = xr.Dataset(data_vars, coords=coords, attrs=attrs)
     with atomic_output(path) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
     return path

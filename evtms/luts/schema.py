@@ -1,4 +1,4 @@
-"""The evtms LUT file format, version 1 (``shared/spec/lut-format.md``) as data.
+"""The evtms LUT file format (``docs/lut-format.md``) as data.
 
 Axis and variable names, units and meanings live here once; the benches, the
 writer, the validator and the exporters all read them from this module.
@@ -8,7 +8,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-FORMAT_VERSION = 1
+#: The version evtms writes.
+FORMAT_VERSION = 2
+#: The versions evtms reads (version 1 is presented in the version 2 shape, see ``docs/lut-format.md``).
+READABLE_VERSIONS = (1, 2)
 CONVENTIONS = "CF-1.10"
 
 
@@ -161,6 +164,59 @@ COMPONENT_VARIABLES: dict[str, tuple[str, ...]] = {
 #: Inlet-state axes that may stand in for each other at the same position.
 ALTERNATE_AXES = {"T_in": "h_in", "h_in": "T_in"}
 
+#: Unit spellings a file may use (UDUNITS) -> the ``cli_units`` suffix with the same meaning.
+#: ``C`` is not among them: in UDUNITS it is the coulomb.
+UNIT_ALIASES = {
+    "kg s-1": "kg/s",
+    "kg/s": "kg/s",
+    "g s-1": "g/s",
+    "g/s": "g/s",
+    "Pa": "Pa",
+    "pascal": "Pa",
+    "kPa": "kPa",
+    "MPa": "MPa",
+    "bar": "bar",
+    "K": "K",
+    "kelvin": "K",
+    "degC": "degC",
+    "degree_Celsius": "degC",
+    "degrees_Celsius": "degC",
+    "celsius": "degC",
+    "Celsius": "degC",
+    "J kg-1": "J/kg",
+    "J/kg": "J/kg",
+    "kJ kg-1": "kJ/kg",
+    "kJ/kg": "kJ/kg",
+    "%": "%",
+    "percent": "%",
+}
+
+
+def unit_conversion(axis: str, units: object) -> tuple[float, float] | None:
+    """(factor, offset) that turn values of ``axis`` in ``units`` into its SI units, or None.
+
+    ``si = value * factor + offset``. Only exact conversions are known: the
+    axis' own units, and the ``cli_units`` of :data:`AXES` under their UDUNITS
+    spellings (``bar``, ``kPa``, ``degC``, ``degree_Celsius``, ``g s-1``, ...).
+    """
+    spec = AXES[axis]
+    if not isinstance(units, str):
+        return None
+    units = units.strip()
+    if units == spec.units:
+        return 1.0, 0.0
+    suffix = UNIT_ALIASES.get(units)
+    for name, factor, offset in spec.cli_units:
+        if name == suffix:
+            return factor, offset
+    return None
+
+
+def accepted_units(axis: str) -> list[str]:
+    """Every spelling of units :func:`unit_conversion` converts for ``axis``."""
+    return [u for u in dict.fromkeys([AXES[axis].units, *UNIT_ALIASES]) if unit_conversion(axis, u) is not None]
+
+
 REQUIRED_GLOBAL_ATTRS = (
     "Conventions",
     "title",
@@ -175,3 +231,6 @@ REQUIRED_GLOBAL_ATTRS = (
     "history",
     "lut_format_version",
 )
+
+#: Global attributes holding JSON objects (``fixed_inputs`` only from version 2, and optional).
+JSON_GLOBAL_ATTRS = ("parameters", "environment", "fixed_inputs")

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evtms.errors import EvtmsInputError
+from evtms.luts.schema import AXES
+from evtms.luts.validate import fixed_inputs
 from evtms.reports.cycle_plots import _figure, _save
 
 if TYPE_CHECKING:
@@ -47,7 +49,10 @@ _DISPLAY = {
 
 
 def display_unit(ds: xr.Dataset, name: str) -> tuple[str, float]:
-    """(label, divisor) to show variable or axis ``name`` in engineering units."""
+    """(label, divisor) to show variable, axis or fixed input ``name`` in engineering units."""
+    if name not in ds.variables:  # a fixed input: units of its axis
+        units = AXES[name].units if name in AXES else ""
+        return _DISPLAY.get(units, (units, 1.0))
     units = ds[name].attrs.get("units", "")
     if units == "W":
         big = np.nanmax(np.abs(ds[name].values)) if ds[name].size else 0.0
@@ -65,10 +70,22 @@ def label(ds: xr.Dataset, name: str) -> str:
 
 def base_point(ds: xr.Dataset, at: dict[str, float] | None = None) -> dict[str, float]:
     """Base values of every axis: the first grid value (as the thesis did), or the
-    nearest grid value to ``at``'s."""
+    nearest grid value to ``at``'s.
+
+    ``at`` may name a fixed input of the LUT (not an axis) at its value only.
+    """
     dims = list(ds["status"].dims)
+    fixed = fixed_inputs(ds)
     at = at or {}
-    for name in at:
+    for name, value in at.items():
+        if name in fixed:
+            if abs(value - fixed[name]) > 1e-9 * max(abs(fixed[name]), 1.0):
+                unit = AXES[name].units
+                raise EvtmsInputError(
+                    f"{name} = {value:g} is not allowed in --at; the LUT was made at {name} = {fixed[name]:g} {unit} "
+                    "only (a fixed input, not an axis)"
+                )
+            continue
         if name not in dims:
             raise EvtmsInputError(f"unknown axis {name!r} in --at; allowed: {', '.join(dims)}")
     base = {}
@@ -102,6 +119,9 @@ def line_data(ds: xr.Dataset, axis: str, base: dict[str, float]) -> LineData:
     fixed = {d: v for d, v in base.items() if d not in (axis, family)}
     sel = y.sel(fixed)
     data = LineData(axis=axis, x=ds[axis].values, family=family, base=base)
+    if family not in ds["status"].dims:  # the family input is fixed: one line
+        data.lines[float("nan")] = sel.transpose(axis).values
+        return data
     if axis == family:
         data.lines[float("nan")] = sel.values if sel.ndim == 1 else sel.sel({family: ds[family]}).values
         return data
@@ -135,26 +155,34 @@ def surface_data(ds: xr.Dataset, axes: tuple[str, str], base: dict[str, float]) 
     sel = _valid(ds, var).sel(fixed)
     X, Y = np.meshgrid(ds[a].values, ds[b].values, indexing="ij")
     data = SurfaceData(axes=(a, b), X=X, Y=Y, family=family, base=base)
+    if family not in ds["status"].dims:  # the family input is fixed: one surface
+        data.surfaces[float("nan")] = sel.transpose(a, b).values
+        return data
     for f in ds[family].values:
         data.surfaces[float(f)] = sel.sel({family: f}).transpose(a, b).values
     return data
 
 
-def default_surface_axes(ds: xr.Dataset) -> tuple[str, str]:
+def default_surface_axes(ds: xr.Dataset) -> tuple[str, str] | None:
+    """The component's usual surface axes, else the first two axes but the family; None if there are not two."""
     for pair in SURFACE_AXES[ds.attrs["component"]]:
         if all(p in ds["status"].dims for p in pair):
             return pair
     dims = [d for d in ds["status"].dims if d != MAIN[ds.attrs["component"]][1]]
-    return dims[0], dims[1]
+    return (dims[0], dims[1]) if len(dims) >= 2 else None
 
 
 def _base_text(ds: xr.Dataset, base: dict[str, float], skip: tuple[str, ...]) -> str:
+    """The other axes' base values, then the LUT's fixed inputs, in engineering units."""
     parts = []
     for d, v in base.items():
         if d in skip:
             continue
         unit, div = display_unit(ds, d)
         parts.append(f"{d} = {v / div:.4g} {unit}")
+    for d, v in fixed_inputs(ds).items():
+        unit, div = display_unit(ds, d)
+        parts.append(f"{d} = {v / div:.4g} {unit} (fixed)")
     return ", ".join(parts)
 
 
@@ -187,12 +215,14 @@ def draw_surface(ds: xr.Dataset, data: SurfaceData, path: str | Path) -> Path:
     ax = fig.add_subplot(projection="3d")
     for k, (f, Z) in enumerate(data.surfaces.items()):
         ax.plot_surface(data.X / adiv, data.Y / bdiv, Z / zdiv, color=f"C{k}", alpha=0.55, edgecolor=f"C{k}", lw=0.4)
-        ax.plot([], [], color=f"C{k}", label=f"{data.family} = {f / fdiv:.4g} {fu}")
+        if not np.isnan(f):
+            ax.plot([], [], color=f"C{k}", label=f"{data.family} = {f / fdiv:.4g} {fu}")
     ax.set_xlabel(f"{a} [{au}]")
     ax.set_ylabel(f"{b} [{bu}]")
     ax.set_zlabel(f"{var} [{zu}]")
     ax.set_title(_base_text(ds, data.base, (a, b, data.family)), fontsize=8)
-    ax.legend(fontsize=7, loc="upper left")
+    if any(not np.isnan(f) for f in data.surfaces):
+        ax.legend(fontsize=7, loc="upper left")
     return _save(fig, path)
 
 
@@ -218,6 +248,8 @@ def bench_report_figures(
         path = draw_line(ds, data, folder / f"{component}_{MAIN[component][0]}_vs_{axis}.{fmt}")
         out.append((f"{MAIN[component][0]} against {axis}", path))
     pair = surface_axes or default_surface_axes(ds)
+    if pair is None:  # fewer than two axes besides the family: no surface
+        return out
     data = surface_data(ds, pair, base)
     path = draw_surface(ds, data, folder / f"{component}_{MAIN[component][0]}_map_{pair[0]}_{pair[1]}.{fmt}")
     out.append((f"{MAIN[component][0]} over {pair[0]} and {pair[1]}", path))
