@@ -104,19 +104,21 @@ def _file_summary(meta: LutMetadata) -> dict[str, Any]:
     counts: dict[int, int] = {}
     flags = np.atleast_1d(meta.variables["status"]["flag_values"])
     valid_codes = meta.valid_flags()
-    for slab in meta.iter_slabs(["status", *stream]):
-        codes, n = np.unique(slab["status"], return_counts=True)
-        for c, k in zip(codes.tolist(), n.tolist(), strict=True):
-            counts[c] = counts.get(c, 0) + k
-        ok = np.isin(slab["status"], valid_codes)
-        for v in stream:
+    for slab in meta.iter_slabs(["status"]):
+        n = np.bincount(slab["status"].view(np.uint8), minlength=256)  # int8 codes by their bit pattern
+        for c in np.nonzero(n)[0].tolist():
+            code = c - 256 if c > 127 else c
+            counts[code] = counts.get(code, 0) + int(n[c])
+    for v in stream:  # one variable at a time (with the status again): memory of two slabs
+        r = ranges[v]
+        for slab in meta.iter_slabs(["status", v]):
+            ok = np.isin(slab["status"], valid_codes)
             if not np.all(np.isnan(slab[v][~ok])):
                 raise LutFormatError(f"{meta.name}: variable {v!r} holds a number at a point whose status is invalid")
             vals = slab[v][ok]
             if not np.all(np.isfinite(vals)):
                 raise LutFormatError(f"{meta.name}: variable {v!r} is not finite at a point whose status is valid")
             if vals.size:
-                r = ranges[v]
                 r[0], r[1] = min(r[0], float(vals.min())), max(r[1], float(vals.max()))
     unknown = sorted(set(counts) - {int(c) for c in flags})
     if unknown:

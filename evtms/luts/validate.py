@@ -58,6 +58,8 @@ MAX_POINTS = 200_000_000
 MEMORY_SHARE = 0.8
 #: Points per slab when data are streamed (about 8 MB per float64 variable).
 SLAB_POINTS = 1 << 20
+#: HDF5 chunk cache per variable while reading.
+CHUNK_CACHE_BYTES = 4 << 20
 
 
 class LutFormatError(EvtmsInputError):
@@ -348,11 +350,17 @@ def _netcdf(path: Path, name: str) -> Iterator[Any]:
     """The file opened read-only with netCDF4, raw values (no masking or scaling), closed on exit."""
     import netCDF4
 
+    # Reads go slab by slab, each chunk once: a small chunk cache per variable (netCDF's
+    # default, tens of MB per variable, would hold most of a file's data in memory).
+    previous = netCDF4.get_chunk_cache()
+    netCDF4.set_chunk_cache(size=CHUNK_CACHE_BYTES, nelems=1009, preemption=0.75)
     try:
         nc = netCDF4.Dataset(path, "r")
     except Exception as exc:  # HDF5 raises OSError or RuntimeError with multi-line text
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         _fail(name, f"the file is truncated or corrupt ({first})")
+    finally:
+        netCDF4.set_chunk_cache(*previous)
     try:
         nc.set_auto_maskandscale(False)
         yield nc
@@ -563,6 +571,14 @@ def available_memory() -> int | None:
         return None
 
 
+def _size(n: float) -> str:
+    """Bytes in words: ``61 kB``, ``1.2 GB``."""
+    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{n:.0f} B"
+
+
 def open_lut(
     path: str | Path, component: str | None = None, variables: list[str] | tuple[str, ...] | None = None
 ) -> xr.Dataset:
@@ -610,8 +626,8 @@ def open_lut(
     available = available_memory()
     if available is not None and need > MEMORY_SHARE * available:
         raise EvtmsInputError(
-            f"{name}: loading {len(names)} variables of {meta.points:,} points needs {need / 1e9:.1f} GB; "
-            f"{MEMORY_SHARE:.0%} of the available memory is {MEMORY_SHARE * available / 1e9:.1f} GB; "
+            f"{name}: loading {len(names)} variables of {meta.points:,} points needs {_size(need)}; "
+            f"{MEMORY_SHARE * 100:.0f} % of the available memory is {_size(MEMORY_SHARE * available)}; "
             "load fewer variables"
         )
     flags = np.atleast_1d(meta.variables["status"]["flag_values"])
