@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from evtms.benches.chunked import _MAGIC, _MARKER
 from evtms.cli import app
 
 runner = CliRunner()
@@ -49,7 +50,12 @@ def assert_same_lut(a, b):
 def local_cluster():
     distributed = pytest.importorskip("distributed")
     cluster = distributed.LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0", worker_dashboard_address=":0"
+        n_workers=1,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address="127.0.0.1:0",
+        worker_dashboard_address="127.0.0.1:0",
     )
     yield cluster
     cluster.close()
@@ -65,11 +71,11 @@ def test_in_process_workers_and_cluster_give_identical_files(tmp_path, local_clu
         files[mode] = tmp_path / f"{mode}.nc"
         res = runner.invoke(app, ["bench", "condenser", *GRID, "--chunk-points", "30", "-o", str(files[mode]), *extra])
         assert res.exit_code == 0, res.output
-        assert "12 chunks (12 computed, 0 reused)" in res.stdout
+        assert "8 chunks (8 computed, 0 reused)" in res.stdout  # balanced: 4 x 2 slabs of 30 and 15 points
         assert ("(dask)" in res.stdout) == (mode != "in")
     assert_same_lut(files["in"], files["workers"])
     assert_same_lut(files["in"], files["cluster"])
-    # Chunking changes nothing either: one chunk against twelve.
+    # Chunking changes nothing either: one chunk against eight.
     one = tmp_path / "one.nc"
     assert runner.invoke(app, ["bench", "condenser", *GRID, "-o", str(one)]).exit_code == 0
     assert_same_lut(files["in"], one)
@@ -121,9 +127,14 @@ def test_resume_refuses_a_partial_sweep_of_other_inputs(tmp_path):
     out = tmp_path / "c.nc"
     partial = tmp_path / "c.nc.partial"
     partial.mkdir()
+    (partial / _MARKER).write_text(json.dumps({"magic": _MAGIC}))  # an evtms partial folder
     (partial / "manifest.json").write_text(json.dumps({"bench": "condenser", "axes": {}}))
+    (partial / "chunk_000000.npy").write_bytes(b"another sweep's chunk")
     res = runner.invoke(app, ["bench", "condenser", "-o", str(out), "--resume"])
     assert res.exit_code == 2 and "was made with other inputs" in res.stderr and not out.exists()
+    # Its chunks are kept (and unlocked) for the user to decide.
+    assert (partial / "chunk_000000.npy").read_bytes() == b"another sweep's chunk"
+    assert not (partial / "lock.json").exists()
 
 
 def _peak_rss_mb(points_per_axis: int, tmp_path) -> float:
