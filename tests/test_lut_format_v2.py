@@ -208,6 +208,19 @@ def test_version_1_file_reads_in_the_version_2_shape(tmp_path, params, fluid):
     assert read_lut_metadata(rewritten).version == 2 and lut_diff(back, open_lut(rewritten)).status_changed == 0
 
 
+def test_version_1_length_one_axis_in_celsius_becomes_a_fixed_input_in_kelvin(tmp_path, params, fluid):
+    bench = BENCHES["condenser"]
+    ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+    _as_version_1(ds, tmp_path / "v1.nc")
+    path = _edited(tmp_path, tmp_path / "v1.nc", lambda nc: _in_units(nc, "T_res", "degC", 1.0, 273.15))
+    with netCDF4.Dataset(path) as nc:
+        assert nc["T_res"].units == "degC" and nc["T_res"][0] == pytest.approx(26.85)
+    assert read_lut_metadata(path).fixed["T_res"] == pytest.approx(300.0, abs=1e-12)
+    bad = _edited(tmp_path, tmp_path / "v1.nc", lambda nc: nc["T_res"].setncattr("units", "F"), "bad.nc")
+    with pytest.raises(LutFormatError, match="axis 'T_res' has units 'F'; expected 'K'"):
+        read_lut_metadata(bad)
+
+
 @pytest.mark.parametrize("version", [0, 3, 99])
 def test_other_versions_are_refused(tmp_path, cond_file, version):
     path = _edited(tmp_path, cond_file, lambda nc: nc.setncattr("lut_format_version", np.int32(version)))

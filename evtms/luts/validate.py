@@ -183,6 +183,15 @@ def _check_size(name: str, dims: list[str], sizes: Mapping[str, int]) -> None:
         _fail(name, f"the file declares {points:.3g} grid points ({shown}); evtms reads at most {MAX_POINTS:.3g}")
 
 
+def _axis_conversion(name: str, axis: str, units: Any, convert_units: bool) -> tuple[float, float]:
+    """(factor, offset) from an axis' ``units`` to SI; refused if unknown (or, without ``convert_units``, not SI)."""
+    conversion = unit_conversion(axis, units)
+    if conversion is None or (conversion != (1.0, 0.0) and not convert_units):
+        also = f" (or one of {', '.join(accepted_units(axis)[1:])}, converted on reading)" if convert_units else ""
+        _fail(name, f"axis {axis!r} has units {units!r}; expected {AXES[axis].units!r}{also}")
+    return conversion
+
+
 def _check_header(name: str, h: _Header, convert_units: bool) -> _Checked:
     """Every metadata rule of the format, in order; the first broken one raises."""
     version = _version(name, h.attrs)
@@ -207,7 +216,9 @@ def _check_header(name: str, h: _Header, convert_units: bool) -> _Checked:
                 _fail(name, f"axis {d!r} has a single value; format version 2 stores it in fixed_inputs")
             if d not in h.coords:
                 _fail(name, f"axis {d!r} has no coordinate variable")
-            fixed[d] = float(np.asarray(h.coords[d][0]).reshape(-1)[0])
+            value = float(np.asarray(h.coords[d][0]).reshape(-1)[0])
+            factor, offset = _axis_conversion(name, d, h.coords[d][1].get("units"), convert_units)
+            fixed[d] = value * factor + offset
             continue
         dims.append(d)
     # The component's standard axes, in order (T_in may be h_in), each an axis or a fixed input.
@@ -249,11 +260,7 @@ def _check_header(name: str, h: _Header, convert_units: bool) -> _Checked:
             _fail(name, f"axis {d!r} has a _FillValue; coordinates carry none")
         if "long_name" not in attrs:
             _fail(name, f"axis {d!r} has no long_name")
-        units = attrs.get("units")
-        conversion = unit_conversion(d, units)
-        if conversion is None or (conversion != (1.0, 0.0) and not convert_units):
-            also = f" (or one of {', '.join(accepted_units(d)[1:])}, converted on reading)" if convert_units else ""
-            _fail(name, f"axis {d!r} has units {units!r}; expected {AXES[d].units!r}{also}")
+        conversion = _axis_conversion(name, d, attrs.get("units"), convert_units)
         if conversion != (1.0, 0.0):
             values = values * conversion[0] + conversion[1]
             if not np.all(np.diff(values) > 0):
