@@ -7,18 +7,87 @@ commands that need them, so ``evtms --help`` answers at once.
 from __future__ import annotations
 
 import json
-import os
+import math
+import shlex
 import sys
 import time
 from pathlib import Path
 from typing import Annotated, NoReturn
 
 import typer
+from typer.core import TyperGroup
+
+try:  # typer >= 0.20 carries its own copy of click
+    from typer._click.exceptions import UsageError
+except ImportError:  # pragma: no cover - older typer on click
+    from click.exceptions import UsageError
 
 from evtms import __version__
 from evtms.errors import EvtmsInputError
+from evtms.paths import creating_parents, input_file, output_file, output_folder, staged_folder
+
+
+class _EvtmsGroup(TyperGroup):
+    """The root command: every error leaves as one ``error: ...`` line.
+
+    Usage errors (a missing option, an unknown command) are one line, exit 2,
+    instead of click's usage block; an :class:`EvtmsInputError` or an OS error
+    (a read-only folder, a full disk, a name too long) that escapes a command
+    is one line naming the path and the reason, exit 2, never a traceback.
+    """
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        _ARGV[:] = list(sys.argv[1:] if args is None else args)
+        code = 0
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            code = rv if isinstance(rv, int) else 0
+        except UsageError as exc:
+            if type(exc).__name__ == "NoArgsIsHelpError":  # 'evtms lut' alone: the help, as click shows it
+                exc.show()
+                code = exc.exit_code
+            else:
+                code = _error(_usage_message(exc))
+        except typer.Abort:
+            code = _error("aborted", 130)
+        except EvtmsInputError as exc:
+            code = _error(str(exc))
+        except OSError as exc:
+            code = _error(_os_message(exc))
+        except MemoryError:
+            code = _error("out of memory; use a coarser grid or a smaller --chunk-points")
+        if standalone_mode:
+            sys.exit(code)
+        return code
+
+
+#: The arguments of this call (for the exact resume command after Ctrl-C).
+_ARGV: list[str] = []
+
+
+def _error(message: str, code: int = 2) -> int:
+    typer.echo(f"error: {' '.join(str(message).split())}", err=True)
+    return code
+
+
+def _usage_message(exc: UsageError) -> str:
+    message = exc.format_message()
+    ctx = exc.ctx
+    if message.startswith("No such command") and ctx is not None:
+        names = [n for n in ctx.command.list_commands(ctx) if not ctx.command.get_command(ctx, n).hidden]
+        message = f"{message.rstrip('.')} (allowed: {', '.join(names)})"
+    where = ctx.command_path if ctx is not None else "evtms"
+    return f"{message} (see '{where} --help')"
+
+
+def _os_message(exc: OSError) -> str:
+    path = exc.filename if exc.filename is not None else ""
+    reason = exc.strerror or type(exc).__name__
+    return f"{str(path)!r}: {reason}" if path else reason
+
 
 app = typer.Typer(
+    cls=_EvtmsGroup,
     name="evtms",
     help="R134a refrigerant-circuit benches, N-D lookup tables and cycle models for EV thermal management.",
     no_args_is_help=True,
@@ -27,19 +96,10 @@ app = typer.Typer(
     rich_markup_mode=None,
 )
 
-COMPONENT_ALIASES = {
-    "condenser": "condenser",
-    "evaporator": "evaporator",
-    "expansion-valve": "expansion_valve",
-    "expansion_valve": "expansion_valve",
-    "compressor": "compressor",
-}
-
 
 def fail(message: str) -> NoReturn:
     """Print a one-line error and exit with code 2 (bad input)."""
-    typer.echo(f"error: {message}", err=True)
-    raise typer.Exit(2)
+    raise typer.Exit(_error(message))
 
 
 def _version_callback(value: bool) -> None:
@@ -57,32 +117,29 @@ def _main(
     """R134a refrigerant-circuit benches, N-D lookup tables and cycle models."""
 
 
-def check_output_file(path: Path) -> Path:
-    """Fail early if ``path`` cannot be written (missing or read-only folder)."""
-    parent = path.parent if str(path.parent) else Path(".")
-    if path.exists() and path.is_dir():
-        fail(f"output {str(path)!r} is a folder; give a file path ending in .nc")
-    if not parent.is_dir():
-        fail(f"output folder {str(parent)!r} does not exist; create it or choose an existing folder")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        fail(f"output folder {str(parent)!r} is not writable")
-    return path
+def _json_safe(value):
+    """``value`` with NaN and infinities as null (strict JSON), numpy scalars as Python numbers."""
+    import math
+
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Path):
+        return str(value)
+    return value
 
 
-def check_output_folder(path: Path) -> Path:
-    """An output folder: created if its parent exists, else an error."""
-    if path.exists() and not path.is_dir():
-        fail(f"output {str(path)!r} is a file; give a folder for several outputs")
-    if not path.exists():
-        if not path.parent.is_dir():
-            fail(f"output folder {str(path.parent)!r} does not exist; create it or choose an existing folder")
-        try:
-            path.mkdir()
-        except OSError as exc:
-            fail(f"output folder {str(path)!r} cannot be created: {exc.strerror}")
-    if not os.access(path, os.W_OK | os.X_OK):
-        fail(f"output folder {str(path)!r} is not writable")
-    return path
+def print_json(obj) -> None:
+    """One JSON object on stdout, nothing else."""
+    typer.echo(json.dumps(_json_safe(obj), allow_nan=False, sort_keys=False))
+
+
+_JSON = typer.Option("--json", help="Print one JSON object on stdout (SI units) instead of the text summary.")
 
 
 class _ProgressBar:
@@ -121,116 +178,213 @@ class _ProgressBar:
         return update
 
 
-def _parse_grid(component: str, grid: str, axis: list[str] | None):
+bench_app = typer.Typer(
+    help=(
+        "Sweep a component bench over a grid and write its LUT (netCDF). "
+        "'evtms bench COMPONENT --help' lists that bench's axes, units, ranges and presets.\n\n"
+        "Example: evtms bench condenser --grid thesis -o luts/condenser.nc"
+    ),
+    no_args_is_help=True,
+)
+app.add_typer(bench_app, name="bench")
+
+
+def _bench_help(name: str) -> str:
+    """A bench command's help, from its registry entry: axes with units and ranges, presets."""
     from evtms.benches import BENCHES
-    from evtms.benches.grid import build_grid, parse_axis
+    from evtms.benches.grid import allowed_axes
+    from evtms.luts.schema import AXES
 
-    bench = BENCHES[component]
-    overrides = dict(parse_axis(spec, bench) for spec in axis or [])
-    preset = grid if grid != "custom" else None
-    values = build_grid(bench, preset, overrides)
-    name = grid if not overrides else "custom"
-    return bench, values, name
+    bench = BENCHES[name]
+    cli = name.replace("_", "-")
+    lines = [
+        f"{bench.title}: sweep it over a grid and write its LUT (netCDF).",
+        "",
+        "\b",
+        "Axes (--axis name=start:stop:count[unit] or name=v1,v2,...[unit]):",
+    ]
+    for a in allowed_axes(bench):
+        spec = AXES[a]
+        suffixes = ", ".join(u for u, _, _ in spec.cli_units) or "SI only"
+        extra = " (optional extra axis)" if a in bench.extra_axes else ""
+        lines.append(f"  {a} [{spec.units}]: {spec.long_name}{extra}; allowed {spec.allowed()}; units: {suffixes}")
+    for preset, axes in bench.presets.items():
+        lines += ["", "\b", f"Preset --grid {preset}:"]
+        for a, values in axes.items():
+            v = [float(x) for x in values]
+            shown = f"{v[0]:g}" if len(v) == 1 else f"{len(v)} values {v[0]:g} .. {v[-1]:g}"
+            lines.append(f"  {a} [{AXES[a].units}]: {shown}" + (" (fixed input)" if len(v) == 1 else ""))
+    lines += ["", f"Example: evtms bench {cli} --grid {next(iter(bench.presets), 'thesis')} -o luts/{name}.nc"]
+    return "\n".join(lines)
 
 
-@app.command()
-def bench(
-    component: Annotated[
-        str, typer.Argument(help="condenser, evaporator, expansion-valve, compressor, or all.", show_default=False)
-    ],
-    grid: Annotated[str, typer.Option("--grid", "-g", help="Grid preset: thesis, cycle, or custom.")] = "thesis",
-    axis: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--axis",
-            "-a",
-            help="Override or add an axis: name=start:stop:count[unit] or name=v1,v2,...[unit]. Repeatable.",
+def _bench_command(names: list[str]):
+    """The command that sweeps ``names`` (one bench, or all for 'bench all')."""
+
+    def command(
+        grid: Annotated[str, typer.Option("--grid", "-g", help="Grid preset: thesis, cycle, or custom.")] = "thesis",
+        axis: Annotated[
+            list[str] | None,
+            typer.Option(
+                "--axis",
+                "-a",
+                help="Override or add an axis: name=start:stop:count[unit] or name=v1,v2,...[unit]. Repeatable.",
+            ),
+        ] = None,
+        params: Annotated[
+            Path | None, typer.Option("--params", help="TOML file overriding component parameters.")
+        ] = None,
+        output: Annotated[
+            Path | None,
+            typer.Option("--output", "-o", help="Output .nc file (a folder for 'all'). Default: luts/<name>.nc"),
+        ] = None,
+        backend: Annotated[
+            str | None, typer.Option("--backend", help="CoolProp backend: HEOS (default) or BICUBIC&HEOS.")
+        ] = None,
+        quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+        workers: Annotated[
+            int | None, typer.Option("--workers", help="Run the sweep in N local dask worker processes.")
+        ] = None,
+        scheduler: Annotated[
+            str | None,
+            typer.Option(
+                "--scheduler",
+                help="Send the sweep to a dask.distributed scheduler, tcp://host:port (it runs the code sent to it: "
+                "use only a cluster you trust).",
+            ),
+        ] = None,
+        resume: Annotated[
+            bool, typer.Option("--resume", help="Reuse the finished chunks of an interrupted sweep to the same output.")
+        ] = False,
+        chunk_points: Annotated[int, typer.Option("--chunk-points", help="Points per chunk (bounds memory).")] = 16384,
+        max_points: Annotated[
+            int | None,
+            typer.Option("--max-points", help="Refuse grids above this many points (default 200,000,000)."),
+        ] = None,
+        float32: Annotated[
+            bool, typer.Option("--float32", help="Store the variables as float32 (lossy, about half the size).")
+        ] = False,
+        significant_digits: Annotated[
+            int | None,
+            typer.Option("--significant-digits", help="Keep N significant digits (1-15; lossy, compresses better)."),
+        ] = None,
+        json_out: Annotated[bool, _JSON] = False,
+    ) -> None:
+        _run_benches(
+            names,
+            grid,
+            axis,
+            params,
+            output,
+            backend,
+            quiet,
+            workers,
+            scheduler,
+            resume,
+            chunk_points,
+            max_points,
+            float32,
+            significant_digits,
+            json_out,
+        )
+
+    return command
+
+
+def _register_benches() -> None:
+    from evtms.benches import BENCHES
+
+    for name in BENCHES:
+        cli_name = name.replace("_", "-")
+        bench_app.command(cli_name, help=_bench_help(name))(_bench_command([name]))
+        if cli_name != name:  # the registry's spelling works too
+            bench_app.command(name, help=_bench_help(name), hidden=True)(_bench_command([name]))
+    bench_app.command(
+        "all",
+        help=(
+            f"Sweep every bench ({', '.join(BENCHES)}) on one grid preset and write <folder>/<name>.nc.\n\n"
+            "Example: evtms bench all --grid cycle -o luts/"
         ),
-    ] = None,
-    params: Annotated[Path | None, typer.Option("--params", help="TOML file overriding component parameters.")] = None,
-    output: Annotated[
-        Path | None,
-        typer.Option("--output", "-o", help="Output .nc file (a folder for 'all'). Default: luts/<name>.nc"),
-    ] = None,
-    backend: Annotated[
-        str | None, typer.Option("--backend", help="CoolProp backend: HEOS (default) or BICUBIC&HEOS.")
-    ] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
-    workers: Annotated[
-        int | None, typer.Option("--workers", help="Run the sweep in N local dask worker processes.")
-    ] = None,
-    scheduler: Annotated[
-        str | None, typer.Option("--scheduler", help="Send the sweep to a dask.distributed scheduler, tcp://host:port.")
-    ] = None,
-    resume: Annotated[
-        bool, typer.Option("--resume", help="Reuse the finished chunks of an interrupted sweep to the same output.")
-    ] = False,
-    chunk_points: Annotated[int, typer.Option("--chunk-points", help="Points per chunk (bounds memory).")] = 16384,
+    )(_bench_command(list(BENCHES)))
+
+
+def _run_benches(
+    names,
+    grid,
+    axis,
+    params,
+    output,
+    backend,
+    quiet,
+    workers,
+    scheduler,
+    resume,
+    chunk_points,
+    max_points,
+    float32,
+    significant_digits,
+    json_out,
 ) -> None:
-    """Sweep a component bench over a grid and write its LUT (netCDF).
+    import dataclasses
 
-    Example: evtms bench condenser --grid thesis -o luts/condenser.nc
+    from evtms.benches import BENCHES
+    from evtms.benches.chunked import InProcessRunner, SweepInterrupted, sweep_to_file
+    from evtms.benches.grid import DEFAULT_MAX_POINTS, build_grid, parse_axes
+    from evtms.luts.io import LutStorage
+    from evtms.params import check_backend, load_parameters
 
-    Custom axes: evtms bench condenser --axis mdot=0.004:0.008:5 --axis p_in=0.9:1.2:4MPa -o c.nc
-    """
-    from evtms.params import load_parameters
-
-    names = list(dict.fromkeys(COMPONENT_ALIASES.values())) if component == "all" else None
-    if names is None:
-        if component not in COMPONENT_ALIASES:
-            fail(f"unknown bench {component!r}; allowed: {', '.join(COMPONENT_ALIASES)}, all")
-        names = [COMPONENT_ALIASES[component]]
-    if component == "all":
-        if axis:
-            fail("--axis applies to one bench; run the benches one by one for custom axes")
-        folder = check_output_folder(output or Path("luts"))
-        targets = {name: folder / f"{name}.nc" for name in names}
-    elif output is None:
-        targets = {names[0]: check_output_folder(Path("luts")) / f"{names[0]}.nc"}
-    else:
-        targets = {names[0]: check_output_file(output)}
-    try:
-        parameters = load_parameters(params)
-        if backend is not None:
-            import dataclasses
-
-            parameters = dataclasses.replace(parameters, backend=backend)
-        jobs = [(name, *_parse_grid(name, grid, axis)) for name in names]
-    except EvtmsInputError as exc:
-        fail(str(exc))
-
-    from evtms.benches.chunked import InProcessRunner, sweep_to_file
-
+    max_points = DEFAULT_MAX_POINTS if max_points is None else max_points
+    if max_points < 1:
+        fail(f"--max-points {max_points} is not allowed; allowed: 1 or more")
     if workers is not None and workers < 1:
         fail(f"--workers {workers} is not allowed; allowed: 1 or more")
     if workers is not None and scheduler is not None:
         fail("give --workers or --scheduler, not both")
     if chunk_points < 1:
         fail(f"--chunk-points {chunk_points} is not allowed; allowed: 1 or more")
+    storage = LutStorage(float32=float32, significant_digits=significant_digits)
+    several = len(names) > 1
+    if several and axis:
+        fail("--axis applies to one bench; run the benches one by one for custom axes")
+    inputs = [params] if params is not None else []
+    if params is not None:
+        input_file(params, "params file")
+    if several:
+        folder = output_folder(output or Path("luts"), inputs)
+        targets = {name: folder / f"{name}.nc" for name in names}
+    else:
+        targets = {names[0]: output_file(output or Path("luts") / f"{names[0]}.nc", inputs, (".nc",))}
+    for target in targets.values():
+        output_file(target, inputs)
+    parameters = load_parameters(params)
+    if backend is not None:
+        parameters = dataclasses.replace(parameters, backend=check_backend(backend))
+    jobs = []
+    for name in names:
+        bench = BENCHES[name]
+        overrides = parse_axes(axis or [], bench, max_points)
+        values = build_grid(bench, grid if grid != "custom" else None, overrides, max_points)
+        jobs.append((name, bench, values, grid if not overrides else "custom"))
     try:
         from evtms.fluid import Fluid
 
         Fluid(parameters.fluid, parameters.backend)
     except ValueError as exc:
         fail(f"fluid {parameters.fluid!r} with backend {parameters.backend!r} cannot be loaded ({exc})")
-    try:
-        if workers is None and scheduler is None:
-            runner = InProcessRunner()  # plain NumPy in this process: dask is not imported
-        else:
-            from evtms.benches.chunked import DaskRunner
+    if workers is None and scheduler is None:
+        runner = InProcessRunner()  # plain NumPy in this process: dask is not imported
+    else:
+        from evtms.benches.chunked import DaskRunner
 
-            runner = DaskRunner(workers=workers, scheduler=scheduler)
-    except EvtmsInputError as exc:
-        fail(str(exc))
+        runner = DaskRunner(workers=workers, scheduler=scheduler)
+    summaries = []
     try:
-        with _ProgressBar(quiet or not sys.stderr.isatty()) as bar:
-            for name, bench_, values, grid_name in jobs:
-                total = 1
-                for v in values.values():
-                    total *= len(v)
-                try:
+        with _ProgressBar(quiet or json_out or not sys.stderr.isatty()) as bar:
+            for name, bench, values, grid_name in jobs:
+                total = math.prod(len(v) for v in values.values())
+                with creating_parents(targets[name]):
                     s = sweep_to_file(
-                        bench_,
+                        bench,
                         values,
                         parameters,
                         targets[name],
@@ -239,29 +393,59 @@ def bench(
                         chunk_points=chunk_points,
                         resume=resume,
                         progress=bar.task(name, total),
+                        storage=storage,
                     )
-                except EvtmsInputError as exc:
-                    fail(str(exc))
-                chunks = f"{s.chunks} chunks ({s.computed} computed, {s.reused} reused), " if s.chunks > 1 else ""
-                typer.echo(
-                    f"{name}: {s.points} points, {s.invalid} invalid, {chunks}{s.seconds:.2f} s "
-                    f"({runner.name}), wrote {s.path}"
-                )
+                for note in getattr(s, "notes", ()):
+                    typer.echo(f"note: {note}", err=True)
+                summaries.append((name, s))
+                if not json_out:
+                    chunks = f"{s.chunks} chunks ({s.computed} computed, {s.reused} reused), " if s.chunks > 1 else ""
+                    typer.echo(
+                        f"{name}: {s.points} points, {s.invalid} invalid, {chunks}{s.seconds:.2f} s "
+                        f"({runner.name}), wrote {s.path}"
+                    )
+    except SweepInterrupted as exc:
+        if exc.kept == 0:
+            raise typer.Exit(_error("interrupted before the first chunk was saved; nothing to resume", 130)) from None
+        command = shlex.join(["evtms", *[a for a in _ARGV if a != "--resume"], "--resume"])
+        message = f"interrupted: {exc.kept} of {exc.total} chunks kept in {str(exc.partial)!r}; resume with: {command}"
+        raise typer.Exit(_error(message, 130)) from None
     finally:
         runner.close()
+    if json_out:
+        print_json(
+            {
+                "benches": [
+                    {
+                        "component": name,
+                        "path": str(s.path),
+                        "points": s.points,
+                        "invalid": s.invalid,
+                        "chunks": s.chunks,
+                        "computed": s.computed,
+                        "reused": s.reused,
+                        "seconds": s.seconds,
+                        "runner": s.runner,
+                        "notes": list(getattr(s, "notes", ())),
+                    }
+                    for name, s in summaries
+                ]
+            }
+        )
+
+
+_register_benches()
 
 
 lut_app = typer.Typer(help="Read, check, query, export and compare LUT files.", no_args_is_help=True)
 app.add_typer(lut_app, name="lut")
 
 
-def _open(path: Path):
+def _open(path: Path, **kwargs):
+    """A validated LUT (see :func:`evtms.luts.open_lut`); a bad file is one line, exit 2."""
     from evtms.luts import open_lut
 
-    try:
-        return open_lut(path)
-    except EvtmsInputError as exc:
-        fail(str(exc))
+    return open_lut(input_file(path, "LUT file"), **kwargs)
 
 
 def _fmt(x: float) -> str:
@@ -269,14 +453,23 @@ def _fmt(x: float) -> str:
 
 
 @lut_app.command("info")
-def lut_info(file: Annotated[Path, typer.Argument(help="LUT file (.nc).")]) -> None:
+def lut_info(
+    file: Annotated[Path, typer.Argument(help="LUT file (.nc).")],
+    json_out: Annotated[bool, _JSON] = False,
+) -> None:
     """Show a LUT's component, axes, variables, invalid points and provenance.
+
+    Reads the metadata and streams the data once for the ranges, so it stays
+    fast and small on large LUTs.
 
     Example: evtms lut info luts/condenser.nc
     """
     from evtms.luts.summary import lut_summary
 
-    s = lut_summary(_open(file))
+    s = lut_summary(input_file(file, "LUT file"))
+    if json_out:
+        print_json({"file": str(file), **s})
+        return
     typer.echo(f"{file}: {s['component']} LUT, fluid {s['fluid']}, grid {s['grid']}, format v{s['format']}")
     typer.echo("axes:")
     for a in s["axes"]:
@@ -284,6 +477,8 @@ def lut_info(file: Annotated[Path, typer.Argument(help="LUT file (.nc).")]) -> N
             f"  {a['name']:<8} {a['size']:>4} values  {_fmt(a['min']):>10} .. {_fmt(a['max']):<10} "
             f"[{a['units']}]  {a['long_name']}"
         )
+    for name, fixed in s.get("fixed_inputs", {}).items():
+        typer.echo(f"  {name:<8} fixed at {_fmt(fixed['value'])} [{fixed['units']}] (not an axis)")
     typer.echo("variables (range over valid points):")
     for v in s["variables"]:
         typer.echo(f"  {v['name']:<10} {_fmt(v['min']):>12} .. {_fmt(v['max']):<12} [{v['units']}]  {v['long_name']}")
@@ -297,11 +492,16 @@ def lut_info(file: Annotated[Path, typer.Argument(help="LUT file (.nc).")]) -> N
     typer.echo(f"parameters: {json.dumps(s['parameters'], sort_keys=True)}")
 
 
-def _parse_point(text: str, names: tuple[str, ...], partial: bool = False) -> dict[str, float]:
-    """``name=value[unit],...`` -> SI values (units as for --axis)."""
+def _parse_point(text: str, names: tuple[str, ...], partial: bool = False, fixed: dict | None = None) -> dict:
+    """``name=value[unit],...`` -> SI values (units as for --axis).
+
+    A fixed input of the LUT (``fixed``: name -> value) may be given too; it
+    must then equal the LUT's value, as the LUT holds no other.
+    """
     from evtms.benches.grid import parse_value
 
-    point = {}
+    fixed = fixed or {}
+    point: dict[str, float] = {}
     for item in text.split(","):
         if not item.strip():
             continue
@@ -309,13 +509,31 @@ def _parse_point(text: str, names: tuple[str, ...], partial: bool = False) -> di
         name = name.strip()
         if not sep:
             raise EvtmsInputError(f"--at item {item!r} is not name=value")
-        if name not in names:
-            raise EvtmsInputError(f"unknown axis {name!r} in --at; allowed: {', '.join(names)}")
-        point[name] = parse_value(name, value)
+        if name not in names and name not in fixed:
+            raise EvtmsInputError(f"unknown axis {name!r} in --at; allowed: {', '.join((*names, *fixed))}")
+        if name in point:
+            raise EvtmsInputError(f"axis {name!r} is given twice in --at")
+        x = parse_value(name, value)
+        if name in fixed:
+            if not math.isclose(x, fixed[name], rel_tol=1e-9, abs_tol=1e-12):
+                raise EvtmsInputError(
+                    f"{name} = {x:g} in --at: the LUT holds {name} fixed at {fixed[name]:g} only (not an axis)"
+                )
+            continue
+        point[name] = x
     missing = [n for n in names if n not in point]
     if missing and not partial:
         raise EvtmsInputError(f"--at has no value for axis {missing[0]!r}; give all of {', '.join(names)}")
     return point
+
+
+def _fixed_values(ds) -> dict[str, float]:
+    from evtms.luts.validate import fixed_inputs
+
+    return fixed_inputs(ds)
+
+
+_MAX_QUERY_POINTS = 100_000
 
 
 @lut_app.command("query")
@@ -328,6 +546,7 @@ def lut_query(
     out_of_range: Annotated[
         str, typer.Option("--out-of-range", help="Policy outside the grid: error, clip or nan.")
     ] = "error",
+    json_out: Annotated[bool, _JSON] = False,
 ) -> None:
     """Interpolate LUT variables at points (N-D multilinear).
 
@@ -335,16 +554,35 @@ def lut_query(
     """
     from evtms.luts import Interpolator
 
-    ds = _open(file)
-    try:
-        names = tuple(ds["status"].dims)
-        variables = [v for item in (var or []) for v in item.split(",") if v] or None
-        itp = Interpolator.from_dataset(ds, variables, out_of_range)
-        points = [_parse_point(text, names) for text in at]
-        query = {n: [p[n] for p in points] for n in names}
-        result = itp(query)
-    except EvtmsInputError as exc:
-        fail(str(exc))
+    if len(at) > _MAX_QUERY_POINTS:
+        fail(f"{len(at)} --at points is above the limit of {_MAX_QUERY_POINTS:,}")
+    if out_of_range not in ("error", "clip", "nan"):
+        fail(f"--out-of-range {out_of_range!r} is not allowed; allowed: error, clip, nan")
+    variables = [v.strip() for item in (var or []) for v in item.split(",") if v.strip()] or None
+    if variables is not None and len(set(variables)) != len(variables):
+        fail(f"--var names a variable twice: {', '.join(variables)}")
+    ds = _open(file, variables=variables)
+    names = tuple(ds["status"].dims)
+    fixed = _fixed_values(ds)
+    itp = Interpolator.from_dataset(ds, variables, out_of_range)
+    points = [_parse_point(text, names, fixed=fixed) for text in at]
+    query = {n: [p[n] for p in points] for n in names}
+    result = itp(query)
+    if json_out:
+        print_json(
+            {
+                "file": str(file),
+                "axes": list(names),
+                "fixed_inputs": fixed,
+                "variables": list(itp.variables),
+                "units": {n: ds[n].attrs["units"] for n in (*names, *itp.variables)},
+                "points": [
+                    {**{n: p[n] for n in names}, **{v: float(result[v][i]) for v in itp.variables}}
+                    for i, p in enumerate(points)
+                ],
+            }
+        )
+        return
     header = [f"{n} [{ds[n].attrs['units']}]" for n in names] + [f"{v} [{ds[v].attrs['units']}]" for v in itp.variables]
     typer.echo("  ".join(header))
     for i, p in enumerate(points):
@@ -360,15 +598,19 @@ def lut_export(
 ) -> None:
     """Export a LUT to .mat for MATLAB/Simulink or to long-form .csv.
 
+    Length-1 axes are dropped from the .mat tables (Simulink's n-D Lookup
+    Table rejects them) and recorded in lut.fixed_inputs.
+
     Example: evtms lut export luts/condenser.nc --format mat -o condenser.mat
     """
     from evtms.luts.export import FORMATS, to_csv, to_mat
 
     if fmt not in FORMATS:
         fail(f"export format {fmt!r} is not allowed; allowed: {', '.join(FORMATS)}")
-    check_output_file(output)
+    output_file(output, [file])
     ds = _open(file)
-    path = (to_mat if fmt == "mat" else to_csv)(ds, output)
+    with creating_parents(output):
+        path = (to_mat if fmt == "mat" else to_csv)(ds, output)
     typer.echo(f"wrote {path}")
 
 
@@ -383,11 +625,7 @@ def lut_diff_cmd(
     """
     from evtms.luts.diff import lut_diff
 
-    da, db = _open(a), _open(b)
-    try:
-        d = lut_diff(da, db)
-    except EvtmsInputError as exc:
-        fail(str(exc))
+    d = lut_diff(_open(a), _open(b))
     typer.echo(
         f"common grid: {' x '.join(str(n) for n in d.common_shape)} points; status differs at {d.status_changed}"
     )
@@ -414,29 +652,38 @@ _CYCLE_RANGES = {
     "T_amb": (233.15, 333.15),
     "T_cabin": (253.15, 323.15),
 }
+#: Operating points one 'cycle sweep' solves at most unless --max-points says otherwise.
+DEFAULT_MAX_CYCLE_POINTS = 2_000_000
 
 
-def _cycle_values(name: str, text: str, celsius: bool) -> list[float]:
-    """A cycle input: one value, v1,v2,... or start:stop:count; degC inputs to K."""
+def _cycle_values(name: str, text: str, celsius: bool, max_points: int) -> list[float]:
+    """A cycle input: one value, v1,v2,... or start:stop:count; degC inputs to K, rounded to 12 digits."""
     import numpy as np
 
+    option = f"--{name.replace('_', '-').lower()}"
     try:
         if ":" in text:
-            start, stop, count = text.split(":")
-            values = np.linspace(float(start), float(stop), int(count)).tolist()
+            start, stop, count_text = text.split(":")
+            count = float(count_text)
+            if not count.is_integer() or count < 1:
+                raise EvtmsInputError(f"{option} {text!r}: count {count_text.strip()!r} must be a whole number >= 1")
+            if count > max_points:
+                raise EvtmsInputError(f"{option} {text!r}: {count:.0f} values is above the limit of {max_points:,}")
+            values = np.linspace(float(start), float(stop), int(count))
         else:
-            values = [float(v) for v in text.split(",")]
+            values = np.array([float(v) for v in text.split(",")])
     except ValueError:
-        raise EvtmsInputError(
-            f"--{name.replace('_', '-').lower()} {text!r} is not a number, v1,v2,... or start:stop:count"
-        ) from None
+        raise EvtmsInputError(f"{option} {text!r} is not a number, v1,v2,... or start:stop:count") from None
     if celsius:
-        values = [v + 273.15 for v in values]
+        values = values + 273.15
+    values = [float(f"{v:.12g}") for v in values]  # -40 degC is 233.15 K exactly, 0.3 is 0.3
     lo, hi = _CYCLE_RANGES[name]
     for v in values:
         if not lo <= v <= hi or (name in ("speed", "fan", "blower") and v == 0):
             shown = f"{v - 273.15:g} degC" if celsius else f"{v:g}"
             allowed = f"{lo - 273.15:g} to {hi - 273.15:g} degC" if celsius else f"{lo:g} to {hi:g}"
+            if name in ("speed", "fan", "blower"):
+                allowed = f"0 < {name} <= 1"
             raise EvtmsInputError(f"{name} = {shown} is not allowed; allowed: {allowed}")
     if any(b <= a for a, b in zip(values, values[1:], strict=False)):
         raise EvtmsInputError(f"{name} values must be strictly increasing")
@@ -444,7 +691,7 @@ def _cycle_values(name: str, text: str, celsius: bool) -> list[float]:
 
 
 def _cycle_inputs(
-    speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling
+    speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling, max_points=DEFAULT_MAX_CYCLE_POINTS
 ) -> dict[str, list[float]]:
     raw = {
         "speed": (speed, False),
@@ -457,18 +704,49 @@ def _cycle_inputs(
         "superheat": (superheat, False),
         "subcooling": (subcooling, False),
     }
-    return {name: _cycle_values(name, text, c) for name, (text, c) in raw.items()}
+    grid = {name: _cycle_values(name, text, c, max_points) for name, (text, c) in raw.items()}
+    points = math.prod(len(v) for v in grid.values())
+    if points > max_points:
+        sizes = " x ".join(f"{k} {len(v)}" for k, v in grid.items() if len(v) > 1)
+        raise EvtmsInputError(
+            f"the sweep has {points:,} operating points ({sizes}), above the limit of {max_points:,}; "
+            "raise it with --max-points or sweep fewer values"
+        )
+    return grid
 
 
-def _solve(luts: Path | None, direct: bool, params: Path | None, grid: dict[str, list[float]]):
-    import numpy as np
-
-    from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
-    from evtms.cycle.solver import INPUTS
+def _cycle_models(luts: Path | None, direct: bool, params: Path | None):
+    """(LUT tables or None, parameters) for a cycle command; a --params that the LUTs contradict is refused."""
+    from evtms.cycle import load_cycle_luts
+    from evtms.cycle.api import parameter_conflicts
     from evtms.params import load_parameters
 
+    if direct and luts is not None:
+        fail("give --direct (bench physics) or --luts (LUT folder), not both")
+    if params is not None:
+        input_file(params, "params file")
     parameters = load_parameters(params)
-    tables = None if direct else load_cycle_luts(luts or Path("luts"))
+    if direct:
+        return None, parameters
+    folder = luts or Path("luts")
+    tables = load_cycle_luts(folder)
+    if params is not None:
+        conflicts = parameter_conflicts(tables, parameters)
+        if conflicts:
+            shown = ", ".join(conflicts[:6]) + (f" and {len(conflicts) - 6} more" if len(conflicts) > 6 else "")
+            fail(
+                f"--params {str(params)!r} differs from the parameters the LUTs in {str(folder)!r} were made with "
+                f"({shown}); rebuild the LUTs with these parameters or use --direct"
+            )
+    return tables, parameters
+
+
+def _solve(tables, parameters, grid: dict[str, list[float]]):
+    import numpy as np
+
+    from evtms.cycle import OperatingPoints, run_cycle
+    from evtms.cycle.solver import INPUTS
+
     mesh = np.meshgrid(*[np.asarray(grid[k]) for k in INPUTS], indexing="ij")
     points = OperatingPoints(**{k: m.ravel() for k, m in zip(INPUTS, mesh, strict=True)})
     return points, run_cycle(points, tables, parameters)
@@ -477,15 +755,31 @@ def _solve(luts: Path | None, direct: bool, params: Path | None, grid: dict[str,
 _SPEED = typer.Option("--speed", help="Compressor speed fraction (0-1].")
 _FAN = typer.Option("--fan", help="Condenser fan fraction (0-1].")
 _BLOWER = typer.Option("--blower", help="Evaporator blower fraction (0-1].")
-_TAMB = typer.Option("--t-amb", help="Ambient air temperature [degC].")
-_RHAMB = typer.Option("--rh-amb", help="Ambient relative humidity (0-1).")
-_TCAB = typer.Option("--t-cabin", help="Air temperature entering the evaporator [degC].")
-_RHCAB = typer.Option("--rh-cabin", help="Relative humidity entering the evaporator (0-1).")
-_SH = typer.Option("--superheat", help="Thermostatic-valve superheat setpoint [K].")
-_SC = typer.Option("--subcooling", help="Condenser-outlet subcooling [K]; 0 = saturated liquid (receiver).")
+_TAMB = typer.Option("--t-amb", help="Ambient air temperature [degC], -40 to 60.")
+_RHAMB = typer.Option("--rh-amb", help="Ambient relative humidity [0-1].")
+_TCAB = typer.Option("--t-cabin", help="Air temperature entering the evaporator [degC], -20 to 50.")
+_RHCAB = typer.Option("--rh-cabin", help="Relative humidity entering the evaporator [0-1].")
+_SH = typer.Option("--superheat", help="Thermostatic-valve superheat setpoint [K], 0-50.")
+_SC = typer.Option("--subcooling", help="Condenser-outlet subcooling [K], 0-30; 0 = saturated liquid (receiver).")
 _LUTS = typer.Option("--luts", help="Folder with the cycle LUTs (evtms bench all --grid cycle). Default: luts/")
 _DIRECT = typer.Option("--direct", help="Use the bench physics directly instead of LUTs (reference, slower).")
-_PARAMS = typer.Option("--params", help="TOML parameter overrides (direct mode and valve limits).")
+_PARAMS = typer.Option(
+    "--params", help="TOML parameters: direct mode; with LUTs it must agree with the LUTs' own parameters."
+)
+
+_STATES = {"A": "A evaporator outlet", "B": "B compressor outlet", "C": "C condenser outlet", "D": "D valve outlet"}
+_PERFORMANCE = (
+    ("mdot", "mass flow", 1e3, "g/s", "kg s-1"),
+    ("Q_evap", "cooling |Q_evap|", -1.0, "W", "W"),
+    ("Q_latent", "  of which latent", -1.0, "W", "W"),
+    ("Q_cond", "Q_cond", 1.0, "W", "W"),
+    ("W", "compressor shaft power W", 1.0, "W", "W"),
+    ("COP", "cooling COP", 1.0, "-", "1"),
+    ("dp_valve", "valve pressure drop", 1e-3, "kPa", "Pa"),
+    ("valve_opening", "valve opening / nominal", 1.0, "-", "1"),
+    ("balance_residual", "energy balance residual", 1.0, "W", "W"),
+    ("balance_relative", "  relative to W_fluid", 100.0, "%", "1"),
+)
 
 
 @cycle_app.command("run")
@@ -502,42 +796,43 @@ def cycle_run(
     luts: Annotated[Path | None, _LUTS] = None,
     direct: Annotated[bool, _DIRECT] = False,
     params: Annotated[Path | None, _PARAMS] = None,
+    json_out: Annotated[bool, _JSON] = False,
 ) -> None:
     """Solve one operating point and print its states and performance.
 
     Example: evtms cycle run --luts luts/ --speed 0.6 --fan 0.5 --blower 0.4 --t-amb 30 --t-cabin 27
     """
-    try:
-        grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling)
-        if any(len(v) != 1 for v in grid.values()):
-            raise EvtmsInputError("cycle run takes one value per input; use 'evtms cycle sweep' for several")
-        _, r = _solve(luts, direct, params, grid)
-    except EvtmsInputError as exc:
-        fail(str(exc))
-    from evtms.cycle.solver import VALID_CYCLE_FLAGS
+    from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
 
-    if int(r["status"][0]) not in VALID_CYCLE_FLAGS:
+    grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling)
+    if any(len(v) != 1 for v in grid.values()):
+        fail("cycle run takes one value per input; use 'evtms cycle sweep' for several")
+    tables, parameters = _cycle_models(luts, direct, params)
+    _, r = _solve(tables, parameters, grid)
+    status = int(r["status"][0])
+    if status not in VALID_CYCLE_FLAGS:
         fail(f"operating point not solved: {r['reason'][0]}")
+    if json_out:
+        print_json(
+            {
+                "inputs": {k: v[0] for k, v in grid.items()},
+                "models": "direct" if direct else str(luts or "luts"),
+                "status": status,
+                "status_meaning": CYCLE_FLAGS[status],
+                "note": str(r["reason"][0]),
+                "states": {s: {q: float(r[f"{q}_{s}"][0]) for q in ("p", "T", "h")} for s in _STATES},
+                **{key: float(r[key][0]) for key, *_ in _PERFORMANCE},
+                "units": {"p": "Pa", "T": "K", "h": "J kg-1", **{key: si for key, *_, si in _PERFORMANCE}},
+            }
+        )
+        return
     typer.echo(f"{'state':<26} {'p [MPa]':>9} {'T [degC]':>9} {'h [kJ/kg]':>10}")
-    names = {"A": "A evaporator outlet", "B": "B compressor outlet", "C": "C condenser outlet", "D": "D valve outlet"}
-    for s, label in names.items():
+    for s, label in _STATES.items():
         typer.echo(
             f"{label:<26} {r['p_' + s][0] / 1e6:9.4f} {r['T_' + s][0] - 273.15:9.2f} {r['h_' + s][0] / 1e3:10.2f}"
         )
-    rows = [
-        ("mass flow", r["mdot"][0] * 1e3, "g/s"),
-        ("cooling |Q_evap|", -r["Q_evap"][0], "W"),
-        ("  of which latent", -r["Q_latent"][0], "W"),
-        ("Q_cond", r["Q_cond"][0], "W"),
-        ("compressor shaft power W", r["W"][0], "W"),
-        ("cooling COP", r["COP"][0], "-"),
-        ("valve pressure drop", r["dp_valve"][0] / 1e3, "kPa"),
-        ("valve opening / nominal", r["valve_opening"][0], "-"),
-        ("energy balance residual", r["balance_residual"][0], "W"),
-        ("  relative to W_fluid", 100 * r["balance_relative"][0], "%"),
-    ]
-    for label, value, unit in rows:
-        typer.echo(f"{label:<26} {value:10.4g} {unit}")
+    for key, label, scale, unit, _ in _PERFORMANCE:
+        typer.echo(f"{label:<26} {scale * r[key][0]:10.4g} {unit}")
     if r["reason"][0]:
         typer.echo(f"note: {r['reason'][0]}")
 
@@ -557,27 +852,48 @@ def cycle_sweep(
     luts: Annotated[Path | None, _LUTS] = None,
     direct: Annotated[bool, _DIRECT] = False,
     params: Annotated[Path | None, _PARAMS] = None,
+    max_points: Annotated[
+        int, typer.Option("--max-points", help="Refuse sweeps above this many operating points.")
+    ] = DEFAULT_MAX_CYCLE_POINTS,
+    json_out: Annotated[bool, _JSON] = False,
 ) -> None:
     """Solve a grid of operating points (any input as v1,v2,... or start:stop:count) and write netCDF.
 
     Example: evtms cycle sweep --luts luts/ --speed 0.2:1:9 --t-amb 25,35,45 -o cycle.nc
     """
-    check_output_file(output)
-    try:
-        grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling)
-        t0 = time.perf_counter()
-        points, r = _solve(luts, direct, params, grid)
-        wall = time.perf_counter() - t0
-    except EvtmsInputError as exc:
-        fail(str(exc))
+    import numpy as np
+
     from evtms.cycle import cycle_dataset
-    from evtms.cycle.solver import VALID_CYCLE_FLAGS
+    from evtms.cycle.api import COMPONENTS, cycle_encoding
+    from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
     from evtms.luts.io import atomic_output
 
-    ds = cycle_dataset(grid, r, "direct" if direct else f"LUTs in {luts or 'luts'}")
-    with atomic_output(output) as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4")
-    ok = int(_isin(r["status"], VALID_CYCLE_FLAGS).sum())
+    if max_points < 1:
+        fail(f"--max-points {max_points} is not allowed; allowed: 1 or more")
+    folder = luts or Path("luts")
+    inputs = [params] + ([] if direct else [folder / f"{c}.nc" for c in COMPONENTS])
+    output_file(output, inputs, (".nc",))
+    grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling, max_points)
+    tables, parameters = _cycle_models(luts, direct, params)
+    t0 = time.perf_counter()
+    points, r = _solve(tables, parameters, grid)
+    wall = time.perf_counter() - t0
+    ds = cycle_dataset(grid, r, "direct" if direct else f"LUTs in {folder}")
+    with creating_parents(output), atomic_output(output) as tmp:
+        ds.to_netcdf(tmp, engine="netcdf4", encoding=cycle_encoding(ds))
+    status = np.asarray(r["status"])
+    ok = int(np.isin(status, VALID_CYCLE_FLAGS).sum())
+    if json_out:
+        print_json(
+            {
+                "path": str(output),
+                "points": len(points),
+                "solved": ok,
+                "seconds": wall,
+                "status": {CYCLE_FLAGS[c]: int((status == c).sum()) for c in sorted(CYCLE_FLAGS)},
+            }
+        )
+        return
     typer.echo(f"cycle: {len(points)} operating points, {ok} solved, {wall:.2f} s, wrote {output}")
 
 
@@ -586,18 +902,17 @@ app.add_typer(report_app, name="report")
 
 
 def _open_cycle(path: Path):
+    """A cycle sweep file, loaded; anything else is one line, exit 2."""
     import xarray as xr
 
-    if not path.is_file():
-        fail(f"{path}: no such file")
+    input_file(path, "cycle sweep file")
     try:
-        with xr.open_dataset(path) as ds:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
             ds = ds.load()
     except Exception as exc:  # not netCDF, truncated: one line, not an HDF5 traceback
-        fail(
-            f"{path}: not a readable cycle sweep file ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})"
-        )
-    if "status" not in ds or "p_A" not in ds:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        fail(f"{path}: not a readable cycle sweep file ({first})")
+    if "status" not in ds or "p_A" not in ds or "reason" not in ds:
         fail(f"{path}: not an evtms cycle sweep (write one with 'evtms cycle sweep')")
     return ds
 
@@ -608,8 +923,11 @@ def _parse_index(ds, text: str | None):
     index = {}
     for item in text.split(","):
         name, _, value = item.partition("=")
+        name = name.strip()
         if name not in ds["status"].dims:
             fail(f"unknown input {name!r} in --point; allowed: {', '.join(ds['status'].dims)}")
+        if name in index:
+            fail(f"input {name!r} is given twice in --point")
         try:
             index[name] = int(value)
         except ValueError:
@@ -623,15 +941,14 @@ def _diagram(kind: str, sweep: Path, output: Path, point: str | None) -> None:
     from evtms.fluid import Fluid
     from evtms.reports.cycle_plots import diagram_data, ph_diagram, pt_diagram
 
-    if output.suffix.lower() not in (".png", ".svg"):
-        fail(f"output {str(output)!r} must end in .png or .svg")
-    check_output_file(output)
+    output_file(output, [sweep], (".png", ".svg"))
     ds = _open_cycle(sweep)
     try:
         states = diagram_data(ds, _parse_index(ds, point))
     except ValueError as exc:
         fail(str(exc))
-    (ph_diagram if kind == "ph" else pt_diagram)(states, Fluid(), output)
+    with creating_parents(output):
+        (ph_diagram if kind == "ph" else pt_diagram)(states, Fluid(), output)
     typer.echo(f"wrote {output}")
 
 
@@ -678,9 +995,8 @@ def report_energy_balance(
     """
     from evtms.reports.cycle_plots import energy_balance_figure
 
-    if output.suffix.lower() not in (".png", ".svg"):
-        fail(f"output {str(output)!r} must end in .png or .svg")
-    check_output_file(output)
+    output_file(output, [sweep], (".png", ".svg"))
+    output_file(output.with_suffix(".csv"), [sweep])
     ds = _open_cycle(sweep)
     if x is None:
         varied = [d for d in ds["status"].dims if ds.sizes[d] > 1]
@@ -688,7 +1004,8 @@ def report_energy_balance(
             fail(f"the sweep varies {len(varied)} inputs ({', '.join(varied) or 'none'}); an energy balance takes one")
         x = varied[0]
     try:
-        energy_balance_figure(ds, x, output)
+        with creating_parents(output):
+            energy_balance_figure(ds, x, output)
     except ValueError as exc:
         fail(str(exc))
     typer.echo(f"wrote {output} and {output.with_suffix('.csv')}")
@@ -697,46 +1014,49 @@ def report_energy_balance(
 @report_app.command("bench")
 def report_bench(
     file: Annotated[Path, typer.Argument(help="LUT file (.nc) of any bench.")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="Output folder (created if its parent exists).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Output folder (created if missing).")],
     at: Annotated[
         str | None, typer.Option("--at", help="Base point name=value,... (nearest grid value); default: first values.")
     ] = None,
     surface: Annotated[
-        str | None, typer.Option("--surface", help="Two axes for the 3-D map, e.g. p_in,T_in (the default).")
+        str | None, typer.Option("--surface", help="Two different axes for the 3-D map, e.g. p_in,T_in (default).")
     ] = None,
     fmt: Annotated[str, typer.Option("--format", help="Figure format: png or svg.")] = "png",
 ) -> None:
     """Bench figures and an HTML report from a LUT: response per axis, 3-D map, provenance.
 
+    Nothing appears in the output folder unless every figure and the page
+    are written.
+
     Example: evtms report bench luts/condenser.nc -o reports/condenser/
     """
-    from evtms.reports.bench_plots import bench_report_figures
+    from evtms.reports.bench_plots import base_point, bench_report_figures, surface_data
     from evtms.reports.html import bench_report_page
 
     if fmt not in ("png", "svg"):
         fail(f"figure format {fmt!r} is not allowed; allowed: png, svg")
+    output_folder(output, [file])
     ds = _open(file)
-    try:
-        base = _parse_point(at, tuple(ds["status"].dims), partial=True) if at else None
-        pair = None
-        if surface:
-            parts = tuple(p.strip() for p in surface.split(","))
-            if len(parts) != 2:
-                raise EvtmsInputError(f"--surface {surface!r} must name two axes, e.g. p_in,T_in")
-            pair = parts
-        folder = check_output_folder(output)
-        figures = bench_report_figures(ds, folder, base, pair, fmt)
-    except EvtmsInputError as exc:
-        fail(str(exc))
-    page = bench_report_page(ds, figures, folder / "index.html", str(file))
-    typer.echo(f"wrote {len(figures)} figures and {page}")
+    dims = tuple(ds["status"].dims)
+    base = base_point(ds, _parse_point(at, dims, partial=True, fixed=_fixed_values(ds)) if at else None)
+    pair = None
+    if surface:
+        parts = tuple(p.strip() for p in surface.split(","))
+        if len(parts) != 2:
+            fail(f"--surface {surface!r} must name two axes, e.g. p_in,T_in")
+        if parts[0] == parts[1]:
+            fail(f"--surface {surface!r} names the axis {parts[0]!r} twice; give two different axes")
+        surface_data(ds, parts, base)  # checks the axes before anything is drawn
+        pair = parts
+    with staged_folder(output) as stage:
+        figures = bench_report_figures(ds, stage, base, pair, fmt)
+        bench_report_page(ds, figures, stage / "index.html", str(file))
+    typer.echo(f"wrote {len(figures)} figures and {output / 'index.html'}")
 
 
 @app.command()
 def demo(
-    output: Annotated[
-        Path, typer.Option("--output", "-o", help="Output folder (created if its parent exists).")
-    ] = Path("out"),
+    output: Annotated[Path, typer.Option("--output", "-o", help="Output folder (created if missing).")] = Path("out"),
     force: Annotated[bool, typer.Option("--force", help="Recompute LUTs even if they are up to date.")] = False,
     workers: Annotated[int, typer.Option("--workers", help="Processes for the bench sweeps.")] = 2,
     params: Annotated[Path | None, typer.Option("--params", help="TOML parameter overrides.")] = None,
@@ -750,27 +1070,21 @@ def demo(
 
     if workers < 1:
         fail(f"--workers {workers} is not allowed; allowed: 1 or more")
-    try:
-        parameters = load_parameters(params)
-    except EvtmsInputError as exc:
-        fail(str(exc))
-    folder = check_output_folder(output)
+    if params is not None:
+        input_file(params, "params file")
+    parameters = load_parameters(params)
+    folder = output_folder(output, [params] if params is not None else [])
     t0 = time.perf_counter()
 
     def notify(message: str) -> None:
         typer.echo(f"[{time.perf_counter() - t0:6.1f} s] {message}", err=True)
 
-    result = run_demo(folder, parameters, force=force, workers=workers, notify=notify)
+    with creating_parents(folder, folder=True):
+        result = run_demo(folder, parameters, force=force, workers=workers, notify=notify)
     typer.echo(
         f"demo: {len(result.computed)} LUTs computed, {len(result.reused)} reused, "
         f"{time.perf_counter() - t0:.1f} s; open {result.index.resolve()}"
     )
-
-
-def _isin(values, allowed):
-    import numpy as np
-
-    return np.isin(values, allowed)
 
 
 def main() -> None:

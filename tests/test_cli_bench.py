@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -51,7 +52,9 @@ def test_custom_axes_with_units(tmp_path):
         assert list(ds["mdot"].values) == pytest.approx([0.004, 0.006, 0.008])
         assert list(ds["p_in"].values) == pytest.approx([0.9e6, 1.2e6])
         assert list(ds["fan"].values) == pytest.approx([0.1, 0.5])
-        assert float(ds["T_in"].values[0]) == pytest.approx(343.15)
+        # One value is a fixed input, recorded as an attribute, not a length-1 axis (format v2).
+        assert "T_in" not in ds.dims
+        assert json.loads(ds.attrs["fixed_inputs"])["T_in"]["value"] == pytest.approx(343.15)
 
 
 BAD = [
@@ -87,8 +90,8 @@ def test_unknown_bench(tmp_path):
     res = run("bench", "heater", "-o", str(tmp_path / "h.nc"))
     assert res.exit_code == 2
     assert res.stderr.strip() == (
-        "error: unknown bench 'heater'; allowed: condenser, evaporator, expansion-valve, expansion_valve, "
-        "compressor, all"
+        "error: No such command 'heater' (allowed: condenser, evaporator, expansion-valve, compressor, all) "
+        "(see 'evtms bench --help')"
     )
 
 
@@ -128,16 +131,20 @@ def test_params_file_changes_the_physics(tmp_path):
         assert (db["Q"] <= da["Q"] + 1e-9).all() and (db["Q"] < da["Q"] - 1).any()
 
 
-def test_output_folder_missing_or_not_a_folder(tmp_path):
-    res = run("bench", "condenser", "-o", str(tmp_path / "nope" / "c.nc"))
-    assert res.exit_code == 2 and "does not exist" in res.stderr
+def test_output_folder_created_or_refused(tmp_path):
+    """A missing output folder is made (as the README's commands need); a file in the way is refused."""
     plain = tmp_path / "file"
     plain.write_text("x")
     res = run("bench", "condenser", "-o", str(plain / "c.nc"))
-    assert res.exit_code == 2 and "does not exist" in res.stderr
+    assert res.exit_code == 2 and "is a file" in res.stderr
     res = run("bench", "condenser", "-o", str(tmp_path))
     assert res.exit_code == 2 and "is a folder" in res.stderr
+    res = run("bench", "condenser", "-a", "T_in=100,110", "-o", str(tmp_path / "new" / "deeper" / "c.nc"))
+    assert res.exit_code == 2, res.output  # bad input: the folders it would have made are not left behind
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+    res = run("bench", "condenser", "-o", str(tmp_path / "new" / "deeper" / "c.nc"))
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "new" / "deeper" / "c.nc").is_file()
 
 
 def test_help_and_version_are_fast_and_lazy():

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import shutil
+import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -13,11 +13,17 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_ruff_clean():
-    ruff = shutil.which("ruff")
-    if ruff is None:
+    """ruff of the running interpreter (no activated venv or ruff on PATH needed): lint and format."""
+    if importlib.util.find_spec("ruff") is None:
         pytest.fail("ruff is not installed; it is part of the 'test' extra")
-    res = subprocess.run([ruff, "check", "evtms", "tests", "benchmarks"], cwd=ROOT, capture_output=True, text=True)
-    assert res.returncode == 0, res.stdout + res.stderr
+    for args in (["check"], ["format", "--check"]):
+        res = subprocess.run(
+            [sys.executable, "-m", "ruff", *args, "evtms", "tests", "benchmarks"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+        )
+        assert res.returncode == 0, res.stdout + res.stderr
 
 
 def test_library_never_prints_or_exits():

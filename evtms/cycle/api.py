@@ -50,9 +50,30 @@ INPUT_UNITS = {
 }
 
 
+def cycle_variables(component: str) -> list[str]:
+    """The LUT variables the LUT cycle interpolates from ``component``'s file (the valve's: none)."""
+    from evtms.cycle.models import COMPONENT_OUTPUTS, ITERATION_OUTPUTS
+
+    names = [*ITERATION_OUTPUTS.get(component, ()), *COMPONENT_OUTPUTS.get(component, ())]
+    if component == "condenser":
+        names += ITERATION_OUTPUTS["condenser_subcooled"]
+    return list(dict.fromkeys(names))
+
+
 def load_cycle_luts(folder: str | Path) -> dict[str, xr.Dataset]:
-    """Open and validate the four component LUTs ``<folder>/<component>.nc``."""
+    """Open and validate the four component LUTs ``<folder>/<component>.nc``.
+
+    Only the variables the cycle interpolates are loaded (the evaporator's
+    cycle LUT holds 2.4 million points per variable).
+
+    Raises
+    ------
+    EvtmsInputError
+        The folder or a file is missing, a file is not a valid LUT, or it holds
+        another component's table (one line naming the file).
+    """
     from evtms.luts import open_lut
+    from evtms.paths import input_file
 
     folder = Path(folder)
     if not folder.is_dir():
@@ -62,10 +83,44 @@ def load_cycle_luts(folder: str | Path) -> dict[str, xr.Dataset]:
         path = folder / f"{c}.nc"
         if not path.exists():
             raise EvtmsInputError(f"{path}: no such file; write the cycle LUTs with 'evtms bench all --grid cycle'")
-        ds = open_lut(path)
+        ds = open_lut(input_file(path, "LUT file"), component=c, variables=cycle_variables(c))
         ds.encoding["source"] = str(path)
         luts[c] = ds
     return luts
+
+
+def parameter_conflicts(luts: dict[str, xr.Dataset], params: Parameters) -> list[str]:
+    """Dotted parameter names (``condenser.n_tubes``) where ``params`` differs from the LUTs' provenance.
+
+    In LUT mode the cycle's physics is the LUTs', made with the parameters
+    and air boundary each file records; a parameter set that differs would be
+    silently ignored, so the caller refuses it.
+    """
+    from evtms.params import parameters_from_json
+
+    conflicts: list[str] = []
+    for c, ds in luts.items():
+        made_with = parameters_from_json(c, ds.attrs["parameters"], ds.attrs.get("environment"))
+        conflicts += params.differences(made_with, sections=("fluid", "backend", c, "environment"))
+    return list(dict.fromkeys(conflicts))
+
+
+def cycle_encoding(ds: xr.Dataset) -> dict[str, dict]:
+    """netCDF encoding of a cycle sweep: CF-clean and compressed.
+
+    Coordinates carry no ``_FillValue``; the float results are zlib-compressed
+    with NaN as fill; ``reason`` is a fixed-width UTF-8 character array (a
+    variable-length string breaks CF checkers).
+    """
+    encoding: dict[str, dict] = {d: {"_FillValue": None} for d in ds.coords}
+    for name, var in ds.data_vars.items():
+        if name == "reason":
+            encoding[name] = {"dtype": "S1", "char_dim_name": "reason_strlen", "zlib": True}
+        elif var.dtype.kind == "f":
+            encoding[name] = {"_FillValue": np.nan, "zlib": True, "shuffle": True, "complevel": 4}
+        else:
+            encoding[name] = {"_FillValue": None, "zlib": True, "shuffle": True, "complevel": 4}
+    return encoding
 
 
 def energy_balance(result: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
