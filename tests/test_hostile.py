@@ -212,7 +212,7 @@ CASES: list[Case] = [
     Case(
         "cycle-wrong-component",
         ["cycle", "run", "--luts", "luts"],
-        "not the evaporator",
+        "holds the condenser LUT; the evaporator LUT is needed",
         [link_as("condenser.nc", "evaporator.nc")],
     ),
     Case(

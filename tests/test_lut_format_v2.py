@@ -371,7 +371,7 @@ def test_fixed_input_in_celsius_is_converted(tmp_path, small_file):
 
 def test_expected_component(cond_file):
     assert open_lut(cond_file, component="condenser").attrs["component"] == "condenser"
-    with pytest.raises(LutFormatError, match="is a condenser LUT; a evaporator LUT is needed here"):
+    with pytest.raises(LutFormatError, match="holds the condenser LUT; the evaporator LUT is needed here"):
         open_lut(cond_file, component="evaporator")
     with pytest.raises(EvtmsInputError, match="component 'heater' is unknown"):
         open_lut(cond_file, component="heater")

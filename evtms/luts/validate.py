@@ -527,7 +527,7 @@ def read_lut_metadata(path: str | Path, component: str | None = None) -> LutMeta
     with _netcdf(path, name) as nc:
         attrs = _attr_dict(nc)
         if component is not None and "component" in attrs and attrs["component"] != component:
-            _fail(name, f"is a {attrs['component']} LUT; a {component} LUT is needed here")
+            _fail(name, f"holds the {attrs['component']} LUT; the {component} LUT is needed here")
         sizes = {d: len(dim) for d, dim in nc.dimensions.items()}
         variables = {}
         for v, var in nc.variables.items():
