@@ -14,7 +14,6 @@ fan fraction of 50) are refused with the unit the user likely meant.
 from __future__ import annotations
 
 import math
-import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
 
@@ -24,6 +23,7 @@ from evtms.benches.base import Bench
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
 from evtms.luts.schema import ALTERNATE_AXES, AXES
+from evtms.luts.validate import available_memory
 
 _SPEC = re.compile(r"^\s*(?P<name>[A-Za-z_][A-Za-z0-9_]*)\s*=\s*(?P<body>.+?)\s*$")
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
@@ -107,21 +107,6 @@ def _fmt(v: float) -> str:
     return f"{v:.12g}"
 
 
-def _available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (``MemAvailable``), or None if unknown."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (AttributeError, OSError, ValueError):
-        return None
-
-
 def _gb(n: float) -> str:
     return f"{n / 1e9:.1f} GB"
 
@@ -168,7 +153,7 @@ def check_grid_size(
             f"grid of {points:,} points ({shown}) is above the limit of {max_points:,} points; "
             "raise it with --max-points or use a coarser grid"
         )
-    available = _available_memory() if available_bytes is None else available_bytes
+    available = available_memory() if available_bytes is None else available_bytes
     needed = points * bytes_per_point
     if available is not None and needed > MEMORY_SHARE * available:
         raise EvtmsInputError(
