@@ -618,14 +618,22 @@ def lut_export(
 def lut_diff_cmd(
     a: Annotated[Path, typer.Argument(help="First LUT file.")],
     b: Annotated[Path, typer.Argument(help="Second LUT file.")],
+    json_out: Annotated[bool, _JSON] = False,
 ) -> None:
     """Compare two LUTs: per-variable max and RMS differences, parameter and version changes.
 
-    Example: evtms lut diff old/condenser.nc luts/condenser.nc
+    Example: evtms lut diff luts/condenser.nc luts/condenser_44.nc
     """
+    import dataclasses
+
     from evtms.luts.diff import lut_diff
 
     d = lut_diff(_open(a), _open(b))
+    if json_out:
+        summary = dataclasses.asdict(d)
+        changed = {**summary.pop("attributes"), **summary.pop("parameters")}
+        print_json({**summary, "changes": {k: {"from": x, "to": y} for k, (x, y) in changed.items()}})
+        return
     typer.echo(
         f"common grid: {' x '.join(str(n) for n in d.common_shape)} points; status differs at {d.status_changed}"
     )
@@ -1060,6 +1068,7 @@ def demo(
     force: Annotated[bool, typer.Option("--force", help="Recompute LUTs even if they are up to date.")] = False,
     workers: Annotated[int, typer.Option("--workers", help="Processes for the bench sweeps.")] = 2,
     params: Annotated[Path | None, typer.Option("--params", help="TOML parameter overrides.")] = None,
+    json_out: Annotated[bool, _JSON] = False,
 ) -> None:
     """The whole job: benches on the thesis and cycle grids, LUTs, a cycle sweep, figures, index.html.
 
@@ -1081,6 +1090,17 @@ def demo(
 
     with creating_parents(folder, folder=True):
         result = run_demo(folder, parameters, force=force, workers=workers, notify=notify)
+    if json_out:
+        print_json(
+            {
+                "index": result.index.resolve(),
+                "computed": result.computed,
+                "reused": result.reused,
+                "timings": result.timings,
+                "seconds": time.perf_counter() - t0,
+            }
+        )
+        return
     typer.echo(
         f"demo: {len(result.computed)} LUTs computed, {len(result.reused)} reused, "
         f"{time.perf_counter() - t0:.1f} s; open {result.index.resolve()}"

@@ -433,6 +433,7 @@ def test_json_outputs_are_one_object(ws, monkeypatch):
         "bench": ["bench", "condenser", *SMALL, "-o", "j.nc", "--json"],
         "cycle run": ["cycle", "run", "--luts", "luts", "--json"],
         "cycle sweep": ["cycle", "sweep", "--luts", "luts", "--speed", "0.5,0.7", "-o", "js.nc", "--json"],
+        "lut diff": ["lut", "diff", "c.nc", "j.nc", "--json"],
     }
     out = {}
     for name, args in calls.items():
@@ -448,6 +449,9 @@ def test_json_outputs_are_one_object(ws, monkeypatch):
     assert run["states"]["B"]["p"] > run["states"]["A"]["p"] and run["COP"] > 1
     assert run["Q_cond"] == pytest.approx(-run["Q_evap"] + run["W"], rel=0.05)
     assert out["cycle sweep"]["points"] == 2 and out["cycle sweep"]["solved"] == 2
+    diff = out["lut diff"]  # c.nc has T_res 300, 310; j.nc the thesis preset's 300, 315, 330: 300 in common
+    assert diff["common_shape"] == [2, 2, 2, 2, 1] and {v["name"] for v in diff["variables"]} >= {"Q", "h_out"}
+    assert all(v["max_abs"] == 0 for v in diff["variables"]), diff  # same physics at the common points
 
 
 def test_cycle_accepts_params_that_agree_with_the_luts(ws, monkeypatch):
