@@ -670,18 +670,20 @@ def _cycle_values(name: str, text: str, celsius: bool, max_points: int) -> list[
 
     option = f"--{name.replace('_', '-').lower()}"
     try:
-        if ":" in text:
-            start, stop, count_text = text.split(":")
-            count = float(count_text)
-            if not count.is_integer() or count < 1:
-                raise EvtmsInputError(f"{option} {text!r}: count {count_text.strip()!r} must be a whole number >= 1")
-            if count > max_points:
-                raise EvtmsInputError(f"{option} {text!r}: {count:.0f} values is above the limit of {max_points:,}")
-            values = np.linspace(float(start), float(stop), int(count))
-        else:
-            values = np.array([float(v) for v in text.split(",")])
+        parts = [float(v) for v in text.split(":" if ":" in text else ",")]
     except ValueError:
         raise EvtmsInputError(f"{option} {text!r} is not a number, v1,v2,... or start:stop:count") from None
+    if ":" in text:
+        if len(parts) != 3:
+            raise EvtmsInputError(f"{option} {text!r} is not start:stop:count")
+        start, stop, count = parts
+        if not count.is_integer() or count < 1:
+            raise EvtmsInputError(f"{option} {text!r}: the count {count:g} must be a whole number >= 1")
+        if count > max_points:
+            raise EvtmsInputError(f"{option} {text!r}: {count:,.0f} values is above the limit of {max_points:,}")
+        values = np.linspace(start, stop, int(count))
+    else:
+        values = np.array(parts)
     if celsius:
         values = values + 273.15
     values = [float(f"{v:.12g}") for v in values]  # -40 degC is 233.15 K exactly, 0.3 is 0.3
@@ -813,8 +815,9 @@ def cycle_run(
     from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
 
     grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling)
-    if any(len(v) != 1 for v in grid.values()):
-        fail("cycle run takes one value per input; use 'evtms cycle sweep' for several")
+    several = [f"--{k.replace('_', '-').lower()} ({len(v)} values)" for k, v in grid.items() if len(v) != 1]
+    if several:
+        fail(f"{', '.join(several)}: cycle run takes one value per input; use 'evtms cycle sweep' for several")
     tables, parameters = _cycle_models(luts, direct, params)
     _, r = _solve(tables, parameters, grid)
     status = int(r["status"][0])

@@ -19,6 +19,9 @@ from evtms.errors import EvtmsInputError
 
 #: Longest file name component most file systems accept [bytes].
 NAME_MAX = 255
+#: Bytes an output's name leaves for the suffixes of evtms's temporary files and folders
+#: (``.name.XXXXXXXX.tmp``, ``name.partial.<pid>.<token>.new``).
+TEMP_SUFFIX_BYTES = 64
 
 
 def _q(path: Path | str) -> str:
@@ -53,9 +56,16 @@ def _nearest_existing(path: Path) -> Path:
 
 
 def _check_names(path: Path) -> None:
-    for part in path.parts:
+    *folders, name = path.parts or ("",)
+    for part in folders:
         if len(os.fsencode(part)) > NAME_MAX:
             raise EvtmsInputError(f"output {_q(path)}: the name {part[:40]!r}... is longer than {NAME_MAX} bytes")
+    limit = NAME_MAX - TEMP_SUFFIX_BYTES
+    if len(os.fsencode(name)) > limit:
+        raise EvtmsInputError(
+            f"output {name[:40]!r}... is a name of {len(os.fsencode(name))} bytes; allowed: at most {limit} "
+            f"(the file system takes {NAME_MAX}, evtms's temporary files add up to {TEMP_SUFFIX_BYTES})"
+        )
 
 
 def same_path(a: str | Path, b: str | Path) -> bool:
@@ -161,7 +171,10 @@ def staged_folder(folder: str | Path) -> Iterator[Path]:
 
     folder = Path(folder)
     with creating_parents(folder):
-        stage = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".tmp", dir=folder.parent))
+        try:
+            stage = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".tmp", dir=folder.parent))
+        except OSError as exc:  # name the folder asked for, not the staging folder
+            raise OSError(exc.errno, exc.strerror, str(folder)) from None
     try:
         yield stage
         folder.mkdir(exist_ok=True)

@@ -40,6 +40,7 @@ import datetime
 import hashlib
 import io
 import json
+import logging
 import math
 import os
 import re
@@ -276,8 +277,13 @@ class DaskRunner:
         #   them (dask's own 64 KiB trim threshold made it 1.7x slower).
         # - dask's statistical profiler samples every task thread's stack every
         #   10 ms, for the dashboard: off.
+        # - Ctrl-C is the main process's business (it keeps the saved chunks and says how
+        #   to resume): the workers' own logging stays at errors, so that stopping them
+        #   does not bury that line under their warnings.
         environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
-        environ.update(MALLOC_TRIM_THRESHOLD_=str(64 << 20), MALLOC_TOP_PAD_=str(16 << 20))
+        environ.update(
+            MALLOC_TRIM_THRESHOLD_=str(64 << 20), MALLOC_TOP_PAD_=str(16 << 20), DASK_LOGGING__DISTRIBUTED="error"
+        )
         dask.config.set({"distributed.nanny.pre-spawn-environ": environ, "distributed.worker.profile.enabled": False})
         if scheduler is not None:
             # distributed's own connect waits forever for the handshake of a peer that
@@ -294,15 +300,20 @@ class DaskRunner:
                     "check the address and that the scheduler runs"
                 )
         else:
-            # Loopback only: the scheduler, the workers and their dashboards.
-            self._cluster = LocalCluster(
-                n_workers=workers or 1,
-                threads_per_worker=1,
-                processes=True,
-                host="127.0.0.1",
-                dashboard_address="127.0.0.1:0",
-                worker_dashboard_address="127.0.0.1:0",
-            )
+            # Loopback only: the scheduler, the workers and their dashboards. The workers
+            # ignore SIGINT (evtms.benches.dask_worker), so a Ctrl-C sent to the whole
+            # process group interrupts only this process, which then closes the cluster.
+            preload = list(dask.config.get("distributed.worker.preload", []))
+            with dask.config.set({"distributed.worker.preload": [*preload, "evtms.benches.dask_worker"]}):
+                self._cluster = LocalCluster(
+                    n_workers=workers or 1,
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0",
+                    worker_dashboard_address="127.0.0.1:0",
+                    silence_logs=logging.ERROR,
+                )
             self.client = Client(self._cluster)
         self.workers = max(len(self.client.scheduler_info().get("workers", {})), 1)
         # Import CoolProp (about 2 s) on every worker now, not inside its first chunk.

@@ -76,6 +76,8 @@ def load_cycle_luts(folder: str | Path) -> dict[str, xr.Dataset]:
     from evtms.paths import input_file
 
     folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise EvtmsInputError(f"LUT folder {str(folder)!r} is a file; give the folder holding the cycle LUTs")
     if not folder.is_dir():
         raise EvtmsInputError(f"LUT folder {str(folder)!r} does not exist")
     luts = {}

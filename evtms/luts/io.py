@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
 import json
 import math
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -419,10 +421,16 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it over ``path`` on success.
 
     On any exception (including KeyboardInterrupt) the temporary file is
-    removed and ``path`` is left as it was.
+    removed and ``path`` is left as it was. An OS error (a full disk, a
+    read-only folder) names ``path``, not the temporary file the user never
+    asked for; so does an HDF5 error of a netCDF writer, which reports a full
+    disk as ``RuntimeError: NetCDF: HDF error``.
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror, str(path)) from None
     os.close(fd)
     # mkstemp makes the file private (0600); outputs are ordinary files, so apply the umask.
     umask = os.umask(0)
@@ -431,6 +439,12 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     try:
         yield Path(tmp)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.errno is not None and exc.filename in (None, tmp):
+            raise OSError(exc.errno, exc.strerror, str(path)) from None
+        if isinstance(exc, RuntimeError) and "HDF error" in str(exc):
+            free = shutil.disk_usage(path.parent).free
+            reason = f"the netCDF library could not write it ({exc}; {free:,} bytes free)"
+            raise OSError(errno.EIO, reason, str(path)) from None
         raise
