@@ -2,14 +2,26 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from evtms.cli import app
 from evtms.cycle import OperatingPoints, run_cycle
-from evtms.cycle.solver import STATUS_CONVERGED, STATUS_OUTSIDE_ENVELOPE, VALID_CYCLE_FLAGS
+from evtms.cycle.models import LutModels
+from evtms.cycle.solver import (
+    CYCLE_FLAGS,
+    FROST_RISK_FLAGS,
+    STATUS_CONVERGED,
+    STATUS_EVAPORATOR_WET,
+    STATUS_OUTSIDE_ENVELOPE,
+    VALID_CYCLE_FLAGS,
+    VALVE_SATURATED_FLAGS,
+)
 from evtms.fluid import Fluid
+from evtms.params import Parameters
 
 runner = CliRunner()
 
@@ -59,8 +71,12 @@ def test_states_on_the_right_side_of_saturation(comparison):
     points, r, _ = comparison
     ok = np.isin(r["status"], VALID_CYCLE_FLAGS)
     curve = Fluid().saturation_curve()
-    # A: superheated by the setpoint at the suction pressure.
-    np.testing.assert_allclose((r["T_A"] - curve.temperature(r["p_A"]))[ok], points.superheat[ok], atol=1e-6)
+    # A: superheated by the setpoint at the suction pressure, or more where the valve is saturated.
+    superheat = r["T_A"] - curve.temperature(r["p_A"])
+    np.testing.assert_allclose(superheat[ok], r["superheat_actual"][ok], atol=1e-6)
+    held = np.isin(r["status"], (STATUS_CONVERGED, *FROST_RISK_FLAGS)) & ~np.isin(r["status"], VALVE_SATURATED_FLAGS)
+    np.testing.assert_allclose(superheat[held], points.superheat[held], atol=1e-6)
+    assert (superheat[ok] >= points.superheat[ok] - 1e-6).all()
     # B: superheated vapour at the high pressure.
     assert (r["T_B"][ok] > curve.temperature(r["p_B"][ok]) + 1).all()
     assert (r["p_B"][ok] > 1.2 * r["p_A"][ok]).all()
@@ -159,10 +175,10 @@ def test_cli_sweep_and_reports(tmp_path, cycle_luts_dir):
 
     with xr.open_dataset(out) as ds:
         assert ds["Q_evap"].attrs["units"] == "W" and ds["p_A"].attrs["units"] == "Pa"
-        assert (
-            ds.sizes["speed"] == 5
-            and (ds["status"].values == STATUS_CONVERGED).sum() + (ds["status"].values == 5).sum() == 5
-        )
+        assert ds.sizes["speed"] == 5 and np.isin(ds["status"].values, VALID_CYCLE_FLAGS).all()
+        assert ds["superheat_actual"].attrs["units"] == "K"
+        assert ds["status"].attrs["flag_meanings"].split() == [CYCLE_FLAGS[c] for c in sorted(CYCLE_FLAGS)]
+        assert list(ds["status"].attrs["valid_flag_values"]) == list(VALID_CYCLE_FLAGS)
     for kind, name in (("ph-diagram", "ph.png"), ("pt-diagram", "pt.svg"), ("energy-balance", "eb.png")):
         res = runner.invoke(app, ["report", kind, str(out), "-o", str(tmp_path / name)])
         assert res.exit_code == 0, res.output
@@ -185,3 +201,104 @@ def test_subcooled_condenser_outlet(cycle_luts):
         np.testing.assert_allclose(curve.temperature(r["p_C"]) - T_out, 3.0, atol=tol)
         np.testing.assert_allclose(r["T_C"], T_out, atol=0.05)
     np.testing.assert_allclose(lut["COP"], direct["COP"], rtol=0.01)
+
+
+# --- the valve's limit, flooding and frost -----------------------------------------------
+
+#: The demo's speed sweep (evtms cycle sweep --speed 0.2:1:9, every other input at its default).
+DEMO = OperatingPoints(speed=np.linspace(0.2, 1.0, 9), fan=0.5, blower=0.4, T_amb=303.15, T_cabin=300.15)
+
+
+def _orifice_opening(r, area):
+    """Opening over the nominal that passes each point's flow at its valve drop (saturated liquid in)."""
+    rho = Fluid().saturation_curve().liquid_density(r["p_C"])
+    return r["mdot"] / (area * np.sqrt(2 * rho * r["dp_valve"]))
+
+
+def test_default_valve_holds_the_superheat_at_the_demo_points(cycle_luts):
+    r = run_cycle(DEMO, cycle_luts)
+    valve, area = LutModels(cycle_luts).valve()
+    max_opening = valve.capacity_max / valve.capacity_nominal
+    assert np.isin(r["status"], VALID_CYCLE_FLAGS).all()
+    assert not np.isin(r["status"], VALVE_SATURATED_FLAGS).any(), r["reason"]
+    np.testing.assert_allclose(r["superheat_actual"], 10.0)
+    # The valve passes the flow below its maximum opening, the more open the faster the compressor.
+    np.testing.assert_allclose(r["valve_opening"], _orifice_opening(r, area), rtol=1e-9)
+    assert (r["valve_opening"] < max_opening).all() and (np.diff(r["valve_opening"]) > 0).all()
+    assert (np.abs(r["balance_relative"]) < 1e-5).all()
+
+
+@pytest.fixture(scope="module")
+def saturated(cycle_luts):
+    """Cool ambient (low condensing pressure, small valve drop) and warm cabin air: the valve saturates."""
+    points = OperatingPoints(
+        speed=[0.6, 0.8, 0.8, 1.0],
+        fan=[0.5, 0.5, 1.0, 1.0],
+        blower=[0.7, 0.7, 0.4, 0.4],
+        T_amb=288.15,
+        T_cabin=[306.15] * 2 + [300.15] * 2,
+    )
+    return points, run_cycle(points, cycle_luts), run_cycle(points)
+
+
+def test_saturated_valve_floats_the_superheat_alike_on_luts_and_direct(saturated, cycle_luts):
+    points, lut, direct = saturated
+    valve, area = LutModels(cycle_luts).valve()
+    max_opening = valve.capacity_max / valve.capacity_nominal
+    for r in (lut, direct):
+        assert np.isin(r["status"], VALVE_SATURATED_FLAGS).all(), r["reason"]
+        # At its maximum opening by the orifice law, the superheat above the 10 K setpoint.
+        np.testing.assert_allclose(r["valve_opening"], max_opening)
+        np.testing.assert_allclose(_orifice_opening(r, area), max_opening, rtol=1e-3)
+        assert (r["superheat_actual"] > points.superheat + 1.0).all()
+        assert (np.abs(r["balance_relative"]) < 1e-5).all()
+        # A faster compressor pulls the suction pressure down further and the superheat up.
+        assert r["superheat_actual"][1] > r["superheat_actual"][0] and r["p_A"][1] < r["p_A"][0]
+        assert r["superheat_actual"][3] > r["superheat_actual"][2]
+    # The colder evaporators of the last two (cabin air at 27 degC) also risk frost; the flags agree.
+    np.testing.assert_array_equal(lut["status"], direct["status"])
+    assert not np.isin(lut["status"][:2], FROST_RISK_FLAGS).any() and np.isin(lut["status"][2:], FROST_RISK_FLAGS).all()
+    # Within the cycle's accuracy (README): 1 % on the states, 0.5 K on the superheat.
+    np.testing.assert_allclose(lut["superheat_actual"], direct["superheat_actual"], atol=0.5)
+    for name in ("p_A", "p_B", "Q_evap", "COP"):
+        np.testing.assert_allclose(lut[name], direct[name], rtol=0.01, err_msg=name)
+
+
+def test_a_larger_valve_holds_the_setpoint_the_default_cannot(saturated):
+    points, _, direct = saturated
+    params = Parameters()
+    big = dataclasses.replace(params.expansion_valve, capacity_max=4 * params.expansion_valve.capacity_nominal)
+    held = run_cycle(points, params=dataclasses.replace(params, expansion_valve=big))
+    assert not np.isin(held["status"], VALVE_SATURATED_FLAGS).any()
+    np.testing.assert_allclose(held["superheat_actual"], points.superheat)
+    # Holding the setpoint needs more than the default valve's maximum: more flow, more cooling.
+    assert (held["valve_opening"] > params.expansion_valve.capacity_max / params.expansion_valve.capacity_nominal).all()
+    assert (held["mdot"] > direct["mdot"]).all() and (held["Q_evap"] < direct["Q_evap"]).all()
+
+
+def test_flooded_evaporator_is_invalid():
+    # A compressor 25 times the default's at a low blower: the evaporator cannot boil the flow
+    # off even 45 K below the cabin air. The compressor would draw liquid: no valid state.
+    params = Parameters()
+    params = dataclasses.replace(params, compressor=dataclasses.replace(params.compressor, displacement=2e-3))
+    r = run_cycle(OperatingPoints(speed=0.2, fan=1.0, blower=0.1, T_amb=298.15, T_cabin=293.15), params=params)
+    assert r["status"][0] == STATUS_EVAPORATOR_WET and CYCLE_FLAGS[STATUS_EVAPORATOR_WET] == "evaporator_outlet_wet"
+    assert STATUS_EVAPORATOR_WET not in VALID_CYCLE_FLAGS
+    assert "two-phase" in r["reason"][0]
+    assert np.isnan(r["p_A"][0]) and np.isnan(r["superheat_actual"][0])
+
+
+def test_frost_risk_is_flagged_in_both_modes(cycle_luts, cycle_luts_dir):
+    # Full speed, small fan and blower, hot ambient: the evaporator surface drops below 0 degC.
+    points = OperatingPoints(
+        speed=[1.0, 0.2], fan=[0.3, 0.5], blower=[0.3, 0.4], T_amb=[313.15, 303.15], T_cabin=[298.15, 300.15]
+    )
+    for r in (run_cycle(points, cycle_luts), run_cycle(points)):
+        assert np.isin(r["status"][0], FROST_RISK_FLAGS) and r["frost_risk"][0] == pytest.approx(1.0)
+        assert "frost" in r["reason"][0]
+        assert r["T_D"][0] < 273.15  # evaporating below freezing
+        assert r["status"][1] == STATUS_CONVERGED and r["frost_risk"][1] == 0.0 and r["reason"][1] == ""
+    common = ["--speed", "1", "--fan", "0.3", "--blower", "0.3", "--t-amb", "40", "--t-cabin", "25"]
+    res = runner.invoke(app, ["cycle", "run", "--luts", str(cycle_luts_dir), *common])
+    assert res.exit_code == 0, res.output
+    assert "frost risk" in res.stdout

@@ -34,6 +34,7 @@ RESULT_VARIABLES = {
     "COP": ("1", "cooling coefficient of performance |Q_evap| / W"),
     "dp_valve": ("Pa", "expansion-valve pressure drop p_C - p_D"),
     "valve_opening": ("1", "valve opening relative to its nominal opening"),
+    "superheat_actual": ("K", "evaporator-outlet superheat: the setpoint, or floating where the valve is saturated"),
     "balance_residual": ("W", "Q_cond + Q_evap - W_fluid, each from its own component"),
     "balance_relative": ("1", "balance_residual / W_fluid"),
 }

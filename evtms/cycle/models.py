@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms.benches import evaporator as evaporator_bench
 from evtms.benches.expansion_valve import nominal_opening
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
@@ -25,6 +26,10 @@ if TYPE_CHECKING:
     import xarray as xr
 
 Result = dict[str, np.ndarray]
+
+#: The evaporator bench's status codes of valid points whose coldest surface is below 0 degC
+#: (``valid_frost_risk_surface_below_0C``, code 10; its ``FROST_RISK_FLAGS`` where it lists more).
+EVAPORATOR_FROST_FLAGS = tuple(getattr(evaporator_bench, "FROST_RISK_FLAGS", (evaporator_bench.STATUS_FROST_RISK,)))
 
 #: Variables the solver needs while it iterates (the fewer, the faster the LUT gathers).
 #: The coils' outlet enthalpy is ``h_out_continued``: equal to ``h_out`` where the cycle
@@ -90,6 +95,8 @@ class DirectModels:
         for code, meaning in bench.flags.items():
             reasons[bad & (out["status"] == code)] = f"{component}: {meaning}"
         result = {k: out[k] for k in COMPONENT_OUTPUTS[component]}
+        if component == "evaporator":
+            result["frost_risk"] = np.isin(out["status"], EVAPORATOR_FROST_FLAGS).astype(float)
         result["reason"] = reasons
         return result
 
@@ -178,6 +185,18 @@ class _LutComponent:
         # columns, so a table of every variable would repeat the largest ones).
         extra = [v for v in COMPONENT_OUTPUTS[component] if v not in self.subcooled.variables]
         self.extra = Interpolator.from_dataset(ds, extra, out_of_range="nan", curvature=curvature) if extra else None
+        # The evaporator's frost risk (its bench status ``valid_frost_risk_surface_below_0C``):
+        # the LUTs hold no surface temperature, so the final states interpolate the
+        # indicator of that status (1 at frost-risk nodes, 0 at other valid nodes).
+        self.frost = None
+        if component == "evaporator":
+            status = ds["status"].values
+            risk = np.where(
+                np.isin(status, evaporator_bench.BENCH.valid_flags), np.isin(status, EVAPORATOR_FROST_FLAGS), np.nan
+            )
+            self.frost = Interpolator(
+                [(d, ds[d].values) for d in self.dims], {"frost_risk": risk}, "nan", fixed=fixed_inputs(ds)
+            )
         self.detailed = False
         self.ranges = {d: (float(ds[d].values[0]), float(ds[d].values[-1])) for d in self.dims}
         env = json.loads(ds.attrs.get("environment", "{}"))
@@ -210,6 +229,8 @@ class _LutComponent:
         out = itp(cols)
         if self.detailed and self.extra is not None:
             out.update(self.extra(cols))
+        if self.detailed and self.frost is not None:
+            out.update(self.frost(cols))
         bad = reasons != ""
         for v in out.values():
             v[bad] = np.nan

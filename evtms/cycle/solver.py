@@ -38,6 +38,38 @@ evaporator) clipped to the models' ranges. A point whose residual does not
 change sign on that range, or whose models return NaN, gets a status and the
 reason.
 
+The valve's limit. The opening that passes the cycle's flow follows from the
+valve's orifice law, ``mdot = S sqrt(2 rho_C (p_C - p_D))``, with the flow
+area ``S`` [m2] over the nominal area of its parameters. A thermostatic valve
+opens no further than its maximum (``capacity_max / capacity_nominal`` times
+the nominal area); where holding the setpoint would need more, the valve
+sits at its maximum and stops holding the superheat, which floats above the
+setpoint: the orifice law at the maximum area closes the suction side
+instead, and the cycle is solved again with the superheat as the unknown
+(:meth:`CycleSolver._float_superheat`). Such a point is valid, with status 5
+``converged_valve_saturated_superheat_floating`` and ``superheat_actual``
+the superheat reached. This is the undersized (or, at a low condensing
+pressure, under-driven) valve starving its evaporator: less flow at a lower
+suction pressure and a higher superheat. A saturated valve never floods the
+evaporator. A flooded evaporator, whose outlet stays two-phase however low
+the suction pressure (here down to evaporating 45 K below the cabin air),
+has no steady state the models describe: the compressor would draw liquid
+(slugging), which its model, on superheated suction states, does not cover
+and an automotive circuit with a receiver (no suction accumulator) must
+avoid. Such a point is invalid, status 8 ``evaporator_outlet_wet``, its
+states NaN.
+
+Frost. Where the evaporator's coldest surface lies below 0 degC under
+condensate (its bench status ``valid_frost_risk_surface_below_0C``) at the
+solved point, the point is valid and flagged, status 6
+``converged_frost_risk`` (7 with a saturated valve as well): ice would
+build up on the fins and the steady state would not last. The direct models
+take the flag from the evaporator bench at the solved point; the LUTs hold no
+surface temperature, so the LUT cycle interpolates the indicator of that
+status over the evaporator LUT's nodes (1 at a frost-risk node, 0 at another
+valid one) and flags a point from 0.5, i.e. where most of the interpolation
+weight lies on frost-risk nodes.
+
 References
 ----------
 Dowell, M., Jarratt, P. (1971). A modified regula falsi method for computing
@@ -46,6 +78,8 @@ Anderson, N., Bjorck, A. (1973). A new high order method of regula falsi type
 for computing a root of an equation. BIT 13, 253-264.
 Stoecker, W. F., Jones, J. W. (1982). Refrigeration and Air Conditioning,
 2nd ed., ch. 15 (system simulation by balancing components).
+ASHRAE (2018). ASHRAE Handbook - Refrigeration, ch. 11, Refrigerant-control
+devices (thermostatic expansion valves: capacity, superheat, feed limits).
 """
 
 from __future__ import annotations
@@ -62,7 +96,10 @@ STATUS_OUTSIDE_ENVELOPE = 1
 STATUS_CONDENSER_NO_ROOT = 2
 STATUS_EVAPORATOR_NO_ROOT = 3
 STATUS_NOT_CONVERGED = 4
-STATUS_VALVE_BEYOND_MAX = 5
+STATUS_VALVE_SATURATED = 5
+STATUS_FROST_RISK = 6
+STATUS_VALVE_SATURATED_FROST_RISK = 7
+STATUS_EVAPORATOR_WET = 8
 
 CYCLE_FLAGS = {
     STATUS_CONVERGED: "converged",
@@ -70,9 +107,17 @@ CYCLE_FLAGS = {
     STATUS_CONDENSER_NO_ROOT: "condenser_outlet_condition_not_reachable",
     STATUS_EVAPORATOR_NO_ROOT: "superheat_setpoint_not_reachable",
     STATUS_NOT_CONVERGED: "not_converged",
-    STATUS_VALVE_BEYOND_MAX: "converged_valve_beyond_max_opening",
+    STATUS_VALVE_SATURATED: "converged_valve_saturated_superheat_floating",
+    STATUS_FROST_RISK: "converged_frost_risk",
+    STATUS_VALVE_SATURATED_FROST_RISK: "converged_valve_saturated_frost_risk",
+    STATUS_EVAPORATOR_WET: "evaporator_outlet_wet",
 }
-VALID_CYCLE_FLAGS = (STATUS_CONVERGED, STATUS_VALVE_BEYOND_MAX)
+#: Solved points: their states are valid (the flags 5-7 are notes on a valid point).
+VALID_CYCLE_FLAGS = (STATUS_CONVERGED, STATUS_VALVE_SATURATED, STATUS_FROST_RISK, STATUS_VALVE_SATURATED_FROST_RISK)
+#: Solved points with the valve at its maximum opening and the superheat floating above its setpoint.
+VALVE_SATURATED_FLAGS = (STATUS_VALVE_SATURATED, STATUS_VALVE_SATURATED_FROST_RISK)
+#: Solved points with an evaporator surface below 0 degC under condensate (frost would build up).
+FROST_RISK_FLAGS = (STATUS_FROST_RISK, STATUS_VALVE_SATURATED_FROST_RISK)
 
 #: Scale [J/(kg K)] that turns the suction enthalpy residual into about kelvin of superheat.
 _CP_SCALE = 1000.0
@@ -86,6 +131,15 @@ _DP_PASSES = 1
 #: Typical slopes of the closures in saturation temperature [1/K]: condenser, suction superheat.
 _INNER_SLOPE = -0.075
 _OUTER_SLOPE = -4.0
+#: Superheat search with the valve at its maximum opening: typical slope of ln(opening) in
+#: superheat [1/K], overshoot of a bracketing step [1], largest step [K] and number of steps, tolerances in
+#: superheat (relative) [1] and in ln(opening) [1].
+_SH_SLOPE = -0.0125
+_SH_OVERSHOOT = 1.3
+_SH_MAX_STEP = 25.0
+_SH_BRACKET_STEPS = 4
+_SH_XTOL = 1e-4
+_SH_FTOL = 1e-4
 
 INPUTS = ("speed", "fan", "blower", "T_amb", "RH_amb", "T_cabin", "RH_cabin", "superheat", "subcooling")
 
@@ -560,6 +614,8 @@ class CycleSolver:
         reason[bad] = np.where(side["reason"][bad] != "", side["reason"][bad], evap["reason"][bad])
         residual = np.where(status == STATUS_CONVERGED, sh, np.nan)
         out = {"residual": residual, "status": status, "reason": reason}
+        # A two-phase outlet: below saturated vapour (h_out_continued has no kink there).
+        out["outlet_wet"] = evap["h_out_continued"] < self.sat.vapour_enthalpy(evap["p_out"])
         if final:
             out.update(p_B=dis["p_B"], p_D=p_D, side=side, evap=evap)
         return out
@@ -568,6 +624,12 @@ class CycleSolver:
     def solve(self, points: OperatingPoints) -> dict[str, np.ndarray]:
         """Solve every operating point.
 
+        First with the valve holding the superheat setpoint; where that needs
+        more than the valve's maximum opening, the valve stays at its maximum
+        opening and the superheat floats (:meth:`_float_superheat`). Valid
+        points are then flagged where the valve is saturated or the evaporator
+        surface risks frost (:meth:`_flag`).
+
         Returns
         -------
         dict of str to numpy.ndarray
@@ -575,11 +637,46 @@ class CycleSolver:
             [kg/s], ``Q_evap`` (< 0), ``Q_latent``, ``Q_cond``, ``W`` (shaft),
             ``W_fluid`` (``mdot (h_B - h_A)``) [W], ``COP`` (cooling, |Q_evap|/W)
             [1], ``dp_valve`` [Pa], ``valve_opening`` (relative to the nominal
-            opening) [1], ``status`` (int8, :data:`CYCLE_FLAGS`) and
-            ``reason`` (text, empty when converged).
+            opening; ``capacity_max / capacity_nominal`` where the valve is
+            saturated) [1], ``superheat_actual`` (evaporator-outlet superheat:
+            the setpoint, or the floating superheat where the valve is
+            saturated) [K], ``frost_risk`` [1] (1 where the evaporator's coldest
+            surface is below 0 degC, else 0; on LUTs the share of the
+            interpolation weight on such nodes, flagged from 0.5), ``status``
+            (int8, :data:`CYCLE_FLAGS`) and ``reason`` (why a point failed, or
+            what its flags mean; empty when converged without a flag).
         """
         ops = points.subset(np.arange(len(points)))
-        n = len(points)
+        res = self._solve_at(ops)
+        valve, _ = self.models.valve()
+        self.max_opening = valve.capacity_max / valve.capacity_nominal
+        saturated = (res["status"] == STATUS_CONVERGED) & (res["valve_opening"] > self.max_opening)
+        idx = np.nonzero(saturated)[0]
+        if idx.size:
+            self._float_superheat(ops, res, idx)
+        self._flag(res, ops, saturated)
+        return res
+
+    def _solve_at(
+        self,
+        ops: dict,
+        t_guess: np.ndarray | None = None,
+        p_B_guess: np.ndarray | None = None,
+        dp_guess: np.ndarray | None = None,
+    ) -> dict[str, np.ndarray]:
+        """The cycle with the evaporator-outlet superheat at ``ops["superheat"]`` (the valve not limited).
+
+        ``t_guess`` [K] is the first guess of the suction saturation
+        temperature (default 23 K below the cabin air), ``p_B_guess`` [Pa]
+        that of the discharge pressure (default condensing 13 K above the
+        ambient air) and ``dp_guess`` [Pa] that of the evaporator's pressure
+        drop (default 0; its fixed point takes one pass per suction iterate,
+        so a warm start whose root takes few iterates needs a good one).
+        Returns the result of :meth:`solve` with the statuses 0-4 and 8 (no
+        flags) and ``valve_opening`` the opening that passes the cycle's
+        flow, whatever its maximum.
+        """
+        n = ops["speed"].size
         limits = self.models.limits()
         # A hair inside the pressure ranges: the saturation temperature <-> pressure
         # round trip must not step off a LUT's last node.
@@ -596,8 +693,8 @@ class CycleSolver:
             [(self.sat.pressure(ops["T_cabin"] - 0.5), None), (p_hi_lim, self._axes["p_suction"][1])], upper=True
         )
         t_lo, t_hi = self.sat.temperature(lo), self.sat.temperature(hi)
-        self._guess = np.full(n, np.nan)
-        self._dp_guess = np.zeros(n)
+        self._guess = np.full(n, np.nan) if p_B_guess is None else np.asarray(p_B_guess, float).copy()
+        self._dp_guess = np.zeros(n) if dp_guess is None else np.nan_to_num(np.asarray(dp_guess, float))
         self._slope = np.full(n, np.nan)
         self.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
 
@@ -607,7 +704,10 @@ class CycleSolver:
 
         # First guess: evaporating 23 K below the cabin air, the middle of the default
         # circuit's envelope; the superheat falls about 4 K per kelvin above it.
-        br = self._bracket(residual, t_lo, t_hi, ops["T_cabin"] - 23.0, np.full(n, _OUTER_SLOPE), 15.0)
+        if t_guess is None:
+            t_guess = ops["T_cabin"] - 23.0
+        t_guess = np.where(np.isfinite(t_guess), t_guess, ops["T_cabin"] - 23.0)
+        br = self._bracket(residual, t_lo, t_hi, t_guess, np.full(n, _OUTER_SLOPE), 15.0)
         status, reason = _range_status(
             br,
             lo,
@@ -625,6 +725,16 @@ class CycleSolver:
             ),
         )
         f_lo, f_hi = br["f_lo"], br["f_hi"]
+        # Superheat below its setpoint down to the physical low end (evaporating 45 K below
+        # the cabin air): where the outlet is still two-phase there, the evaporator floods.
+        low = np.nonzero((status == STATUS_EVAPORATOR_NO_ROOT) & br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0))[0]
+        if low.size:
+            wet = self._suction_side({k: v[low] for k, v in ops.items()}, lo[low], low)["outlet_wet"]
+            status[low[wet]] = STATUS_EVAPORATOR_WET
+            reason[low[wet]] = (
+                "the evaporator outlet stays two-phase down to the lowest suction pressure searched "
+                "(evaporating 45 K below the cabin air): the evaporator floods and the compressor would draw liquid"
+            )
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
         status[both] = STATUS_OUTSIDE_ENVELOPE
@@ -635,6 +745,161 @@ class CycleSolver:
             p_A[idx] = self._pressure_root(residual, br, idx, _OUTER_FTOL, status, reason, "suction-pressure")
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
+
+    def _float_superheat(self, ops: dict, res: dict, idx: np.ndarray) -> None:
+        """Cycle of the points ``idx`` with the valve at its maximum opening; written into ``res``.
+
+        A thermostatic valve at its maximum opening (its stroke's end) can
+        open no further as the superheat rises: it no longer holds the
+        superheat, which floats. The valve's orifice law at the maximum flow
+        area :math:`S_{max} = S_{nom} Q_{max}/Q_{nom}` [m2] (capacities
+        :math:`Q` [W]) then closes the suction side in place of the setpoint:
+
+        .. math:: \\dot m = S_{max} \\sqrt{2 \\rho_C (p_C - p_D)}
+
+        (mass flow [kg/s], liquid density at the valve inlet [kg/m3],
+        pressures [Pa]), the law the cycle uses for the opening it needs. The
+        superheat :math:`\\Delta T_{sh}` [K] is the root of
+
+        .. math:: g(\\Delta T_{sh}) = \\ln\\frac{S(\\Delta T_{sh})}{S_{max}}
+
+        where :math:`S(\\Delta T_{sh})` is the opening that passes the flow of
+        the cycle solved with the superheat held at :math:`\\Delta T_{sh}`.
+        :math:`g` falls as the superheat rises (less flow at a lower suction
+        pressure, through a larger pressure drop) and is positive at the
+        setpoint, so the root lies above the setpoint: a saturated valve
+        starves the evaporator, it never floods it. :math:`g` is nearly
+        linear, about -0.0125 per kelvin (-0.009 to -0.018 over the envelope):
+        the root is bracketed by secant steps from the setpoint and found by
+        the regula falsi of the pressures (:func:`bracketed_root`), to 1e-4
+        in :math:`g` (about 0.01 K). Every evaluation is a whole cycle solve,
+        warm-started by extrapolating the suction and discharge pressures and
+        the evaporator's drop linearly from the point's two latest
+        superheats; where a trial superheat leaves the models' envelope the
+        point fails with that reason (prefixed "with the valve at its maximum
+        opening").
+        """
+        log_max = np.log(self.max_opening)
+        sub = {k: v[idx] for k, v in ops.items()}
+        m = idx.size
+        store = {k: np.asarray(v)[idx].copy() for k, v in res.items()}
+        # Warm starts: the two latest solved superheats of each point, with their suction
+        # saturation temperature, discharge pressure and evaporator pressure drop, to
+        # extrapolate linearly to the next superheat (from one: the suction saturation
+        # falls about 1 K per 4 K more superheat, see _OUTER_SLOPE).
+        seen = np.stack([sub["superheat"], np.full(m, np.nan)])
+        known = {
+            "t": self.sat.temperature(res["p_A"][idx]),
+            "p_B": res["p_B"][idx],
+            "dp": (res["p_D"] - res["p_A"])[idx],
+        }
+        known = {k: np.stack([v, np.full(m, np.nan)]) for k, v in known.items()}
+        fail = np.full(m, STATUS_OUTSIDE_ENVELOPE, np.int8)
+
+        def guess(sh, i):
+            s1, s0 = seen[0, i], seen[1, i]
+            two = np.isfinite(s0) & (np.abs(s1 - s0) > 1e-9)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                w = np.where(two, (sh - s1) / (s1 - s0), 0.0)
+            g = {k: np.where(two, v[0, i] + w * (v[0, i] - v[1, i]), v[0, i]) for k, v in known.items()}
+            g["t"] = np.where(two, g["t"], known["t"][0, i] + (sh - s1) / _OUTER_SLOPE)
+            g["p_B"] = np.where(g["p_B"] > 0, g["p_B"], known["p_B"][0, i])
+            g["dp"] = np.maximum(g["dp"], 0.0)
+            return g
+
+        def fun(sh, i):
+            ops_i = {k: v[i] for k, v in sub.items()}
+            ops_i["superheat"] = sh
+            g = guess(sh, i)
+            r = self._solve_at(ops_i, t_guess=g["t"], p_B_guess=g["p_B"], dp_guess=g["dp"])
+            for k, v in r.items():
+                store[k][i] = v
+            ok = r["status"] == STATUS_CONVERGED
+            with np.errstate(invalid="ignore", divide="ignore"):
+                f = np.where(ok, np.log(r["valve_opening"]) - log_max, np.nan)
+            k = i[ok]
+            seen[1, k], seen[0, k] = seen[0, k], sh[ok]
+            new = {"t": self.sat.temperature(r["p_A"]), "p_B": r["p_B"], "dp": r["p_D"] - r["p_A"]}
+            for name, v in known.items():
+                v[1, k], v[0, k] = v[0, k], new[name][ok]
+            fail[i[~ok]] = r["status"][~ok]
+            return f, np.where(ok, "", r["reason"])
+
+        # Bracket: secant steps up from the setpoint, plus 0.5 K.
+        lo = sub["superheat"].copy()
+        f_lo = np.log(res["valve_opening"][idx]) - log_max
+        hi, f_hi = np.full(m, np.nan), np.full(m, np.nan)
+        why_hi = np.full(m, "", dtype=object)
+        slope = np.full(m, _SH_SLOPE)
+        going = np.arange(m)
+        for step in range(_SH_BRACKET_STEPS):
+            if going.size == 0:
+                break
+            # The first step trusts the typical slope (a step far beyond the root may leave
+            # the models' envelope, and such points cost many evaluations); later steps
+            # overshoot from the secant slope measured.
+            over = 1.0 if step == 0 else _SH_OVERSHOOT
+            x = lo[going] + np.clip(-over * f_lo[going] / slope[going] + 0.5, 0.5, _SH_MAX_STEP)
+            f, why = fun(x, going)
+            up = np.isfinite(f) & (f > 0)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                s = (f - f_lo[going]) / (x - lo[going])
+            k = going[up]
+            slope[k] = np.where(s[up] < 0, s[up], slope[k])
+            lo[k], f_lo[k] = x[up], f[up]
+            k = going[~up]
+            hi[k], f_hi[k], why_hi[k] = x[~up], f[~up], why[~up]
+            going = going[up]
+        sh = np.full(m, np.nan)
+        state = np.full(m, 3, np.int8)
+        why = np.full(m, "", dtype=object)
+        br = np.nonzero(np.isfinite(hi))[0]
+        if br.size:
+            sh[br], state[br], why[br] = bracketed_root(
+                fun, lo[br], hi[br], f_lo[br], f_hi[br], br, _SH_XTOL, _SH_FTOL, why_hi=why_hi[br]
+            )
+        sh[state != 1] = np.nan
+        status, reason = store["status"], store["reason"]
+        status[state == 2] = fail[state == 2]
+        reason[state == 2] = [f"with the valve at its maximum opening, {w}" for w in why[state == 2]]
+        status[state == 3] = STATUS_NOT_CONVERGED
+        reason[state == 3] = "superheat iteration with the valve at its maximum opening did not converge"
+        reason[going] = [
+            f"with the valve at its maximum opening the superheat rises above {x:.3g} K" for x in lo[going]
+        ]
+        failed = state != 1
+        for v in store.values():
+            if v.dtype.kind == "f":
+                v[failed] = np.nan
+        store["valve_opening"][~failed] = self.max_opening
+        for k, v in store.items():
+            res[k][idx] = v
+
+    def _flag(self, res: dict, ops: dict, saturated: np.ndarray) -> None:
+        """Flag the converged points where the valve is saturated or frost may form (in place).
+
+        Frost: the evaporator bench's status ``valid_frost_risk_surface_below_0C``
+        (its coldest surface below 0 degC, under condensate) at the solved
+        evaporator point; on LUTs, interpolated as the share of frost-risk
+        nodes in the weight, flagged from 0.5.
+        """
+        status, reason = res["status"], res["reason"]
+        ok = status == STATUS_CONVERGED
+        sat = ok & saturated
+        frost = ok & (np.nan_to_num(res["frost_risk"]) >= 0.5)
+        status[sat] = STATUS_VALVE_SATURATED
+        status[frost] = STATUS_FROST_RISK
+        status[sat & frost] = STATUS_VALVE_SATURATED_FROST_RISK
+        for i in np.nonzero(sat | frost)[0]:
+            notes = []
+            if sat[i]:
+                notes.append(
+                    f"the valve is at its maximum opening ({self.max_opening:.3g} x nominal): the superheat floats "
+                    f"at {res['superheat_actual'][i]:.3g} K, above its setpoint {ops['superheat'][i]:.3g} K"
+                )
+            if frost[i]:
+                notes.append("an evaporator surface is below 0 degC under condensate: frost risk")
+            reason[i] = "; ".join(notes)
 
     def _final_states(self, ops: dict, p_A: np.ndarray, status: np.ndarray, reason: np.ndarray) -> dict:
         self.models.detailed(True)
@@ -663,8 +928,7 @@ class CycleSolver:
         # The opening (over the nominal) that passes mdot at the cycle's valve drop, by
         # the valve's orifice law for a liquid inlet, mdot = S sqrt(2 rho_in dp); a
         # subcooled liquid's density is the saturated liquid's at its temperature.
-        valve, area = self.models.valve()
-        self.max_opening = valve.capacity_max / valve.capacity_nominal
+        _, area = self.models.valve()
         dp_valve = p_C - fin["p_D"]
         rho_C = self.sat.liquid_density(np.where(saturated, p_C, self.sat.pressure(T_C)))
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -693,16 +957,14 @@ class CycleSolver:
             "h_A_evap": evap["h_out_continued"],
             "dp_valve": dp_valve,
             "valve_opening": opening,
+            "superheat_actual": ops["superheat"].copy(),
+            "frost_risk": evap.get("frost_risk", np.zeros(p_A.size)),
         }
         with np.errstate(invalid="ignore", divide="ignore"):
             res["COP"] = -res["Q_evap"] / res["W"]
-        ok = status == STATUS_CONVERGED
-        bad_valve = ok & (opening > self.max_opening)
-        status[bad_valve] = STATUS_VALVE_BEYOND_MAX
-        reason[bad_valve] = "the valve would need more than its maximum opening to hold the superheat"
         invalid = ~np.isin(status, VALID_CYCLE_FLAGS)
         for k, v in res.items():
-            v = np.asarray(v, float)
+            v = np.array(v, float)
             v[invalid] = np.nan
             res[k] = v
         res["status"] = status
