@@ -202,8 +202,26 @@ class CoilParams:
         Channel wall roughness for the friction factor [m], [0, 0.001].
     nu_laminar : float
         Fully developed laminar Nusselt number, constant wall temperature [1], (0, 100].
-    air_nu_coeffs : tuple of float
-        (a, b, c) in the air-side Nu = a Re^b Pr^c [1], each in (0, 10].
+    louver_angle : float
+        Louver angle of the fins [rad], (0, pi/2); 27 deg by default, typical of
+        automotive louvred fins.
+    louver_pitch : float
+        Louver pitch along the air flow [m], (0, 0.1], less than ``tube_depth``.
+    louver_length : float
+        Louver length across the fin [m], (0, 1], less than the fin length
+        ``core_height / n_tubes - tube_thickness`` (7.75 mm condenser, 8 mm evaporator).
+    fin_thickness : float
+        Fin thickness [m], (0, 0.01], less than ``fin_spacing``.
+
+    Notes
+    -----
+    ``fin_spacing`` is the fin pitch: with the defaults the fin area
+    ``n_tubes (core_length / fin_spacing) 2 (core_height / n_tubes - tube_thickness) tube_depth``
+    is the Simscape block's 23.4 m2 (condenser) and 7.2 m2 (evaporator). The
+    louvred-fin air side (Chang and Wang 1997, :func:`evtms.benches.correlations.chang_wang_j`)
+    takes the tube pitch ``core_height / n_tubes``, the fin length (tube pitch
+    minus ``tube_thickness``) and the flow depth ``tube_depth`` from these
+    parameters, and the louver geometry from the four above.
     """
 
     n_tubes: int = _count(40)
@@ -225,7 +243,10 @@ class CoilParams:
     wall_conductivity: float = _param(240.0, 0.0, 2000.0, "W/(m K)", lo_open=True)
     roughness: float = _param(15e-6, 0.0, 1e-3, "m")
     nu_laminar: float = _param(3.66, 0.0, 100.0, lo_open=True)
-    air_nu_coeffs: tuple[float, float, float] = _param((0.27, 0.63, 0.36), 0.0, 10.0, lo_open=True)
+    louver_angle: float = _param(0.47123889803846897, 0.0, 1.5707963267948966, "rad", lo_open=True, hi_open=True)
+    louver_pitch: float = _length(1.0e-3, 0.1)
+    louver_length: float = _length(6.5e-3, 1.0)
+    fin_thickness: float = _length(0.1e-3, 0.01)
 
 
 def _evaporator_coil() -> CoilParams:
@@ -368,6 +389,15 @@ _RELATIONS: dict[type, tuple[_Relation, ...]] = {
             "core_length * core_height",
             ("core_length", "core_height"),
         ),
+        _Relation(
+            "louver_length",
+            "<",
+            lambda c: c.core_height / c.n_tubes - c.tube_thickness,
+            "core_height / n_tubes - tube_thickness",
+            ("core_height", "n_tubes", "tube_thickness"),
+        ),
+        _Relation("louver_pitch", "<", lambda c: c.tube_depth, "tube_depth", ("tube_depth",)),
+        _Relation("fin_thickness", "<", lambda c: c.fin_spacing, "fin_spacing", ("fin_spacing",)),
     ),
     ExpansionValveParams: (
         _Relation("capacity_max", ">=", lambda v: v.capacity_nominal, "capacity_nominal", ("capacity_nominal",)),

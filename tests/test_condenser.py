@@ -1,12 +1,16 @@
-"""Condenser bench: energy balance, second law, thesis trends."""
+"""Condenser bench: energy balance, second law, thesis trends, the air-side range flag."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
 from CoolProp.CoolProp import HAPropsSI
 
 from evtms.benches import BENCHES
+from evtms.benches.coil import solve_coil
+from evtms.benches.condenser import STATUS_AIR_CORRELATION_OUTSIDE_RANGE
 
 
 @pytest.fixture(scope="module")
@@ -15,7 +19,7 @@ def ds(thesis):
 
 
 def _valid(ds):
-    return ds["status"].values == 0
+    return np.isin(ds["status"].values, BENCHES["condenser"].valid_flags)
 
 
 def test_thesis_grid_all_valid_and_finite(ds):
@@ -23,6 +27,35 @@ def test_thesis_grid_all_valid_and_finite(ds):
     assert _valid(ds).all()
     for name in BENCHES["condenser"].outputs:
         assert np.isfinite(ds[name].values).all(), name
+    # Fan 0.05-0.5 blows the core at 0.11-1.1 m/s: Re_Lp 7-70, below Chang and Wang's 100,
+    # so every thesis point is valid with the range flag.
+    assert (ds["status"].values == STATUS_AIR_CORRELATION_OUTSIDE_RANGE).all()
+    assert "valid_air_correlation_outside_range" in ds["status"].attrs["flag_meanings"].split()
+    assert list(ds["status"].attrs["valid_flag_values"]) == [0, STATUS_AIR_CORRELATION_OUTSIDE_RANGE]
+
+
+@pytest.mark.parametrize("fan_flow_max", [0.88, 30.0])
+def test_range_flag_set_exactly_where_re_lp_leaves_100_to_3000(fluid, params, fan_flow_max):
+    # Fan 0.3-1 crosses Re_Lp = 100 (at about fan 0.7) with the default 0.88 m3/s; a 30 m3/s
+    # fan crosses Re_Lp = 3000 (at about fan 0.65).
+    coil = dataclasses.replace(params.condenser, fan_flow_max=fan_flow_max)
+    p = dataclasses.replace(params, condenser=coil)
+    n = 141
+    fan = np.linspace(0.3, 1.0, n)
+    inputs = {
+        "mdot": np.full(n, 0.006),
+        "fan": fan,
+        "p_in": np.full(n, 1.2e6),
+        "T_in": np.full(n, 350.0),
+        "T_res": np.full(n, 300.0),
+    }
+    out = BENCHES["condenser"].evaluate(inputs, p, fluid)
+    h_in = fluid.state("PT", inputs["p_in"], inputs["T_in"], ("H",))["H"]
+    raw = solve_coil(fluid, coil, p.environment, inputs["p_in"], h_in, inputs["mdot"], fan, "condenser")
+    outside = (raw["Re_Lp"] < 100.0) | (raw["Re_Lp"] > 3000.0)
+    assert 10 < outside.sum() < n - 10
+    np.testing.assert_array_equal(out["status"], np.where(outside, STATUS_AIR_CORRELATION_OUTSIDE_RANGE, 0))
+    assert np.isfinite(out["Q"]).all() and (np.diff(out["Q"]) >= 0).all()
 
 
 def test_refrigerant_energy_balance_to_round_off(ds):

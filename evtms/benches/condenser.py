@@ -7,9 +7,15 @@ from the moving-boundary coil model of :mod:`evtms.benches.coil` (vapour,
 two-phase and liquid zones, effectiveness-NTU per zone, dry air).
 
 Correlations (see :mod:`evtms.benches.correlations`): Gnielinski single phase
-(laminar Nu below Re 2300), Cavallini-Zecchin condensation, air side
-Nu = 0.27 Re^0.63 Pr^0.36, Haaland friction and Mueller-Steinhagen-Heck
-two-phase pressure drop.
+(laminar Nu below Re 2300), Cavallini-Zecchin condensation with Chato's film
+condensation, Haaland friction and Mueller-Steinhagen-Heck two-phase pressure
+drop; on the air side the louvred-fin Colburn factor of Chang and Wang (1997),
+``j = Re_Lp^-0.49 (theta/90)^0.27 (F_p/L_p)^-0.14 ...``, with ``h = j rho V_c
+c_p Pr^(-2/3)`` at the core velocity ``V_c``. Its data cover louver-pitch
+Reynolds numbers 100 to 3000; the Simscape coil's air flows give Re_Lp of
+about 7 (fan 0.05) to 140 (fan 1), so most points use it below its range:
+they are valid with status 11 (``valid_air_correlation_outside_range``),
+the correlation evaluated as published.
 
 ``T_res`` is the downstream reservoir of the thesis bench. In steady state a
 reservoir downstream of a forward flow cannot change the coil's response, so
@@ -45,6 +51,8 @@ from evtms.params import Parameters
 
 STATUS_NOT_WARMER_THAN_AIR = 3
 STATUS_DP_EXCEEDS_INLET = 4
+#: Valid point whose air-side Re_Lp lies outside the Chang and Wang (1997) range (both coil benches).
+STATUS_AIR_CORRELATION_OUTSIDE_RANGE = 11
 
 #: What the coil model gives both coil benches (``coil_bench_outputs``), in file order.
 COIL_OUTPUTS = (
@@ -75,7 +83,9 @@ def coil_bench_outputs(
     """Run the coil model for a condenser or evaporator bench.
 
     Returns the outputs (without status), the status array with the shared
-    coil codes, and the raw coil result.
+    coil codes (valid points whose air-side correlation runs outside its
+    range get :data:`STATUS_AIR_CORRELATION_OUTSIDE_RANGE`), and the raw coil
+    result.
     """
     mode = component
     air_axis = "fan" if component == "condenser" else "blower"
@@ -103,6 +113,7 @@ def coil_bench_outputs(
         ],
         p_in.size,
     )
+    status[(status == 0) & res["air_outside_range"]] = STATUS_AIR_CORRELATION_OUTSIDE_RANGE
     out = {k: np.asarray(res[k], float).copy() for k in COIL_OUTPUTS if k != "h_in"}
     out["h_in"] = h_in
     return out, status, res
@@ -135,10 +146,10 @@ def condenser_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid
         (``h_out`` for a subcooled outlet; otherwise the liquid zone's heat
         rate continued linearly to the negative length ``1 -
         1/capacity_ratio``, for the cycle's subcooling target) and ``status``
-        (int8, see :data:`FLAGS`).
+        (int8, see :data:`FLAGS`; 0 and 11 are valid).
     """
     out, status, _ = coil_bench_outputs(inputs, params, fluid, "condenser")
-    finish_status(status, out, (0,))
+    finish_status(status, out, BENCH.valid_flags)
     out["status"] = status
     return out
 
@@ -147,6 +158,7 @@ FLAGS = {
     **COMMON_FLAGS,
     STATUS_NOT_WARMER_THAN_AIR: "refrigerant_inlet_not_warmer_than_air",
     STATUS_DP_EXCEEDS_INLET: "pressure_drop_exceeds_inlet_pressure",
+    STATUS_AIR_CORRELATION_OUTSIDE_RANGE: "valid_air_correlation_outside_range",
 }
 
 BENCH = Bench(
@@ -157,6 +169,7 @@ BENCH = Bench(
     flags=FLAGS,
     evaluate=condenser_heat_rate,
     extra_axes=("T_air_in", "RH_air_in"),
+    valid_flags=(0, STATUS_AIR_CORRELATION_OUTSIDE_RANGE),
     presets={
         "thesis": {
             "mdot": (0.004526, 0.0062, 0.00743, 0.0077),

@@ -21,10 +21,26 @@ Inlet states the thesis grid produces and how they are treated:
 
 Energy: ``Q = mdot (h_in - h_out)`` (< 0), and the air loses
 ``m_da (h_air_in - h_air_out)`` = ``-Q`` plus the enthalpy carried away by the
-liquid condensate. Frost: where the coldest coil surface is below 0 degC,
-``status`` is ``valid_frost_risk`` (code 10): the point is valid (finite
-values), but ice would build up on the fins over time and the steady state
-would not last. The condensate is still taken as liquid water there.
+liquid condensate. The air leaving is the mixture of the zones' outlet
+streams; where that mixture would be supersaturated (the saturation curve is
+convex, so mixing nearly saturated streams can overshoot it, and humid air
+crossing a coil far below its dew point does so strongly: before this was
+handled, up to RH 1.033 on the thesis grid and up to 3.6 times the
+saturation humidity ratio at -35 degC evaporating in the cycle envelope),
+the excess water condenses and the air leaves saturated at the temperature
+that keeps the energy balance (:func:`evtms.benches.coil._condense_excess`),
+never above saturation.
+
+Frost: where the coldest coil surface is below 0 degC, ``status`` is
+``valid_frost_risk`` (code 10): the point is valid (finite values), but ice
+would build up on the fins over time and the steady state would not last.
+The condensate is still taken as liquid water there. The air side is the
+condenser's louvred-fin correlation (Chang and Wang 1997), valid for
+louver-pitch Reynolds numbers 100 to 3000; below or above, the point is
+valid with status 11 (``valid_air_correlation_outside_range``), or 12 if it
+also risks frost. The blower's air flows give Re_Lp of about 15 (blower 0.1)
+to 160 (blower 1). Chang and Wang's data are for dry fins; the wet surface
+takes the same coefficient.
 
 ``T_res`` (downstream reservoir) has no effect in steady state; the axis is
 kept for parity with the thesis.
@@ -40,12 +56,20 @@ from evtms.benches.base import (
     finish_status,
     pressure_nodes,
 )
-from evtms.benches.condenser import COIL_OUTPUTS, STATUS_DP_EXCEEDS_INLET, coil_bench_outputs
+from evtms.benches.condenser import (
+    COIL_OUTPUTS,
+    STATUS_AIR_CORRELATION_OUTSIDE_RANGE,
+    STATUS_DP_EXCEEDS_INLET,
+    coil_bench_outputs,
+)
 from evtms.fluid import Fluid
 from evtms.params import Parameters
 
 STATUS_NOT_COLDER_THAN_AIR = 3
 STATUS_FROST_RISK = 10
+STATUS_FROST_RISK_AIR_OUTSIDE_RANGE = 12
+#: Status codes of the valid points that risk frost.
+FROST_RISK_FLAGS = (STATUS_FROST_RISK, STATUS_FROST_RISK_AIR_OUTSIDE_RANGE)
 FREEZING_POINT = 273.15  # K
 
 # The coil's outputs with the latent part of Q after Q.
@@ -77,12 +101,15 @@ def evaporator_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, flui
         two-phase outlet the superheated zone's heat rate continued linearly
         to the negative length ``1 - 1/capacity_ratio``: smooth where
         ``h_out`` has its kink, for the cycle's superheat closure) and
-        ``status`` (int8, see :data:`FLAGS`).
+        ``status`` (int8, see :data:`FLAGS`; 0, 10, 11 and 12 are valid, 10
+        and 12 risk frost, 11 and 12 use the air-side correlation outside its
+        range).
     """
     out, status, res = coil_bench_outputs(inputs, params, fluid, "evaporator")
     out["Q_latent"] = np.asarray(res["Q_latent"], float).copy()
-    frost = (status == 0) & (res["T_surface_min"] < FREEZING_POINT)
-    status[frost] = STATUS_FROST_RISK
+    cold = res["T_surface_min"] < FREEZING_POINT
+    status[(status == 0) & cold] = STATUS_FROST_RISK
+    status[(status == STATUS_AIR_CORRELATION_OUTSIDE_RANGE) & cold] = STATUS_FROST_RISK_AIR_OUTSIDE_RANGE
     finish_status(status, out, BENCH.valid_flags)
     out["status"] = status
     return out
@@ -93,6 +120,8 @@ FLAGS = {
     STATUS_NOT_COLDER_THAN_AIR: "refrigerant_inlet_not_colder_than_air",
     STATUS_DP_EXCEEDS_INLET: "pressure_drop_exceeds_inlet_pressure",
     STATUS_FROST_RISK: "valid_frost_risk_surface_below_0C",
+    STATUS_AIR_CORRELATION_OUTSIDE_RANGE: "valid_air_correlation_outside_range",
+    STATUS_FROST_RISK_AIR_OUTSIDE_RANGE: "valid_frost_risk_air_correlation_outside_range",
 }
 
 BENCH = Bench(
@@ -103,7 +132,7 @@ BENCH = Bench(
     flags=FLAGS,
     evaluate=evaporator_heat_rate,
     extra_axes=("T_air_in", "RH_air_in"),
-    valid_flags=(0, STATUS_FROST_RISK),
+    valid_flags=(0, STATUS_FROST_RISK, STATUS_AIR_CORRELATION_OUTSIDE_RANGE, STATUS_FROST_RISK_AIR_OUTSIDE_RANGE),
     presets={
         "thesis": {
             "mdot": (0.004526, 0.0062, 0.00743, 0.0077),
