@@ -787,6 +787,7 @@ _PERFORMANCE = (
     ("COP", "cooling COP", 1.0, "-", "1"),
     ("dp_valve", "valve pressure drop", 1e-3, "kPa", "Pa"),
     ("valve_opening", "valve opening / nominal", 1.0, "-", "1"),
+    ("superheat_actual", "evaporator-outlet superheat", 1.0, "K", "K"),
     ("balance_residual", "energy balance residual", 1.0, "W", "W"),
     ("balance_relative", "  relative to W_fluid", 100.0, "%", "1"),
 )

@@ -581,14 +581,6 @@ def _convert(f: dataclasses.Field, value: Any, where: str) -> Any:
     key = f.name
     if isinstance(value, dict):
         raise EvtmsInputError(f"{where} {key} is a table, not a value; allowed: {rng.describe(key)}")
-    if isinstance(f.default, tuple):
-        n = len(f.default)
-        allowed = f"a list of {n} numbers, each {rng.describe('value')}"
-        if not isinstance(value, (list, tuple)) or len(value) != n:
-            raise EvtmsInputError(f"{where} {key} = {_show(value)} is not allowed; allowed: {allowed}")
-        if not all(_is_number(v) and rng.contains(v) for v in value):
-            raise EvtmsInputError(f"{where} {key} = {_show(value)} is not allowed; allowed: {allowed}")
-        return tuple(float(v) for v in value)
     if not _is_number(value):
         raise EvtmsInputError(f"{where} {key} = {_show(value)} is not a number; allowed: {rng.describe(key)}")
     if not rng.contains(value):

@@ -294,7 +294,8 @@ def test_frost_risk_is_flagged_in_both_modes(cycle_luts, cycle_luts_dir):
         speed=[1.0, 0.2], fan=[0.3, 0.5], blower=[0.3, 0.4], T_amb=[313.15, 303.15], T_cabin=[298.15, 300.15]
     )
     for r in (run_cycle(points, cycle_luts), run_cycle(points)):
-        assert np.isin(r["status"][0], FROST_RISK_FLAGS) and r["frost_risk"][0] == pytest.approx(1.0)
+        # Direct mode: the evaporator's own flag (1); LUT mode: its 0/1 indicator interpolated, flagged from 0.5.
+        assert np.isin(r["status"][0], FROST_RISK_FLAGS) and r["frost_risk"][0] >= 0.5
         assert "frost" in r["reason"][0]
         assert r["T_D"][0] < 273.15  # evaporating below freezing
         assert r["status"][1] == STATUS_CONVERGED and r["frost_risk"][1] == 0.0 and r["reason"][1] == ""

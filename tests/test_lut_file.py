@@ -65,7 +65,8 @@ def test_plain_netcdf4_reads_axes_units_and_order(written):
 def test_status_flags_and_global_attributes(written, params):
     with netCDF4.Dataset(written[0]) as nc:
         status = nc.variables["status"]
-        assert list(status.flag_values) == [0, 1, 2, 3, 4]
+        assert list(status.flag_values) == [0, 1, 2, 3, 4, 11]  # 11: valid, air correlation outside its range
+        assert list(status.valid_flag_values) == [0, 11]
         assert status.flag_meanings.split()[0] == "valid"
         assert len(status.flag_meanings.split()) == len(status.flag_values)
         for attr in REQUIRED_GLOBAL_ATTRS:

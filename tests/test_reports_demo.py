@@ -72,7 +72,7 @@ def test_plotted_data_equal_the_lut(thesis):
             for f, y in data.lines.items():
                 sel = {d: v for d, v in base.items() if d not in (axis, family)} | {family: f}
                 expected = ds[var].sel(sel).transpose(axis).values
-                ok = ds["status"].sel(sel).transpose(axis).values == 0
+                ok = np.isin(ds["status"].sel(sel).transpose(axis).values, ds["status"].attrs["valid_flag_values"])
                 np.testing.assert_array_equal(y[ok], expected[ok])
                 assert np.isnan(y[~ok]).all()  # invalid points are gaps
     ds = thesis("condenser")

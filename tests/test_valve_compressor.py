@@ -66,7 +66,7 @@ def test_valve_two_phase_inlet_by_enthalpy(fluid, params):
 
 def test_valve_drop_beyond_inlet_pressure_is_invalid(fluid, params):
     bench = BENCHES["expansion_valve"]
-    grid = {"T_in": np.array([300.0]), "p_in": np.array([0.9e6]), "mdot": np.array([0.008, 0.03])}
+    grid = {"T_in": np.array([300.0]), "p_in": np.array([0.9e6]), "mdot": np.array([0.008, 0.05])}
     ds = run_sweep(bench, grid, params, fluid=fluid)
     assert list(ds["status"].values.ravel()) == [0, STATUS_DP_EXCEEDS_INLET]
     assert np.isnan(ds["dp"].values.ravel()[1])

@@ -13,7 +13,7 @@ which is the area that passes the nominal capacity at the nominal conditions
           S = \\frac{\\dot m_{nom}}{\\sqrt{2 \\rho_{in,nom} (p_c - p_e)}}
 
 with ``p_c = p_sat(T_c)``, ``p_e = p_sat(T_e)``. With the default parameters
-S = 3.1e-7 m2, far below the 10 mm port's 7.9e-5 m2.
+(4.5 kW nominal) S = 6.9e-7 m2, far below the 10 mm port's 7.9e-5 m2.
 
 Flow law. For a liquid or two-phase inlet, the orifice law of an
 incompressible fluid at the inlet (homogeneous) density,
