@@ -270,23 +270,7 @@ def _bench_command(names: list[str]):
         ] = None,
         json_out: Annotated[bool, _JSON] = False,
     ) -> None:
-        _run_benches(
-            names,
-            grid,
-            axis,
-            params,
-            output,
-            backend,
-            quiet,
-            workers,
-            scheduler,
-            resume,
-            chunk_points,
-            max_points,
-            float32,
-            significant_digits,
-            json_out,
-        )
+        _run_benches(**{**locals(), "names": names})  # every option of this command, by name
 
     return command
 
@@ -309,21 +293,22 @@ def _register_benches() -> None:
 
 
 def _run_benches(
-    names,
-    grid,
-    axis,
-    params,
-    output,
-    backend,
-    quiet,
-    workers,
-    scheduler,
-    resume,
-    chunk_points,
-    max_points,
-    float32,
-    significant_digits,
-    json_out,
+    *,
+    names: list[str],
+    grid: str,
+    axis: list[str] | None,
+    params: Path | None,
+    output: Path | None,
+    backend: str | None,
+    quiet: bool,
+    workers: int | None,
+    scheduler: str | None,
+    resume: bool,
+    chunk_points: int,
+    max_points: int | None,
+    float32: bool,
+    significant_digits: int | None,
+    json_out: bool,
 ) -> None:
     import dataclasses
 
