@@ -1,8 +1,9 @@
 """Component parameters and the ambient-air boundary, in one place.
 
 Defaults come from the blocks of MathWorks' Simscape "Electric Vehicle Thermal
-Management" example (R2024a/R2025b), as listed in ``shared/spec/benches.md``.
-All values are SI. A user overrides any of them with a TOML file whose tables
+Management" example (R2024a/R2025b), except where a class's docstring says
+otherwise (the expansion valve is the example's chiller valve; the louvre
+geometry is typical of automotive coils). All values are SI. A user overrides any of them with a TOML file whose tables
 are named after the components, for example::
 
     [condenser]
