@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from evtms.benches.chunked import _MAGIC, _MARKER
+from evtms.benches.partial import MAGIC, MARKER
 from evtms.cli import app
 
 runner = CliRunner()
@@ -127,7 +127,7 @@ def test_resume_refuses_a_partial_sweep_of_other_inputs(tmp_path):
     out = tmp_path / "c.nc"
     partial = tmp_path / "c.nc.partial"
     partial.mkdir()
-    (partial / _MARKER).write_text(json.dumps({"magic": _MAGIC}))  # an evtms partial folder
+    (partial / MARKER).write_text(json.dumps({"magic": MAGIC}))  # an evtms partial folder
     (partial / "manifest.json").write_text(json.dumps({"bench": "condenser", "axes": {}}))
     (partial / "chunk_000000.npy").write_bytes(b"another sweep's chunk")
     res = runner.invoke(app, ["bench", "condenser", "-o", str(out), "--resume"])
@@ -212,7 +212,8 @@ def test_a_worker_killed_mid_sweep_loses_nothing(tmp_path):
 
 
 def test_a_worker_saves_its_chunk_only_where_it_sees_the_partial_folder(tmp_path):
-    from evtms.benches.chunked import _TOKEN, ChunkPlan, _Job, _save_chunk
+    from evtms.benches.chunked import ChunkPlan, _Job
+    from evtms.benches.partial import TOKEN, save_chunk
     from evtms.params import Parameters
 
     grid = {
@@ -223,14 +224,14 @@ def test_a_worker_saves_its_chunk_only_where_it_sees_the_partial_folder(tmp_path
         "T_res": np.array([300.0]),
     }
     plan = ChunkPlan.for_grid((2, 1, 1, 2, 1), 2)  # two chunks of two points
-    (tmp_path / _TOKEN).write_text("this-sweep")
+    (tmp_path / TOKEN).write_text("this-sweep")
     seen = _Job("condenser", grid, Parameters(), plan, str(tmp_path), "this-sweep")(1)
     assert seen is None and (tmp_path / "chunk_000001.npy").exists()
     # Another sweep's token (a worker on another machine with a folder of that name):
     # the arrays travel back to the main process, which saves them.
     elsewhere = _Job("condenser", grid, Parameters(), plan, str(tmp_path), "other-sweep")(0)
     assert set(elsewhere) >= {"status", "Q", "h_out"} and not (tmp_path / "chunk_000000.npy").exists()
-    _save_chunk(tmp_path, 0, elsewhere)
+    save_chunk(tmp_path, 0, elsewhere)
     a, b = np.load(tmp_path / "chunk_000000.npy"), np.load(tmp_path / "chunk_000001.npy")
     assert a.shape == b.shape == (len(elsewhere), 2)
     np.testing.assert_array_equal(a[list(elsewhere).index("Q")], elsewhere["Q"])

@@ -25,15 +25,8 @@ import numpy as np
 import pytest
 
 from evtms.benches import BENCHES
-from evtms.benches.chunked import (
-    _LOCK,
-    _MAGIC,
-    _MARKER,
-    ChunkPlan,
-    SweepInterrupted,
-    _lock_partial,
-    sweep_to_file,
-)
+from evtms.benches.chunked import ChunkPlan, SweepInterrupted, sweep_to_file
+from evtms.benches.partial import LOCK, MAGIC, MARKER, lock_partial
 from evtms.errors import EvtmsInputError
 from evtms.params import Parameters
 
@@ -205,14 +198,14 @@ def test_a_second_sweep_to_the_same_output_refuses_naming_the_running_one(tmp_pa
 RACER = """
 import json, sys, time
 from pathlib import Path
-from evtms.benches.chunked import _lock_partial
+from evtms.benches.partial import lock_partial
 from evtms.errors import EvtmsInputError
 
 partial, go, done = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
 while not go.exists():
     pass
 try:
-    lock, notes = _lock_partial(partial, partial.with_suffix(""))
+    lock, notes = lock_partial(partial, partial.with_suffix(""))
 except EvtmsInputError as exc:
     print(json.dumps(["refused", str(exc)]), flush=True)
 else:
@@ -232,7 +225,7 @@ def test_racing_sweeps_create_and_lock_the_partial_folder_exactly_once(tmp_path,
         partial, go, done = folder / "x.nc.partial", folder / "go", folder / "done"
         if existing:  # an interrupted sweep's folder, unlocked
             partial.mkdir()
-            (partial / _MARKER).write_text(json.dumps({"magic": _MAGIC}))
+            (partial / MARKER).write_text(json.dumps({"magic": MAGIC}))
         procs = [
             subprocess.Popen(
                 [sys.executable, "-c", RACER, str(partial), str(go), str(done)], stdout=subprocess.PIPE, text=True
@@ -253,7 +246,7 @@ def test_racing_sweeps_create_and_lock_the_partial_folder_exactly_once(tmp_path,
         for verdict, message in results:
             if verdict == "refused":
                 assert f"pid {locked_pid} " in message, message
-        assert (partial / _MARKER).exists() and not (partial / _LOCK).exists()  # released at the end
+        assert (partial / MARKER).exists() and not (partial / LOCK).exists()  # released at the end
         assert sorted(p.name for p in folder.iterdir()) == ["done", "go", "x.nc.partial"]  # no staging left
 
 
@@ -265,7 +258,7 @@ def _dead_pid() -> int:
 
 def _write_lock(partial: Path, pid: int, host: str, started: float) -> None:
     record = {"pid": pid, "host": host, "started": started, "started_at": "2020-01-01T00:00:00+00:00"}
-    (partial / _LOCK).write_text(json.dumps(record))
+    (partial / LOCK).write_text(json.dumps(record))
 
 
 def test_a_stale_lock_is_taken_over_and_reported(tmp_path, lone):
@@ -287,7 +280,7 @@ def test_a_lock_whose_pid_is_now_a_later_process_is_stale(tmp_path):
     try:
         time.sleep(0.2)
         _write_lock(stop.partial, sleeper.pid, socket.gethostname(), time.time() - 3600)  # locked before it started
-        lock, notes = _lock_partial(stop.partial, out)
+        lock, notes = lock_partial(stop.partial, out)
         lock.release()
     finally:
         sleeper.kill()
@@ -306,15 +299,15 @@ def test_a_lock_that_may_be_live_is_never_taken_over(tmp_path, where):
             _write_lock(stop.partial, 12345, "some-other-host", time.time())
         else:  # alive, on this host, started before the lock: its flock may not work here (a network mount)
             _write_lock(stop.partial, sleeper.pid, socket.gethostname(), time.time() + 5)
-        before = (stop.partial / _LOCK).read_bytes()
+        before = (stop.partial / LOCK).read_bytes()
         with pytest.raises(EvtmsInputError) as info:
             sweep_to_file(CONDENSER, GRID, Parameters(), out, chunk_points=CHUNK, resume=True)
     finally:
         sleeper.kill()
         sleeper.wait()
     message = str(info.value)
-    assert "\n" not in message and "another sweep" in message and f"delete {str(stop.partial / _LOCK)!r}" in message
-    assert (stop.partial / _LOCK).read_bytes() == before and len(list(stop.partial.glob("chunk_*.npy"))) == 2
+    assert "\n" not in message and "another sweep" in message and f"delete {str(stop.partial / LOCK)!r}" in message
+    assert (stop.partial / LOCK).read_bytes() == before and len(list(stop.partial.glob("chunk_*.npy"))) == 2
 
 
 # --- Ownership of the partial folder -----------------------------------------------------
@@ -330,7 +323,7 @@ def _foreign(kind: str, partial: Path, tmp_path: Path) -> None:
     else:  # a symbolic link, even to an evtms partial folder
         target = tmp_path / "elsewhere"
         target.mkdir()
-        (target / _MARKER).write_text(json.dumps({"magic": _MAGIC}))
+        (target / MARKER).write_text(json.dumps({"magic": MAGIC}))
         (target / "thesis.tex").write_text("my work")
         partial.symlink_to(target)
 
@@ -365,7 +358,7 @@ def test_ctrl_c_keeps_the_chunks_releases_the_lock_and_resumes(tmp_path, lone):
     assert (stop.kept, stop.total, stop.partial) == (4, CHUNKS, tmp_path / "c.nc.partial")
     assert "4 of 18 chunks" in str(stop)
     assert len(list(stop.partial.glob("chunk_*.npy"))) == 4 and len(list(stop.partial.glob("chunk_*.sha256"))) == 4
-    assert not (stop.partial / _LOCK).exists() and not (stop.partial / "lut.nc.tmp").exists() and not out.exists()
+    assert not (stop.partial / LOCK).exists() and not (stop.partial / "lut.nc.tmp").exists() and not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.nc.partial"]
     s = sweep_to_file(CONDENSER, GRID, Parameters(), out, chunk_points=CHUNK, resume=True)
     assert (s.reused, s.computed, s.damaged, s.notes) == (4, CHUNKS - 4, 0, [])
@@ -409,7 +402,7 @@ def test_sigint_to_a_cli_sweep_leaves_a_resumable_state(tmp_path):
     assert proc.returncode != 0  # 130 once the CLI turns SweepInterrupted into its exit code
     saved = len(list(partial.glob("chunk_*.npy")))
     assert 1 <= saved < 48 and not out.exists()
-    assert not (partial / _LOCK).exists() and not (partial / "lut.nc.tmp").exists()
+    assert not (partial / LOCK).exists() and not (partial / "lut.nc.tmp").exists()
     runner = CliRunner()
     res = runner.invoke(app, [*args, "-o", str(out), "--resume"])
     assert res.exit_code == 0, res.output

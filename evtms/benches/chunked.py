@@ -23,48 +23,53 @@ the same code, so the files are identical but for their creation time. A
 dask worker that dies mid-chunk loses nothing: the scheduler reruns its task
 elsewhere (and ``retries`` reruns tasks that raised).
 
-The partial folder is evtms's own: it holds an ownership marker
-(``evtms-partial.json``), and a folder of that name without it (or a file, or
-a symbolic link) is never deleted nor reused. A sweep holds an exclusive lock
-on it (``lock.json``: pid, host and start time, created atomically, plus an
-``flock``), so a second sweep to the same output refuses while the first
-runs; a lock whose process is gone is taken over (and reported in
-:attr:`SweepSummary.notes`). Ctrl-C keeps the saved chunks and raises
-:class:`SweepInterrupted`.
+The partial folder (:mod:`evtms.benches.partial`) is evtms's own: an
+ownership marker says so, and a sweep holds an exclusive lock on it, so a
+second sweep to the same output refuses while the first runs; a lock whose
+process is gone is taken over (and reported in :attr:`SweepSummary.notes`).
+The file is written by :class:`evtms.luts.writer.LutFileWriter`. Ctrl-C keeps
+the saved chunks and raises :class:`SweepInterrupted`.
 """
 
 from __future__ import annotations
 
-import contextlib
-import datetime
-import hashlib
-import io
 import json
 import logging
 import math
-import os
 import re
 import shutil
-import socket
 import threading
 import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-
-try:
-    import fcntl
-except ImportError:  # not POSIX: the lock file and the pid check alone
-    fcntl = None
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from evtms import __version__
 from evtms.benches.base import Bench
+from evtms.benches.partial import (
+    TOKEN,
+    chunk_file,
+    clear_state,
+    done_chunks,
+    lock_partial,
+    one_line,
+    read_record,
+    remove_partial,
+    save_chunk,
+    saved_chunks,
+    sees_folder,
+    sweep_manifest,
+    write_atomically,
+)
 from evtms.errors import EvtmsInputError
 from evtms.luts.io import LutStorage
 from evtms.params import Parameters
+
+if TYPE_CHECKING:
+    from evtms.luts.writer import LutFileWriter
 
 Progress = Callable[[int, int], None]
 DEFAULT_CHUNK_POINTS = 16384
@@ -293,7 +298,7 @@ class DaskRunner:
                 try:
                     self.client = Client(scheduler, timeout=f"{CONNECT_SECONDS:g}s")
                 except (OSError, TimeoutError, ValueError) as exc:
-                    problem = _one_line(exc)
+                    problem = one_line(exc)
             if problem is not None:
                 raise EvtmsInputError(
                     f"cannot reach the dask scheduler {scheduler!r} within {CONNECT_SECONDS:g} s ({problem}); "
@@ -382,12 +387,6 @@ def check_scheduler_address(address: str) -> str:
     return address
 
 
-def _one_line(exc: BaseException) -> str:
-    """An exception as one short line (its type when it has no message)."""
-    text = " ".join(str(exc).split())
-    return text[:200] if text else type(exc).__name__
-
-
 def _probe_scheduler(address: str, seconds: float) -> str | None:
     """Connect to ``address``, handshake and ask its identity, all within ``seconds``.
 
@@ -431,7 +430,7 @@ def _probe_scheduler(address: str, seconds: float) -> str | None:
     if thread.is_alive() or isinstance(outcome.get("error"), TimeoutError):
         return f"no answer within {seconds:g} s"
     if "error" in outcome:
-        return _one_line(outcome["error"])
+        return one_line(outcome["error"])
     reply = outcome.get("reply")
     if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
         return "the server there is not a dask scheduler"
@@ -462,34 +461,10 @@ class _Job:
 
     def __call__(self, k: int) -> dict[str, np.ndarray] | None:
         arrays = compute_chunk(self.bench_name, self.grid, self.params, self.plan, k)
-        if self.partial is not None and _sees_folder(self.partial, self.token):
-            _save_chunk(Path(self.partial), k, arrays)
+        if self.partial is not None and sees_folder(self.partial, self.token):
+            save_chunk(Path(self.partial), k, arrays)
             return None
         return arrays
-
-
-def _sees_folder(folder: str, token: str | None) -> bool:
-    """True if this process sees ``folder`` as the main process does (its token file matches).
-
-    Checked again before every save (one small read): a task that outlives
-    its sweep (a dask task cannot be stopped mid-run) must not write into the
-    folder once a later sweep has taken it over with a token of its own. A
-    folder not seen is remembered as such.
-    """
-    unseen = _sees_folder.__dict__.setdefault("unseen", set())
-    key = (folder, token)
-    if token is None or key in unseen:
-        return False
-    try:
-        seen = (Path(folder) / _TOKEN).read_text() == token
-    except OSError:
-        seen = False
-    if not seen:
-        unseen.add(key)
-    return seen
-
-
-_TOKEN = "token"
 
 
 @dataclass
@@ -545,368 +520,6 @@ class SweepInterrupted(Exception):  # noqa: N818 (not an error: the user stopped
     def __init__(self, kept: int, total: int, partial: Path) -> None:
         self.kept, self.total, self.partial = kept, total, Path(partial)
         super().__init__(f"sweep interrupted: {kept} of {total} chunks kept in {str(partial)!r}")
-
-
-def _manifest(bench: Bench, grid: dict, params: Parameters, grid_name: str, plan: ChunkPlan) -> dict:
-    from evtms.fluid import coolprop_version
-
-    manifest = {
-        "bench": bench.name,
-        "grid_name": grid_name,
-        "axes": {k: [float(x) for x in v] for k, v in grid.items()},
-        "parameters": json.loads(params.component_json(bench.name)),
-        "environment": json.loads(params.environment_json()),
-        "evtms_version": __version__,
-        "coolprop_version": coolprop_version(),
-        "chunks": {"lead": plan.lead, "rows": plan.rows, "checksum": "sha256"},
-    }
-    return json.loads(json.dumps(manifest))  # as it reads back from disk (tuples become lists)
-
-
-def _chunk_file(folder: Path, k: int) -> Path:
-    return folder / f"chunk_{k:06d}.npy"
-
-
-def _checksum_file(folder: Path, k: int) -> Path:
-    return folder / f"chunk_{k:06d}.sha256"
-
-
-def _write_atomically(path: Path, data: bytes | memoryview) -> None:
-    """Write ``data`` to ``path`` through a temporary file of this process, renamed over it."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
-def _save_chunk(folder: Path, k: int, arrays: dict[str, np.ndarray]) -> None:
-    """Save chunk ``k`` atomically as one (variables, points) float64 array, in ``arrays``' order.
-
-    One plain ``.npy`` per chunk: loading it parses one header (an ``.npz`` parses
-    a zip directory and a header per variable, which the main process would pay
-    for every chunk). The int8 status is exact in float64. The SHA-256 of the
-    file's bytes goes beside it first (``chunk_k.sha256``), so a chunk file
-    always has the checksum ``resume`` checks it against.
-    """
-    stacked = np.stack([np.asarray(a, np.float64) for a in arrays.values()])
-    buffer = io.BytesIO()
-    np.save(buffer, stacked)
-    data = buffer.getbuffer()
-    _write_atomically(_checksum_file(folder, k), hashlib.sha256(data).hexdigest().encode())
-    _write_atomically(_chunk_file(folder, k), data)
-
-
-def _done_chunks(folder: Path, plan: ChunkPlan, names: list[str]) -> tuple[set[int], int]:
-    """Chunks of an interrupted sweep that are whole, and how many saved ones are not.
-
-    A chunk is whole when its bytes match its saved SHA-256 and it holds
-    ``names`` over the chunk's points; any other saved chunk (flipped bits, a
-    truncated file, a missing checksum) is counted as damaged and recomputed.
-    """
-    done, damaged = set(), 0
-    for f in folder.glob("chunk_*.npy"):
-        try:
-            k = int(f.stem.split("_")[1])
-        except (IndexError, ValueError):
-            continue
-        if not 0 <= k < plan.count:
-            continue
-        try:
-            data = f.read_bytes()
-            expected = _checksum_file(folder, k).read_text().strip()
-            whole = hashlib.sha256(data).hexdigest() == expected
-            whole = whole and np.load(io.BytesIO(data), mmap_mode=None).shape == (len(names), plan.size(k))
-        except (OSError, ValueError, UnicodeDecodeError):
-            whole = False
-        if whole:
-            done.add(k)
-        else:
-            damaged += 1
-    return done, damaged
-
-
-def _saved_chunks(folder: Path) -> int:
-    """Chunk files in ``folder`` (0 if it is gone)."""
-    try:
-        return sum(1 for _ in folder.glob("chunk_*.npy"))
-    except OSError:
-        return 0
-
-
-# --- The partial folder: ownership marker and exclusive lock -------------------------------
-
-_MARKER = "evtms-partial.json"
-_MAGIC = "evtms chunked sweep state (a partial LUT): evtms may delete this folder"
-_LOCK = "lock.json"
-#: Own entries of a partial folder that a fresh (not resumed) sweep clears.
-_STATE = ("manifest.json", _TOKEN, "lut.nc.tmp", "chunk_*.npy", "chunk_*.sha256", ".chunk_*")
-#: Seconds to sort out a lock that is changing hands before giving up.
-LOCK_SETTLE_SECONDS = 5.0
-
-
-def _lock_record() -> dict:
-    now = time.time()
-    return {
-        "pid": os.getpid(),
-        "host": socket.gethostname(),
-        "started": now,
-        "started_at": datetime.datetime.fromtimestamp(now).astimezone().isoformat(timespec="seconds"),
-    }
-
-
-def _describe(record: dict | None) -> str:
-    if not record:
-        return "pid unknown (its lock file is unreadable)"
-    return f"pid {record.get('pid')} on host {record.get('host')}, started {record.get('started_at')}"
-
-
-def _read_record(path: Path) -> dict | None:
-    try:
-        record = json.loads(path.read_text())
-    except (OSError, ValueError, UnicodeDecodeError):
-        return None
-    return record if isinstance(record, dict) else None
-
-
-def _flock(fd: int) -> bool | None:
-    """Try an exclusive ``flock`` on ``fd``: True taken, False held elsewhere, None unsupported here."""
-    if fcntl is None:
-        return None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        return False
-    except OSError:  # a file system without flock (some network mounts)
-        return None
-    return True
-
-
-def _same_file(fd: int, path: Path) -> bool:
-    try:
-        st = os.stat(path, follow_symlinks=False)
-    except OSError:
-        return False
-    own = os.fstat(fd)
-    return (st.st_dev, st.st_ino) == (own.st_dev, own.st_ino)
-
-
-def _pid_running(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
-        return True
-    except (OSError, OverflowError):
-        return False
-    return True
-
-
-def _process_started(pid: int) -> float | None:
-    """Start time (epoch seconds) of process ``pid`` from /proc, or None where unknown."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-        ticks = int(stat[stat.rindex(")") + 2 :].split()[19])
-        boot = next(
-            float(line.split()[1]) for line in Path("/proc/stat").read_text().splitlines() if line.startswith("btime")
-        )
-        return boot + ticks / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError, StopIteration):
-        return None
-
-
-def _stale(record: dict | None) -> str | None:
-    """Why the lock of ``record`` (whose flock nobody holds) is stale, or None if its sweep may run."""
-    if record is None:
-        return "its lock file is unreadable"
-    if record.get("host") != socket.gethostname():
-        return None  # no way to check a process on another machine
-    pid, started = record.get("pid"), record.get("started")
-    if not isinstance(pid, int) or not isinstance(started, (int, float)):
-        return "its lock file is unreadable"
-    if pid == os.getpid():
-        return "this process left it behind"
-    if not _pid_running(pid):
-        return f"process {pid} is not running"
-    began = _process_started(pid)
-    if began is not None and began > started + 2.0:
-        return f"process {pid} is not running (that pid is now a later process)"
-    return None
-
-
-class _Lock:
-    """An exclusive lock on a partial folder: ``lock.json`` (our record) held with ``flock``."""
-
-    def __init__(self, fd: int, path: Path) -> None:
-        self.fd, self.path = fd, path
-
-    def release(self) -> None:
-        """Remove the lock file (if it is still ours) and drop the flock; idempotent."""
-        if self.fd < 0:
-            return
-        if _same_file(self.fd, self.path):
-            self.path.unlink(missing_ok=True)
-        os.close(self.fd)
-        self.fd = -1
-
-
-def _new_lock(path: Path, replace: bool = False) -> _Lock | None:
-    """Create lock file ``path`` with our record, already flocked; None if it exists (and not ``replace``).
-
-    The record is written to a temporary file that is then linked (or, to take
-    over, renamed) to ``path``: the lock file appears whole and held, never
-    empty.
-    """
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
-    try:
-        _flock(fd)  # a new inode nobody else knows: always ours
-        os.write(fd, json.dumps(_lock_record()).encode())
-        os.fsync(fd)
-        if replace:
-            os.replace(tmp, path)
-        else:
-            try:
-                os.link(tmp, path)
-            except FileExistsError:
-                os.close(fd)
-                return None
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.close(fd)
-        raise
-    finally:
-        tmp.unlink(missing_ok=True)
-    return _Lock(fd, path)
-
-
-def _check_owned(partial: Path) -> None:
-    """Raise unless ``partial`` is a real folder with evtms's ownership marker."""
-    hint = "move it away (evtms never deletes nor reuses it)"
-    if partial.is_symlink():
-        raise EvtmsInputError(f"{str(partial)!r} is a symbolic link, not a partial sweep of evtms; {hint}")
-    if not partial.is_dir():
-        raise EvtmsInputError(f"{str(partial)!r} is a file, not a partial sweep of evtms; {hint}")
-    marker = _read_record(partial / _MARKER)
-    if marker is None or marker.get("magic") != _MAGIC or (partial / _MARKER).is_symlink():
-        raise EvtmsInputError(f"{str(partial)!r} exists but is not a partial sweep of evtms (no {_MARKER}); {hint}")
-
-
-def _create_partial(partial: Path) -> _Lock | None:
-    """Create ``partial`` with its marker and our lock in one rename; None if it appeared meanwhile."""
-    staging = partial.with_name(f".{partial.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.new")
-    staging.mkdir()
-    lock = None
-    try:
-        marker = {"magic": _MAGIC, "created": _lock_record()}
-        (staging / _MARKER).write_text(json.dumps(marker))
-        lock = _new_lock(staging / _LOCK)
-        if lock is None or os.path.lexists(partial):
-            raise FileExistsError(partial)
-        # Atomic: the folder appears with its marker and held lock, or not at
-        # all (a non-empty folder of that name makes the rename fail).
-        os.rename(staging, partial)
-        lock.path = partial / _LOCK
-        return lock
-    except (FileExistsError, OSError) as exc:
-        if lock is not None:
-            os.close(lock.fd)
-        shutil.rmtree(staging, ignore_errors=True)
-        if isinstance(exc, FileExistsError) or os.path.lexists(partial):
-            return None
-        raise
-    except BaseException:
-        if lock is not None:
-            os.close(lock.fd)
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-
-
-def _lock_partial(partial: Path, output: Path) -> tuple[_Lock, list[str]]:
-    """Take the exclusive lock on ``partial``, creating it (race-free) when missing.
-
-    Returns
-    -------
-    lock : _Lock
-        Held; release it (or remove the folder) on every exit path.
-    notes : list of str
-        A line if a stale lock was taken over.
-
-    Raises
-    ------
-    EvtmsInputError
-        ``partial`` is not evtms's, or another sweep to ``output`` runs.
-    """
-    running = f"another sweep to {str(output)!r} is running"
-    deadline = time.monotonic() + LOCK_SETTLE_SECONDS
-    while True:
-        if not os.path.lexists(partial):
-            lock = _create_partial(partial)
-            if lock is not None:
-                return lock, []
-            continue  # another sweep created it first: lock it like any existing one
-        _check_owned(partial)
-        path = partial / _LOCK
-        try:
-            lock = _new_lock(path)
-        except FileNotFoundError:  # the folder went away (a sweep finished)
-            continue
-        if lock is not None:
-            return lock, []
-        try:
-            fd = os.open(path, os.O_RDWR | getattr(os, "O_NOFOLLOW", 0))
-        except FileNotFoundError:  # released meanwhile
-            continue
-        except OSError as exc:
-            raise EvtmsInputError(
-                f"{str(path)!r} cannot be opened as a lock ({_one_line(exc)}); move it away"
-            ) from None
-        settling = time.monotonic() < deadline
-        held = _flock(fd)
-        if not _same_file(fd, path):  # replaced or removed while we opened it
-            os.close(fd)
-            continue
-        record = _read_record(path)
-        reason = _stale(record)
-        if held is False:
-            os.close(fd)
-            # A dead owner's record, yet the flock is held: another sweep is taking it over right now.
-            if reason is not None and settling and (record or {}).get("pid") != os.getpid():
-                time.sleep(0.05)
-                continue
-            raise EvtmsInputError(f"{running} ({_describe(record)}); wait for it to end or choose another output")
-        if reason is None:
-            os.close(fd)
-            raise EvtmsInputError(f"{running} ({_describe(record)}); if it is not, delete {str(path)!r} and run again")
-        try:
-            lock = _new_lock(path, replace=True)  # a whole new record while we hold the old flock
-        finally:
-            os.close(fd)
-        return lock, [f"took over the lock of an earlier sweep to {str(output)!r} ({_describe(record)}): {reason}"]
-
-
-def _remove_partial(partial: Path, lock: _Lock) -> None:
-    """Delete the locked partial folder: renamed away first (still locked), then removed."""
-    trash = partial.with_name(f".{partial.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.done")
-    try:
-        os.rename(partial, trash)
-    except OSError:
-        lock.release()
-        return
-    lock.path = trash / _LOCK
-    shutil.rmtree(trash, ignore_errors=True)
-    lock.release()
-
-
-def _clear_state(partial: Path) -> None:
-    """Delete a fresh sweep's leftovers of an earlier one (our files only; marker and lock stay)."""
-    for pattern in _STATE:
-        for f in partial.glob(pattern):
-            if f.is_file() or f.is_symlink():
-                f.unlink(missing_ok=True)
 
 
 def _size(n: float) -> str:
@@ -1014,61 +627,65 @@ def sweep_to_file(
     plan = ChunkPlan.for_grid(tuple(len(v) for v in grid.values()), chunk_points)
     names = [n for n in bench.outputs if n not in grid]
     partial = path.with_name(path.name + ".partial")
-    manifest = _manifest(bench, grid, params, grid_name, plan)
+    manifest = sweep_manifest(bench, grid, params, grid_name, plan)
     saved_bytes = 0
     if resume and partial.is_dir() and not partial.is_symlink():
         saved_bytes = sum(f.stat().st_size for f in partial.glob("chunk_*.npy"))
     _check_disk(path, plan, names, saved_bytes)
-    lock, notes = _lock_partial(partial, path)
+    lock, notes = lock_partial(partial, path)
     remove = False  # the partial folder goes on success and when nothing is worth keeping
     try:
         done: set[int] = set()
         damaged = 0
-        old = _read_record(partial / "manifest.json")
+        old = read_record(partial / "manifest.json")
         if resume and old is not None and old != manifest:
             raise EvtmsInputError(
                 f"--resume: the partial sweep in {str(partial)!r} was made with other inputs; "
                 "remove it or run without --resume"
             )
         if resume and old == manifest:
-            done, damaged = _done_chunks(partial, plan, names)
+            done, damaged = done_chunks(partial, plan, names)
             if damaged:
                 notes.append(f"{damaged} saved chunk(s) failed their checksum and were computed again")
         else:
-            _clear_state(partial)
-        _write_atomically(partial / "manifest.json", json.dumps(manifest).encode())
+            clear_state(partial)
+        write_atomically(partial / "manifest.json", json.dumps(manifest).encode())
         todo = [k for k in range(plan.count) if k not in done]
         finished = sum(plan.size(k) for k in done)
         if progress is not None:
             progress(finished, plan.points)
         token = uuid.uuid4().hex
-        (partial / _TOKEN).write_text(token)
+        (partial / TOKEN).write_text(token)
         job = _Job(bench.name, grid, params, plan, str(partial), token)
-        status_row = names.index("status")
         statuses: dict[int, int] = {}
-        with _LutWriter(bench, grid, params, grid_name, plan, path, names, partial, storage=storage) as writer:
+        written: set[int] = set()
+        with _lut_writer(bench, grid, params, grid_name, plan, names, partial / "lut.nc.tmp", storage) as writer:
             # Chunks go into the file as they finish (those of an earlier run first),
             # so that writing overlaps the computing.
             for k in sorted(done):
-                writer.add(partial, k)
-                _count_statuses(partial, k, status_row, statuses)
+                _add_chunk(writer, plan, partial, k, names, statuses)
+                written.add(k)
             for k, arrays in runner.run(job, todo):
                 if arrays is not None:  # computed where the partial folder is not visible
-                    _save_chunk(partial, k, arrays)
-                writer.add(partial, k)
-                _count_statuses(partial, k, status_row, statuses)
+                    save_chunk(partial, k, arrays)
+                _add_chunk(writer, plan, partial, k, names, statuses)
+                written.add(k)
                 finished += plan.size(k)
                 if progress is not None:
                     progress(finished, plan.points)
             if not any(n for code, n in statuses.items() if code in bench.valid_flags):
                 remove = True  # the same inputs give the same points: nothing to resume
                 raise EvtmsInputError(_all_invalid(bench, statuses, plan.points))
+            if len(written) != plan.count:  # a runner that skipped chunks: a bug
+                missing = sorted(set(range(plan.count)) - written)[:3]
+                raise RuntimeError(f"the sweep ended with chunks {missing} not written")
+            writer.finish(path)
         remove = True
     except KeyboardInterrupt:
-        raise SweepInterrupted(_saved_chunks(partial), plan.count, partial) from None
+        raise SweepInterrupted(saved_chunks(partial), plan.count, partial) from None
     finally:
-        if remove or not _saved_chunks(partial):
-            _remove_partial(partial, lock)
+        if remove or not saved_chunks(partial):
+            remove_partial(partial, lock)
         else:
             lock.release()
     return SweepSummary(
@@ -1077,7 +694,7 @@ def sweep_to_file(
         plan.count,
         len(todo),
         len(done),
-        writer.invalid,
+        sum(n for code, n in statuses.items() if code not in bench.valid_flags),
         time.perf_counter() - t0,
         runner.name,
         damaged=damaged,
@@ -1085,142 +702,58 @@ def sweep_to_file(
     )
 
 
-def _count_statuses(partial: Path, k: int, row: int, counts: dict[int, int]) -> None:
-    """Add the status codes of saved chunk ``k`` (row ``row`` of its array) to ``counts``."""
-    status = np.asarray(np.load(_chunk_file(partial, k), mmap_mode="r")[row]).astype(np.int64)
-    codes, n = np.unique(status, return_counts=True)
-    for code, m in zip(codes.tolist(), n.tolist(), strict=True):
-        counts[code] = counts.get(code, 0) + m
-
-
-class _LutWriter:
-    """The LUT file, filled chunk by chunk as they finish.
-
-    It is written as ``lut.nc.tmp`` inside the partial folder (which holds all
-    of an unfinished sweep's state and is removed at the end) and renamed to
-    ``path`` only when every chunk is in it: an interrupted sweep never
-    leaves a partial file at ``path``.
+def _lut_writer(
+    bench: Bench,
+    grid: dict[str, np.ndarray],
+    params: Parameters,
+    grid_name: str,
+    plan: ChunkPlan,
+    names: list[str],
+    tmp: Path,
+    storage: LutStorage | None,
+) -> LutFileWriter:
+    """The LUT file of a sweep, written at ``tmp`` (in the partial folder) chunk by chunk.
 
     Format version 2: an input with one value in the grid is evaluated by the
     bench but written as a fixed input (global attribute ``fixed_inputs``),
-    not as a dimension, so every slab is written squeezed. Variables are
-    stored as :func:`evtms.luts.io.variable_storage` and
-    :func:`evtms.luts.io.store_values` decide (compressed; lossy only if
-    ``storage`` says so), with the ``actual_range`` of the stored values.
+    not as a dimension, so every slab is written squeezed. The file's netCDF
+    chunks are the sweep's chunks (squeezed), so each is compressed once.
     """
+    from evtms.benches.sweep import bench_attributes
+    from evtms.luts.io import axis_attributes, fixed_axes, global_attributes, storage_attributes, variable_attributes
+    from evtms.luts.writer import LutFileWriter
 
-    def __init__(self, bench, grid, params, grid_name, plan, path, names, partial: Path, storage=None) -> None:
-        from evtms.luts.io import fixed_axes
-
-        self.bench, self.grid, self.plan, self.path, self.names = bench, grid, plan, path, names
-        self.params, self.grid_name = params, grid_name
-        self.storage = storage or LutStorage()
-        self.axes, self.fixed = fixed_axes(grid)
-        self.keep = [i for i, n in enumerate(plan.shape) if n > 1]  # grid dimensions that are file dimensions
-        self.tmp = partial / "lut.nc.tmp"
-        self.invalid = 0
-        self.written: set[int] = set()
-        self.ranges: dict[str, list] = {}
-        self.nc = None
-
-    def _slab(self, k: int) -> tuple[tuple, tuple[int, ...]]:
-        """(index into the file's variables, shape of the squeezed slab) of chunk ``k``."""
-        index = tuple(self.plan.index(k))
-        index += (slice(None),) * (len(self.plan.shape) - len(index))
-        file_index = tuple(index[i] for i in self.keep)
-        shape = tuple(len(range(self.plan.shape[i])[index[i]]) for i in self.keep if isinstance(index[i], slice))
-        return file_index, shape
-
-    def __enter__(self) -> _LutWriter:
-        import netCDF4
-
-        from evtms.benches.sweep import bench_attributes
-        from evtms.luts.io import (
-            axis_attributes,
-            axis_storage,
-            global_attributes,
-            storage_attributes,
-            variable_attributes,
-            variable_storage,
+    storage = storage or LutStorage()
+    axes, fixed = fixed_axes(grid)
+    keep = _file_dimensions(plan)
+    first = tuple(plan.index(0)) + (slice(None),) * len(plan.shape)
+    chunksizes = tuple(len(range(plan.shape[i])[first[i]]) if isinstance(first[i], slice) else 1 for i in keep)
+    attributes = {name: axis_attributes(name) for name in axes}
+    for name in names:
+        attributes[name] = variable_attributes(name, bench.flags, bench.valid_flags) | storage_attributes(
+            name, None, storage
         )
+    attrs = global_attributes(**bench_attributes(bench, params, grid_name), fixed_inputs=fixed)
+    return LutFileWriter(tmp, axes, names, attributes, attrs, storage=storage, chunksizes=chunksizes)
 
-        # Each chunk is written once, so HDF5's per-variable chunk cache (netCDF's default
-        # is tens of MB per variable) buys nothing and would grow memory with the grid.
-        self._previous_cache = netCDF4.get_chunk_cache()
-        netCDF4.set_chunk_cache(size=1 << 20, nelems=61, preemption=1.0)
-        try:
-            nc = self.nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
-            for name, values in self.axes.items():
-                nc.createDimension(name, len(values))
-                var = nc.createVariable(name, dimensions=(name,), **axis_storage())
-                var[:] = values
-                var.setncatts(axis_attributes(name))
-            dims = tuple(self.axes)
-            # The file's chunks are the sweep's chunks (squeezed), so each is compressed once.
-            first = tuple(self.plan.index(0)) + (slice(None),) * len(self.plan.shape)
-            chunksizes = tuple(
-                len(range(self.plan.shape[i])[first[i]]) if isinstance(first[i], slice) else 1 for i in self.keep
-            )
-            self.variables = {}
-            for name in self.names:
-                kwargs = variable_storage(name, self.storage, len(dims))
-                if dims:
-                    kwargs["chunksizes"] = chunksizes
-                var = nc.createVariable(name, dimensions=dims, **kwargs)
-                attrs = variable_attributes(name, self.bench.flags, self.bench.valid_flags)
-                var.setncatts(attrs | storage_attributes(name, None, self.storage))
-                self.variables[name] = var
-            attrs = bench_attributes(self.bench, self.params, self.grid_name)
-            nc.setncatts(global_attributes(**attrs, fixed_inputs=self.fixed))
-            nc.set_auto_maskandscale(False)  # plain arrays go in; NaN already is the fill value
-        except BaseException:
-            self._discard()
-            raise
-        return self
 
-    def add(self, partial: Path, k: int) -> None:
-        """Write saved chunk ``k`` into its (squeezed) slab of the file."""
-        from evtms.luts.io import finite_range, store_values
+def _file_dimensions(plan: ChunkPlan) -> list[int]:
+    """The grid dimensions that are file dimensions (more than one value)."""
+    return [i for i, n in enumerate(plan.shape) if n > 1]
 
-        stacked = np.load(_chunk_file(partial, k))
-        index, shape = self._slab(k)
-        for name, values in zip(self.names, stacked, strict=True):
-            if name == "status":
-                values = values.astype(np.int8)
-                self.invalid += int((~np.isin(values, self.bench.valid_flags)).sum())
-            else:
-                values = store_values(name, values, self.storage)
-                lo, hi = finite_range(values)
-                if lo is not None:
-                    old = self.ranges.setdefault(name, [lo, hi])
-                    old[:] = [min(old[0], lo), max(old[1], hi)]
-            if index:
-                self.variables[name][index] = values.reshape(shape)
-            else:  # every input fixed: scalar variables
-                self.variables[name].assignValue(values.reshape(()))
-        self.written.add(k)
 
-    def _discard(self) -> None:
-        import netCDF4
-
-        if self.nc is not None and self.nc.isopen():
-            self.nc.close()
-        self.tmp.unlink(missing_ok=True)
-        netCDF4.set_chunk_cache(*self._previous_cache)
-
-    def __exit__(self, exc_type, exc, tb) -> bool:
-        import netCDF4
-
-        if exc_type is not None:
-            self._discard()
-            return False
-        for name, (lo, hi) in self.ranges.items():
-            self.variables[name].setncattr("actual_range", np.array([lo, hi], dtype=self.storage.dtype))
-        self.nc.close()
-        netCDF4.set_chunk_cache(*self._previous_cache)
-        if len(self.written) != self.plan.count:  # a runner that skipped chunks: a bug
-            self.tmp.unlink(missing_ok=True)
-            missing = sorted(set(range(self.plan.count)) - self.written)[:3]
-            raise RuntimeError(f"the sweep ended with chunks {missing} not written")
-        os.replace(self.tmp, self.path)
-        return False
+def _add_chunk(
+    writer: LutFileWriter, plan: ChunkPlan, partial: Path, k: int, names: list[str], statuses: dict[int, int]
+) -> None:
+    """Write saved chunk ``k`` into its (squeezed) slab of the file and add its status codes to ``statuses``."""
+    stacked = np.load(chunk_file(partial, k))
+    keep = _file_dimensions(plan)
+    index = tuple(plan.index(k))
+    index += (slice(None),) * (len(plan.shape) - len(index))
+    file_index = tuple(index[i] for i in keep)
+    shape = tuple(len(range(plan.shape[i])[index[i]]) for i in keep if isinstance(index[i], slice))
+    writer.write(file_index, {name: values.reshape(shape) for name, values in zip(names, stacked, strict=True)})
+    status = stacked[names.index("status")].astype(np.int64)
+    codes, n = np.unique(status, return_counts=True)
+    for code, m in zip(codes.tolist(), n.tolist(), strict=True):
+        statuses[code] = statuses.get(code, 0) + m

@@ -3,9 +3,9 @@
 How a variable is stored (type, compression, fill value, lossy rounding and
 the attributes that record it) is decided here once, by
 :func:`variable_storage`, :func:`store_values` and :func:`storage_attributes`;
-both writers use them: :func:`write_lut` (an xarray dataset, through xarray's
-encoding) and the streaming writer of :func:`evtms.benches.chunked.sweep_to_file`
-(netCDF4, slab by slab).
+the one file writer, :class:`evtms.luts.writer.LutFileWriter`, applies them
+for :func:`write_lut` (a dataset, in one slab) and for
+:func:`evtms.benches.chunked.sweep_to_file` (slab by slab).
 """
 
 from __future__ import annotations
@@ -183,8 +183,7 @@ def variable_storage(name: str, storage: LutStorage | None = None, ndim: int = 1
     ``status`` is int8 without fill value, floats are in ``storage``'s type
     with a NaN fill value; all zlib-compressed (level :data:`COMPRESSION_LEVEL`)
     with the shuffle filter, except scalars (``ndim`` 0), which HDF5 cannot
-    compress. Axes take :func:`axis_storage`; :func:`xarray_encoding` turns
-    either into an xarray encoding.
+    compress. Axes take :func:`axis_storage`.
     """
     storage = storage or LutStorage()
     if name == "status":
@@ -199,15 +198,6 @@ def variable_storage(name: str, storage: LutStorage | None = None, ndim: int = 1
 def axis_storage() -> dict[str, Any]:
     """``createVariable`` keyword arguments of an axis: float64, no ``_FillValue`` (CF), uncompressed."""
     return {"datatype": "f8", "fill_value": None}
-
-
-def xarray_encoding(kwargs: Mapping[str, Any]) -> dict[str, Any]:
-    """The xarray ``to_netcdf`` encoding of :func:`variable_storage`/:func:`axis_storage` keyword arguments."""
-    enc = {"_FillValue": kwargs["fill_value"], "dtype": np.dtype(kwargs["datatype"])}
-    for key in ("zlib", "complevel", "shuffle"):
-        if key in kwargs:
-            enc[key] = kwargs[key]
-    return enc
 
 
 def storage_attributes(name: str, stored: np.ndarray | None, storage: LutStorage | None = None) -> dict[str, Any]:
@@ -389,30 +379,27 @@ def write_lut(ds: xr.Dataset, path: str | Path, storage: LutStorage | None = Non
     Path
         ``path``.
     """
-    import xarray as xr
+    from evtms.luts.writer import LutFileWriter
 
     storage = storage or LutStorage()
     path = Path(path)
     ds = squeeze_fixed_inputs(ds)
     dims = list(ds["status"].dims) if "status" in ds else list(ds.dims)
-    # A new dataset of plain variables: no encoding of a file ds was read from comes along.
-    coords, data_vars, encoding = {}, {}, {}
-    for name in dims:
-        attrs = {k: v for k, v in ds[name].attrs.items() if k != "_FillValue"}
-        coords[name] = xr.Variable(name, np.asarray(ds[name].values, np.float64), attrs)
-        encoding[name] = xarray_encoding(axis_storage())
+    # Attributes of the plain variables: nothing of the encoding of a file ds was read from comes along.
+    axes = {name: np.asarray(ds[name].values, np.float64) for name in dims}
+    attributes = {name: {k: v for k, v in ds[name].attrs.items() if k != "_FillValue"} for name in dims}
+    arrays = {}
     for name, da in ds.data_vars.items():
-        stored = store_values(name, da.transpose(*dims).values, storage)
+        arrays[name] = values = da.transpose(*dims).values
         attrs = {k: v for k, v in da.attrs.items() if k not in ("actual_range", _STORAGE_ATTR, "_FillValue")}
-        if stored.dtype.kind == "f":
-            attrs.update(storage_attributes(name, stored, storage))
-        data_vars[name] = xr.Variable(dims, stored, attrs)
-        encoding[name] = xarray_encoding(variable_storage(name, storage, len(dims)))
+        if name != "status" and values.dtype.kind == "f":
+            attrs.update(storage_attributes(name, None, storage))
+        attributes[name] = attrs
     attrs = dict(ds.attrs)
     attrs["lut_format_version"] = np.int32(FORMAT_VERSION)
-    ds = xr.Dataset(data_vars, coords=coords, attrs=attrs)
-    with atomic_output(path) as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+    with atomic_output(path) as tmp, LutFileWriter(tmp, axes, list(arrays), attributes, attrs, storage=storage) as w:
+        w.write((), arrays)  # one slab: the whole dataset
+        w.finish()
     return path
 
 
