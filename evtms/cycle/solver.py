@@ -131,11 +131,28 @@ _DP_PASSES = 1
 #: Typical slopes of the closures in saturation temperature [1/K]: condenser, suction superheat.
 _INNER_SLOPE = -0.075
 _OUTER_SLOPE = -4.0
-#: Superheat search with the valve at its maximum opening: typical slope of ln(opening) in
-#: superheat [1/K], overshoot of a bracketing step [1], largest step [K] and number of steps, tolerances in
-#: superheat (relative) [1] and in ln(opening) [1].
-_SH_SLOPE = -0.0125
+#: Superheat search with the valve at its maximum opening (see CycleSolver._float_superheat). Its first
+#: step's estimates are linear in g0 = ln(opening needed at the setpoint over the maximum) [1], fitted on the
+#: 271 saturated points of benchmarks/bench_cycle.py (within 5 % for half of them, 22 % for all): the secant
+#: slope of ln(opening) from the setpoint to the floating superheat [1/K] (steeper the larger g0: ln(opening)
+#: falls ever faster as the superheat rises), and per kelvin of superheat over that shift the change of the
+#: suction saturation temperature [K/K], of ln(p_B) [1/K] and the relative change of the evaporator's pressure
+#: drop [1/K] (the warm start of that cycle solve). They only steer the search, not where it ends.
+_SH_FIRST_SLOPE = (-0.0105, -0.0165)
+_SH_FIRST_T = (-0.160, -0.476)
+_SH_FIRST_LN_PB = (-0.00233, -0.00629)
+_SH_FIRST_DP = (-0.0140, -0.0066)
+#: The first step goes this share of the estimated shift [1], short of the root in most points; the second
+#: the full secant estimate (the secant from the setpoint overshoots, ln(opening) bending down); later ones
+#: overshoot by _SH_OVERSHOOT [1] and 0.5 K.
+_SH_FIRST_SHARE = 0.9
 _SH_OVERSHOOT = 1.3
+#: Typical slope of the suction superheat closure [1/K] at a floating superheat (the superheat falls less
+#: per kelvin of suction saturation than at the setpoint, _OUTER_SLOPE, so that its bracket holds the root).
+_SH_OUTER_SLOPE = -1.5
+#: Inverse-quadratic steps once bracketed, before the regula falsi; largest bracketing step [K] and number
+#: of steps, tolerances in superheat (relative) [1] and in ln(opening) [1].
+_SH_QUAD_STEPS = 3
 _SH_MAX_STEP = 25.0
 _SH_BRACKET_STEPS = 4
 _SH_XTOL = 1e-4
@@ -663,6 +680,7 @@ class CycleSolver:
         t_guess: np.ndarray | None = None,
         p_B_guess: np.ndarray | None = None,
         dp_guess: np.ndarray | None = None,
+        outer_slope: np.ndarray | float = _OUTER_SLOPE,
     ) -> dict[str, np.ndarray]:
         """The cycle with the evaporator-outlet superheat at ``ops["superheat"]`` (the valve not limited).
 
@@ -707,7 +725,7 @@ class CycleSolver:
         if t_guess is None:
             t_guess = ops["T_cabin"] - 23.0
         t_guess = np.where(np.isfinite(t_guess), t_guess, ops["T_cabin"] - 23.0)
-        br = self._bracket(residual, t_lo, t_hi, t_guess, np.full(n, _OUTER_SLOPE), 15.0)
+        br = self._bracket(residual, t_lo, t_hi, t_guess, np.broadcast_to(np.asarray(outer_slope, float), (n,)), 15.0)
         status, reason = _range_status(
             br,
             lo,
@@ -769,15 +787,26 @@ class CycleSolver:
         pressure, through a larger pressure drop) and is positive at the
         setpoint, so the root lies above the setpoint: a saturated valve
         starves the evaporator, it never floods it. :math:`g` is nearly
-        linear, about -0.0125 per kelvin (-0.009 to -0.018 over the envelope):
-        the root is bracketed by secant steps from the setpoint and found by
-        the regula falsi of the pressures (:func:`bracketed_root`), to 1e-4
-        in :math:`g` (about 0.01 K). Every evaluation is a whole cycle solve,
-        warm-started by extrapolating the suction and discharge pressures and
-        the evaporator's drop linearly from the point's two latest
+        linear, about -0.0125 per kelvin (-0.009 to -0.018 over the envelope),
+        and falls a little faster as the superheat rises, so that its secant
+        slope from the setpoint to the root grows with :math:`g_0 = g`
+        (setpoint): the first step goes 0.9 of the shift that slope
+        (``_SH_FIRST_SLOPE``) gives, short of the root in most points, the
+        second the secant estimate from the setpoint, which lands just beyond
+        it; further secant steps (overshot) follow where it does not. Once
+        bracketed, inverse quadratic interpolation through the three latest
+        points (the chord where it leaves the bracket) and then the regula
+        falsi of the pressures (:func:`bracketed_root`) find the root, to
+        1e-4 in :math:`g` (about 0.01 K); a point stops at any step that lands
+        within that. Every evaluation is a whole cycle solve, warm-started by
+        extrapolating the suction and discharge pressures and the
+        evaporator's drop linearly from the point's two latest superheats
+        (from the setpoint alone, by their typical changes in
+        :math:`g_0`), with a suction-closure slope fit for floating
         superheats; where a trial superheat leaves the models' envelope the
         point fails with that reason (prefixed "with the valve at its maximum
-        opening").
+        opening"). About four cycle solves per batch, most points converging
+        in three.
         """
         log_max = np.log(self.max_opening)
         sub = {k: v[idx] for k, v in ops.items()}
@@ -785,8 +814,8 @@ class CycleSolver:
         store = {k: np.asarray(v)[idx].copy() for k, v in res.items()}
         # Warm starts: the two latest solved superheats of each point, with their suction
         # saturation temperature, discharge pressure and evaporator pressure drop, to
-        # extrapolate linearly to the next superheat (from one: the suction saturation
-        # falls about 1 K per 4 K more superheat, see _OUTER_SLOPE).
+        # extrapolate linearly to the next superheat (from one: their typical changes,
+        # _SH_FIRST_T, _SH_FIRST_LN_PB, _SH_FIRST_DP).
         seen = np.stack([sub["superheat"], np.full(m, np.nan)])
         known = {
             "t": self.sat.temperature(res["p_A"][idx]),
@@ -796,13 +825,23 @@ class CycleSolver:
         known = {k: np.stack([v, np.full(m, np.nan)]) for k, v in known.items()}
         fail = np.full(m, STATUS_OUTSIDE_ENVELOPE, np.int8)
 
+        # ln(opening over the maximum) at the setpoint: positive where the valve saturates.
+        g0 = np.maximum(np.log(res["valve_opening"][idx]) - log_max, 0.0)
+
         def guess(sh, i):
             s1, s0 = seen[0, i], seen[1, i]
             two = np.isfinite(s0) & (np.abs(s1 - s0) > 1e-9)
             with np.errstate(invalid="ignore", divide="ignore"):
                 w = np.where(two, (sh - s1) / (s1 - s0), 0.0)
             g = {k: np.where(two, v[0, i] + w * (v[0, i] - v[1, i]), v[0, i]) for k, v in known.items()}
-            g["t"] = np.where(two, g["t"], known["t"][0, i] + (sh - s1) / _OUTER_SLOPE)
+            # From one solved superheat: the typical changes over the shift to the root.
+            d, g0_i = sh - s1, g0[i]
+            one = {
+                "t": known["t"][0, i] + d * (_SH_FIRST_T[0] + _SH_FIRST_T[1] * g0_i),
+                "p_B": known["p_B"][0, i] * np.exp(d * (_SH_FIRST_LN_PB[0] + _SH_FIRST_LN_PB[1] * g0_i)),
+                "dp": known["dp"][0, i] * (1.0 + d * (_SH_FIRST_DP[0] + _SH_FIRST_DP[1] * g0_i)),
+            }
+            g = {k: np.where(two, v, one[k]) for k, v in g.items()}
             g["p_B"] = np.where(g["p_B"] > 0, g["p_B"], known["p_B"][0, i])
             g["dp"] = np.maximum(g["dp"], 0.0)
             return g
@@ -811,7 +850,7 @@ class CycleSolver:
             ops_i = {k: v[i] for k, v in sub.items()}
             ops_i["superheat"] = sh
             g = guess(sh, i)
-            r = self._solve_at(ops_i, t_guess=g["t"], p_B_guess=g["p_B"], dp_guess=g["dp"])
+            r = self._solve_at(ops_i, t_guess=g["t"], p_B_guess=g["p_B"], dp_guess=g["dp"], outer_slope=_SH_OUTER_SLOPE)
             for k, v in r.items():
                 store[k][i] = v
             ok = r["status"] == STATUS_CONVERGED
@@ -830,30 +869,72 @@ class CycleSolver:
         f_lo = np.log(res["valve_opening"][idx]) - log_max
         hi, f_hi = np.full(m, np.nan), np.full(m, np.nan)
         why_hi = np.full(m, "", dtype=object)
-        slope = np.full(m, _SH_SLOPE)
+        slope = _SH_FIRST_SLOPE[0] + _SH_FIRST_SLOPE[1] * g0
+        sh = np.full(m, np.nan)
+        state = np.full(m, 3, np.int8)
+        why = np.full(m, "", dtype=object)
         going = np.arange(m)
+        # The three latest superheats evaluated and their residuals, newest first (for the quadratic step).
+        px, pf = np.full((3, m), np.nan), np.full((3, m), np.nan)
+        px[0], pf[0] = lo, f_lo
         for step in range(_SH_BRACKET_STEPS):
             if going.size == 0:
                 break
-            # The first step trusts the typical slope (a step far beyond the root may leave
-            # the models' envelope, and such points cost many evaluations); later steps
-            # overshoot from the secant slope measured.
-            over = 1.0 if step == 0 else _SH_OVERSHOOT
-            x = lo[going] + np.clip(-over * f_lo[going] / slope[going] + 0.5, 0.5, _SH_MAX_STEP)
-            f, why = fun(x, going)
-            up = np.isfinite(f) & (f > 0)
+            # The first step goes most of the way the estimate from g0 gives (a step far beyond
+            # the root may leave the models' envelope, and such points cost many evaluations);
+            # the second follows the secant slope measured, which overshoots a little; later
+            # steps overshoot more.
+            if step == 0:
+                x = lo[going] + np.clip(-_SH_FIRST_SHARE * f_lo[going] / slope[going], 0.02, _SH_MAX_STEP)
+            elif step == 1:
+                x = lo[going] + np.clip(-f_lo[going] / slope[going] + 0.02, 0.02, _SH_MAX_STEP)
+            else:
+                x = lo[going] + np.clip(-_SH_OVERSHOOT * f_lo[going] / slope[going] + 0.5, 0.5, _SH_MAX_STEP)
+            f, why_x = fun(x, going)
+            px[1:, going], pf[1:, going] = px[:-1, going], pf[:-1, going]
+            px[0, going], pf[0, going] = x, f
+            # A step onto the root (within the tolerance) ends that point's search.
+            done = np.isfinite(f) & (np.abs(f) < _SH_FTOL)
+            sh[going[done]], state[going[done]] = x[done], 1
+            up = np.isfinite(f) & (f > 0) & ~done
             with np.errstate(invalid="ignore", divide="ignore"):
                 s = (f - f_lo[going]) / (x - lo[going])
             k = going[up]
             slope[k] = np.where(s[up] < 0, s[up], slope[k])
             lo[k], f_lo[k] = x[up], f[up]
-            k = going[~up]
-            hi[k], f_hi[k], why_hi[k] = x[~up], f[~up], why[~up]
+            k = going[~up & ~done]
+            hi[k], f_hi[k], why_hi[k] = x[~up & ~done], f[~up & ~done], why_x[~up & ~done]
             going = going[up]
-        sh = np.full(m, np.nan)
-        state = np.full(m, 3, np.int8)
-        why = np.full(m, "", dtype=object)
-        br = np.nonzero(np.isfinite(hi))[0]
+        # Before the regula falsi, where both ends are finite: inverse quadratic interpolation
+        # through the three latest points where it stays inside the bracket, else the chord
+        # (ln(opening) bends: a chord whose far end lies at the setpoint misses the root by up
+        # to a few 0.1 K, a parabola through three points near it by far less).
+        for _ in range(_SH_QUAD_STEPS):
+            q = np.nonzero((state == 3) & np.isfinite(hi) & np.isfinite(f_hi))[0]
+            if q.size == 0:
+                break
+            (x0, x1, x2), (f0, f1, f2) = px[:, q], pf[:, q]
+            a, b, fa, fb = lo[q], hi[q], f_lo[q], f_hi[q]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                xq = (
+                    x0 * f1 * f2 / ((f0 - f1) * (f0 - f2))
+                    + x1 * f0 * f2 / ((f1 - f0) * (f1 - f2))
+                    + x2 * f0 * f1 / ((f2 - f0) * (f2 - f1))
+                )
+            x = np.where(np.isfinite(xq) & (xq > a) & (xq < b), xq, b - fb * (b - a) / (fb - fa))
+            f, w = fun(x, q)
+            px[1:, q], pf[1:, q] = px[:-1, q], pf[:-1, q]
+            px[0, q], pf[0, q] = x, f
+            nan = ~np.isfinite(f)
+            # Converged as in bracketed_root: a residual within the tolerance or a bracket narrower than it.
+            done = ~nan & ((np.abs(f) < _SH_FTOL) | (np.abs(b - a) < _SH_XTOL * np.abs(x)))
+            sh[q[done]], state[q[done]] = x[done], 1
+            # A NaN between two finite ends ends the search, as in bracketed_root.
+            state[q[nan]], why[q[nan]] = 2, w[nan]
+            pos, neg = ~nan & ~done & (f > 0), ~nan & ~done & (f <= 0)
+            lo[q[pos]], f_lo[q[pos]] = x[pos], f[pos]
+            hi[q[neg]], f_hi[q[neg]] = x[neg], f[neg]
+        br = np.nonzero((state == 3) & np.isfinite(hi))[0]
         if br.size:
             sh[br], state[br], why[br] = bracketed_root(
                 fun, lo[br], hi[br], f_lo[br], f_hi[br], br, _SH_XTOL, _SH_FTOL, why_hi=why_hi[br]
