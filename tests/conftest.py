@@ -22,6 +22,21 @@ def params() -> Parameters:
 
 
 @pytest.fixture(scope="session")
+def small_condenser_grid():
+    """A small condenser grid with two inputs of one value (p_in, T_res: fixed inputs of the LUT)."""
+    import numpy as np
+
+    small = {
+        "mdot": np.array([0.005, 0.007]),
+        "fan": np.array([0.2, 0.5]),
+        "p_in": np.array([1.0e6]),
+        "T_in": np.array([340.0, 360.0]),
+        "T_res": np.array([300.0]),
+    }
+    return build_grid(BENCHES["condenser"], None, small)
+
+
+@pytest.fixture(scope="session")
 def thesis(fluid, params):
     """Thesis-grid datasets by component, computed once."""
     cache = {}

@@ -9,26 +9,17 @@ import numpy as np
 import pytest
 
 from evtms.benches import BENCHES
-from evtms.benches.grid import build_grid
 from evtms.benches.sweep import run_sweep
 from evtms.luts.io import write_lut
 from evtms.luts.schema import AXES, COMPONENT_VARIABLES, REQUIRED_GLOBAL_ATTRS, VARIABLES
 
-SMALL = {
-    "mdot": np.array([0.005, 0.007]),
-    "fan": np.array([0.2, 0.5]),
-    "p_in": np.array([1.0e6]),
-    "T_in": np.array([340.0, 360.0]),
-    "T_res": np.array([300.0]),
-}
-
 
 @pytest.fixture(scope="module")
-def written(tmp_path_factory, params, fluid):
+def written(small_condenser_grid, tmp_path_factory, params, fluid):
     bench = BENCHES["condenser"]
     paths = []
     for i in range(2):
-        ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+        ds = run_sweep(bench, small_condenser_grid, params, fluid=fluid)
         paths.append(write_lut(ds, tmp_path_factory.mktemp(f"run{i}") / "condenser.nc"))
     return paths
 
@@ -85,11 +76,11 @@ def test_two_runs_give_identical_data(written):
             np.testing.assert_array_equal(a.variables[name][:], b.variables[name][:])
 
 
-def test_atomic_write_leaves_no_file_on_failure(tmp_path, params, fluid, monkeypatch):
+def test_atomic_write_leaves_no_file_on_failure(small_condenser_grid, tmp_path, params, fluid, monkeypatch):
     from evtms.luts.writer import LutFileWriter
 
     bench = BENCHES["condenser"]
-    ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+    ds = run_sweep(bench, small_condenser_grid, params, fluid=fluid)
 
     def boom(self, index, arrays):
         assert self.tmp.stat().st_size > 0  # the file is partly written

@@ -15,7 +15,6 @@ from typer.testing import CliRunner
 
 from evtms.benches import BENCHES
 from evtms.benches.chunked import sweep_to_file
-from evtms.benches.grid import build_grid
 from evtms.benches.sweep import run_sweep
 from evtms.cli import app
 from evtms.errors import EvtmsInputError
@@ -28,15 +27,6 @@ from evtms.luts.summary import lut_summary
 from evtms.luts.validate import read_lut_metadata
 
 runner = CliRunner()
-
-#: A small condenser grid with two inputs of one value (p_in, T_res).
-SMALL = {
-    "mdot": np.array([0.005, 0.007]),
-    "fan": np.array([0.2, 0.5]),
-    "p_in": np.array([1.0e6]),
-    "T_in": np.array([340.0, 360.0]),
-    "T_res": np.array([300.0]),
-}
 
 
 def _bits(a: np.ndarray) -> np.ndarray:
@@ -87,10 +77,10 @@ def test_lossless_round_trip_is_bit_for_bit_and_compressed(tmp_path, thesis_cond
         assert "_FillValue" not in nc["mdot"].ncattrs() and nc["mdot"].dtype == np.float64
 
 
-def test_both_writers_store_the_same_bits(tmp_path, params, fluid):
-    """sweep_to_file (netCDF4, slab by slab) and write_lut (xarray) share one storage decision."""
+def test_both_writers_store_the_same_bits(small_condenser_grid, tmp_path, params, fluid):
+    """sweep_to_file (chunk by chunk) and write_lut (one slab) write through one writer: the same bits."""
     bench = BENCHES["condenser"]
-    grid = build_grid(bench, None, SMALL)
+    grid = small_condenser_grid
     ds = run_sweep(bench, grid, params, fluid=fluid)
     for storage in (LutStorage(), LutStorage(float32=True, significant_digits=4)):
         streamed = sweep_to_file(bench, grid, params, tmp_path / "s.nc", chunk_points=2, storage=storage).path
@@ -180,9 +170,9 @@ def _as_version_1(ds: xr.Dataset, path) -> None:
         nc.setncatts({k: v for k, v in ds.attrs.items() if k != "fixed_inputs"} | {"lut_format_version": np.int32(1)})
 
 
-def test_version_1_file_reads_in_the_version_2_shape(tmp_path, params, fluid):
+def test_version_1_file_reads_in_the_version_2_shape(small_condenser_grid, tmp_path, params, fluid):
     bench = BENCHES["condenser"]
-    ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+    ds = run_sweep(bench, small_condenser_grid, params, fluid=fluid)
     old = tmp_path / "v1.nc"
     _as_version_1(ds, old)
     with netCDF4.Dataset(old) as nc:
@@ -208,9 +198,11 @@ def test_version_1_file_reads_in_the_version_2_shape(tmp_path, params, fluid):
     assert read_lut_metadata(rewritten).version == 2 and lut_diff(back, open_lut(rewritten)).status_changed == 0
 
 
-def test_version_1_length_one_axis_in_celsius_becomes_a_fixed_input_in_kelvin(tmp_path, params, fluid):
+def test_version_1_length_one_axis_in_celsius_becomes_a_fixed_input_in_kelvin(
+    small_condenser_grid, tmp_path, params, fluid
+):
     bench = BENCHES["condenser"]
-    ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+    ds = run_sweep(bench, small_condenser_grid, params, fluid=fluid)
     _as_version_1(ds, tmp_path / "v1.nc")
     path = _edited(tmp_path, tmp_path / "v1.nc", lambda nc: _in_units(nc, "T_res", "degC", 1.0, 273.15))
     with netCDF4.Dataset(path) as nc:
@@ -234,14 +226,14 @@ def test_other_versions_are_refused(tmp_path, cond_file, version):
 
 
 @pytest.fixture(scope="module")
-def small_file(tmp_path_factory, params):
+def small_file(small_condenser_grid, tmp_path_factory, params):
     bench = BENCHES["condenser"]
-    grid = build_grid(bench, None, SMALL)
+    grid = small_condenser_grid
     folder = tmp_path_factory.mktemp("small")
     return sweep_to_file(bench, grid, params, folder / "condenser.nc", chunk_points=4).path
 
 
-def test_length_one_axis_is_a_fixed_input_not_a_dimension(small_file, params, fluid):
+def test_length_one_axis_is_a_fixed_input_not_a_dimension(small_condenser_grid, small_file, params, fluid):
     with netCDF4.Dataset(small_file) as nc:
         assert list(nc.dimensions) == ["mdot", "fan", "T_in"]
         assert "p_in" not in nc.variables and "T_res" not in nc.variables
@@ -251,7 +243,7 @@ def test_length_one_axis_is_a_fixed_input_not_a_dimension(small_file, params, fl
         }
     # The bench did evaluate at the fixed values: the file equals an in-memory sweep.
     bench = BENCHES["condenser"]
-    ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+    ds = run_sweep(bench, small_condenser_grid, params, fluid=fluid)
     back = open_lut(small_file)
     np.testing.assert_array_equal(back["Q"].values, ds["Q"].values)
     assert read_lut_metadata(small_file).fixed == {"p_in": 1.0e6, "T_res": 300.0}
@@ -284,9 +276,9 @@ def test_a_standard_axis_must_be_an_axis_or_a_fixed_input(tmp_path, small_file):
         open_lut(unknown)
 
 
-def test_a_version_2_file_with_a_length_one_dimension_is_refused(tmp_path, params, fluid):
+def test_a_version_2_file_with_a_length_one_dimension_is_refused(small_condenser_grid, tmp_path, params, fluid):
     bench = BENCHES["condenser"]
-    ds = run_sweep(bench, build_grid(bench, None, SMALL), params, fluid=fluid)
+    ds = run_sweep(bench, small_condenser_grid, params, fluid=fluid)
     ds = ds.expand_dims({"T_res": [300.0]}, axis=3)
     ds["T_res"].attrs = {"units": "K", "long_name": "outlet reservoir temperature"}
     ds.attrs["fixed_inputs"] = json.dumps({"p_in": {"value": 1.0e6, "units": "Pa"}})
