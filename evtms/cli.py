@@ -336,11 +336,9 @@ def _run_benches(
         input_file(params, "params file")
     if several:
         folder = output_folder(output or Path("luts"), inputs)
-        targets = {name: folder / f"{name}.nc" for name in names}
+        targets = {name: output_file(folder / f"{name}.nc", inputs) for name in names}
     else:
         targets = {names[0]: output_file(output or Path("luts") / f"{names[0]}.nc", inputs, (".nc",))}
-    for target in targets.values():
-        output_file(target, inputs)
     parameters = load_parameters(params)
     if backend is not None:
         parameters = dataclasses.replace(parameters, backend=check_backend(backend))
@@ -512,12 +510,6 @@ def _parse_point(text: str, names: tuple[str, ...], partial: bool = False, fixed
     return point
 
 
-def _fixed_values(ds) -> dict[str, float]:
-    from evtms.luts.validate import fixed_inputs
-
-    return fixed_inputs(ds)
-
-
 _MAX_QUERY_POINTS = 100_000
 
 
@@ -538,6 +530,7 @@ def lut_query(
     Example: evtms lut query luts/condenser.nc --at mdot=0.005,fan=0.2,p_in=1e6,T_in=340,T_res=300 --var Q
     """
     from evtms.luts import Interpolator
+    from evtms.luts.validate import fixed_inputs
 
     if len(at) > _MAX_QUERY_POINTS:
         fail(f"{len(at)} --at points is above the limit of {_MAX_QUERY_POINTS:,}")
@@ -548,7 +541,7 @@ def lut_query(
         fail(f"--var names a variable twice: {', '.join(variables)}")
     ds = _open(file, variables=variables)
     names = tuple(ds["status"].dims)
-    fixed = _fixed_values(ds)
+    fixed = fixed_inputs(ds)
     itp = Interpolator.from_dataset(ds, variables, out_of_range)
     points = [_parse_point(text, names, fixed=fixed) for text in at]
     query = {n: [p[n] for p in points] for n in names}
@@ -1027,6 +1020,7 @@ def report_bench(
 
     Example: evtms report bench luts/condenser.nc -o reports/condenser/
     """
+    from evtms.luts.validate import fixed_inputs
     from evtms.reports.bench_plots import base_point, bench_report_figures, surface_data
     from evtms.reports.html import bench_report_page
 
@@ -1035,7 +1029,7 @@ def report_bench(
     output_folder(output, [file])
     ds = _open(file)
     dims = tuple(ds["status"].dims)
-    base = base_point(ds, _parse_point(at, dims, partial=True, fixed=_fixed_values(ds)) if at else None)
+    base = base_point(ds, _parse_point(at, dims, partial=True, fixed=fixed_inputs(ds)) if at else None)
     pair = None
     if surface:
         parts = tuple(p.strip() for p in surface.split(","))

@@ -175,6 +175,13 @@ class Case:
     code: int = 2
 
 
+def bad_params(id: str, toml: bytes | str, message: str) -> Case:
+    """A bench run whose --params file n.toml holds ``toml``."""
+    return Case(
+        id, ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"], message, [write("n.toml", toml)]
+    )
+
+
 LUT_INPUT_CASES = [
     # (id suffix, setup making bad.nc, expected fragment)
     ("text", [write("bad.nc", "mdot,Q\n1,2\n")], "not a netCDF file"),
@@ -256,60 +263,15 @@ CASES: list[Case] = [
         "not a regular file",
         [fifo("f.toml")],
     ),
-    Case(
-        "params-nan",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "n_tubes",
-        [write("n.toml", "[condenser]\nn_tubes = nan\n")],
-    ),
-    Case(
-        "params-inf",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "core_length",
-        [write("n.toml", "[condenser]\ncore_length = inf\n")],
-    ),
-    Case(
-        "params-negative",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "tube_depth",
-        [write("n.toml", "[condenser]\ntube_depth = -0.01\n")],
-    ),
-    Case(
-        "params-zero",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "area_ref",
-        [write("n.toml", "[condenser]\narea_ref = 0\n")],
-    ),
-    Case(
-        "params-string",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "n_tubes",
-        [write("n.toml", '[condenser]\nn_tubes = "40"\n')],
-    ),
-    Case(
-        "params-not-utf8",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "n.toml",
-        [write("n.toml", b"[condenser]\n# \xff\xfe\n")],
-    ),
-    Case(
-        "params-empty",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "empty",
-        [write("n.toml", b"")],
-    ),
-    Case(
-        "params-binary",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "n.toml",
-        [write("n.toml", bytes(range(256)))],
-    ),
-    Case(
-        "params-unknown-table",
-        ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"],
-        "condensor",
-        [write("n.toml", "[condensor]\nn_tubes = 4\n")],
-    ),
+    bad_params("params-nan", "[condenser]\nn_tubes = nan\n", "n_tubes"),
+    bad_params("params-inf", "[condenser]\ncore_length = inf\n", "core_length"),
+    bad_params("params-negative", "[condenser]\ntube_depth = -0.01\n", "tube_depth"),
+    bad_params("params-zero", "[condenser]\narea_ref = 0\n", "area_ref"),
+    bad_params("params-string", '[condenser]\nn_tubes = "40"\n', "n_tubes"),
+    bad_params("params-not-utf8", b"[condenser]\n# \xff\xfe\n", "n.toml"),
+    bad_params("params-empty", b"", "empty"),
+    bad_params("params-binary", bytes(range(256)), "n.toml"),
+    bad_params("params-unknown-table", "[condensor]\nn_tubes = 4\n", "condensor"),
     Case("params-folder", ["bench", "condenser", *SMALL, "--params", "luts", "-o", "o.nc"], "is a folder"),
     # Axes.
     Case(
