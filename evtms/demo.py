@@ -27,7 +27,6 @@ import numpy as np
 from evtms import __version__
 from evtms.params import Parameters
 
-COMPONENTS = ("condenser", "evaporator", "expansion_valve", "compressor")
 GRIDS = ("thesis", "cycle")
 
 Notify = Callable[[str], None]
@@ -87,6 +86,20 @@ def lut_is_current(path: Path, component: str, grid: str, params: Parameters) ->
     )
 
 
+def _components() -> list[str]:
+    """Every registered component: the demo runs each bench."""
+    from evtms.benches import BENCHES
+
+    return list(BENCHES)
+
+
+def _grid_points(component: str, grid: str) -> int:
+    """Points of a bench's preset grid (the demo's cost estimate for ordering the work)."""
+    from evtms.benches import BENCHES
+
+    return int(np.prod([len(v) for v in BENCHES[component].presets[grid].values()]))
+
+
 def _compute_lut(component: str, grid: str, params: Parameters, path: str) -> tuple[str, float]:
     """Worker: sweep one bench on a preset grid and write its LUT (runs in a child process).
 
@@ -121,7 +134,7 @@ def run_demo(
         (out / "luts" / grid).mkdir(parents=True, exist_ok=True)
     jobs = []
     for grid in GRIDS:
-        for c in COMPONENTS:
+        for c in _components():
             path = out / "luts" / grid / f"{c}.nc"
             if not force and lut_is_current(path, c, grid, params):
                 result.reused.append(f"{grid}/{c}")
@@ -130,9 +143,8 @@ def run_demo(
     if result.reused:
         notify(f"reusing up-to-date LUTs: {', '.join(result.reused)}")
     if jobs:
-        # Longest first, so two workers finish together.
-        order = {"evaporator": 0, "condenser": 1, "compressor": 2, "expansion_valve": 3}
-        jobs.sort(key=lambda j: (j[1] != "cycle", order[j[0]]))
+        # Largest grids first, so that the workers finish together.
+        jobs.sort(key=lambda j: -_grid_points(j[0], j[1]))
         notify(f"computing {len(jobs)} LUTs in {workers} processes")
         with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
             futures = [pool.submit(_compute_lut, c, g, params, str(p)) for c, g, p in jobs]
@@ -200,7 +212,7 @@ def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify
         ("p-T diagram at speed 0.6", figs / "pt_diagram.png"),
     ]
     bench_pages = []
-    for c in COMPONENTS:
+    for c in _components():
         notify(f"drawing the {c} bench report")
         lut_path = out / "luts" / "thesis" / f"{c}.nc"
         ds = open_lut(lut_path)
@@ -225,7 +237,7 @@ def _write_index(out: Path, result: DemoResult, bench_pages, cycle_figures, swee
         body.append(f'<li><a href="{_rel(page, out)}">{html.escape(c)}</a></li>')
     body.append("</ul><h2>LUT files</h2><ul>")
     for grid in GRIDS:
-        for c in COMPONENTS:
+        for c in _components():
             p = out / "luts" / grid / f"{c}.nc"
             body.append(f'<li><a href="{_rel(p, out)}">{grid}/{c}.nc</a></li>')
     body.append("</ul><h2>Cycle on the LUTs</h2>")

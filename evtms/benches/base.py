@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from evtms.fluid import Fluid
+from evtms.luts.schema import ALTERNATE_AXES, AxisSpec, ComponentSpec
 from evtms.params import Parameters
 
 Evaluate = Callable[[dict[str, np.ndarray], Parameters, Fluid], dict[str, np.ndarray]]
@@ -56,6 +57,23 @@ class Bench:
         Axes a grid may add after the standard ones.
     valid_flags : tuple of int
         Status codes whose points are valid (finite outputs).
+    axis_specs : dict of str to AxisSpec
+        This component's own axes (units, long name, allowed range, command-line
+        units); axes shared by several components (``mdot``, ``p_in``, ...) are
+        declared once in :mod:`evtms.benches.axes`.
+    variables : dict of str to (str, str)
+        Units and long name of this component's own outputs, or of a shared
+        output whose meaning differs here (``Q`` of a chiller is not to air);
+        shared outputs are declared in :mod:`evtms.benches.axes`.
+    optional_outputs : tuple of str
+        Outputs a LUT of this component may lack (evtms extensions the LUT
+        format does not require, such as ``capacity_ratio``).
+    surface_axes : tuple of (str, str)
+        Axis pairs the bench report draws as response surfaces (the first
+        pair the LUT has).
+    main_output : (str, str)
+        The output the bench report draws first, and the axis its line
+        family runs along.
     """
 
     name: str
@@ -67,6 +85,21 @@ class Bench:
     presets: dict[str, dict[str, tuple[float, ...]]] = field(default_factory=dict)
     extra_axes: tuple[str, ...] = ()
     valid_flags: tuple[int, ...] = (STATUS_VALID,)
+    axis_specs: dict[str, AxisSpec] = field(default_factory=dict)
+    variables: dict[str, tuple[str, str]] = field(default_factory=dict)
+    optional_outputs: tuple[str, ...] = ()
+    surface_axes: tuple[tuple[str, str], ...] = ()
+    main_output: tuple[str, str] = ("Q", "mdot")
+
+    def lut_spec(self) -> ComponentSpec:
+        """What a LUT of this component holds, for the LUT layer (:mod:`evtms.luts.schema`)."""
+        from evtms.benches.axes import AXES, VARIABLES
+
+        names = [*self.axes, *(ALTERNATE_AXES[a] for a in self.axes if a in ALTERNATE_AXES), *self.extra_axes]
+        axis_specs = {a: self.axis_specs[a] if a in self.axis_specs else AXES[a] for a in names}
+        variables = {v: self.variables[v] if v in self.variables else VARIABLES[v] for v in self.outputs}
+        required = tuple(v for v in self.outputs if v not in self.optional_outputs)
+        return ComponentSpec(self.name, self.axes, self.extra_axes, axis_specs, variables, required)
 
 
 def pressure_nodes(T_sat_celsius: np.ndarray) -> tuple[float, ...]:

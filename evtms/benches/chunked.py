@@ -730,7 +730,7 @@ def _lut_writer(
     chunksizes = tuple(len(range(plan.shape[i])[first[i]]) if isinstance(first[i], slice) else 1 for i in keep)
     attributes = {name: axis_attributes(name) for name in axes}
     for name in names:
-        attributes[name] = variable_attributes(name, bench.flags, bench.valid_flags) | storage_attributes(
+        attributes[name] = variable_attributes(name, bench.flags, bench.valid_flags, bench.name) | storage_attributes(
             name, None, storage
         )
     attrs = global_attributes(**bench_attributes(bench, params, grid_name), fixed_inputs=fixed)

@@ -149,6 +149,10 @@ BENCH = Bench(
     flags=FLAGS,
     evaluate=compressor_power,
     extra_axes=("p_in",),
+    # p_in is an output where it is not an axis (the suction pressure the grid implies).
+    optional_outputs=("p_in",),
+    main_output=("W", "speed"),
+    surface_axes=(("pr", "T_in"),),
     presets={
         "thesis": {
             "speed": (0.3, 0.6, 0.8),

@@ -169,6 +169,8 @@ BENCH = Bench(
     flags=FLAGS,
     evaluate=condenser_heat_rate,
     extra_axes=("T_air_in", "RH_air_in"),
+    optional_outputs=("capacity_ratio", "h_out_continued"),
+    surface_axes=(("p_in", "T_in"), ("p_in", "h_in")),
     valid_flags=(0, STATUS_AIR_CORRELATION_OUTSIDE_RANGE),
     presets={
         "thesis": {

@@ -165,6 +165,8 @@ BENCH = Bench(
     outputs=OUTPUTS,
     flags=FLAGS,
     evaluate=valve_pressure_drop,
+    main_output=("dp", "mdot"),
+    surface_axes=(("p_in", "T_in"), ("p_in", "h_in")),
     presets={
         "thesis": {
             "T_in": (300.0, 315.0, 330.0),

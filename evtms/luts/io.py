@@ -27,7 +27,7 @@ import numpy as np
 
 from evtms import __version__
 from evtms.errors import EvtmsInputError
-from evtms.luts.schema import AXES, CONVENTIONS, FORMAT_VERSION, VARIABLES
+from evtms.luts.schema import AXES, CONVENTIONS, FORMAT_VERSION, variable_spec
 
 if TYPE_CHECKING:  # xarray is imported lazily: it costs ~0.5 s
     import xarray as xr
@@ -226,9 +226,11 @@ def finite_range(values: np.ndarray) -> tuple[float | None, float | None]:
     return finite.min(), finite.max()
 
 
-def variable_attributes(name: str, flags: dict[int, str], valid_flags: tuple[int, ...]) -> dict:
-    """CF attributes of a LUT data variable (``status`` gets its flags)."""
-    units, long_name = VARIABLES[name]
+def variable_attributes(
+    name: str, flags: dict[int, str], valid_flags: tuple[int, ...], component: str | None = None
+) -> dict:
+    """CF attributes of a LUT data variable of ``component`` (``status`` gets its flags)."""
+    units, long_name = variable_spec(component, name)
     attrs: dict = {"units": units, "long_name": long_name}
     if name == "status":
         codes = sorted(flags)
@@ -329,7 +331,9 @@ def build_dataset(
     for name, flat in outputs.items():
         dtype = np.int8 if name == "status" else np.float64
         data_vars[name] = xr.Variable(
-            dims, np.asarray(flat, dtype).reshape(shape), variable_attributes(name, flags, valid_flags)
+            dims,
+            np.asarray(flat, dtype).reshape(shape),
+            variable_attributes(name, flags, valid_flags, attrs.get("component")),
         )
     return xr.Dataset(data_vars, coords=coords, attrs=global_attributes(**attrs, fixed_inputs=fixed))
 

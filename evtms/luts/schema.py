@@ -1,12 +1,18 @@
 """The evtms LUT file format (``docs/lut-format.md``) as data.
 
-Axis and variable names, units and meanings live here once; the benches, the
-writer, the validator and the exporters all read them from this module.
+The rules every LUT follows (global attributes, versions, unit spellings) live
+here; what a component's LUT holds (its axes with units and ranges, its
+outputs) is declared once by its bench (:mod:`evtms.benches`) and read from the
+registry through :func:`component_specs` and the views :data:`AXES`,
+:data:`COMPONENT_AXES`, ... built from it.
 """
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 #: The version evtms writes.
 FORMAT_VERSION = 2
@@ -59,107 +65,121 @@ class AxisSpec:
         return f"any finite {self.name}{unit}"
 
 
-_PRESSURE_UNITS = (("Pa", 1.0, 0.0), ("kPa", 1e3, 0.0), ("MPa", 1e6, 0.0), ("bar", 1e5, 0.0))
-_TEMPERATURE_UNITS = (("K", 1.0, 0.0), ("degC", 1.0, 273.15), ("C", 1.0, 273.15))
-_FRACTION_UNITS = (("%", 0.01, 0.0),)
+#: Unit suffixes the command line and the files accept, as (suffix, factor, offset) to SI.
+PRESSURE_UNITS = (("Pa", 1.0, 0.0), ("kPa", 1e3, 0.0), ("MPa", 1e6, 0.0), ("bar", 1e5, 0.0))
+TEMPERATURE_UNITS = (("K", 1.0, 0.0), ("degC", 1.0, 273.15), ("C", 1.0, 273.15))
+FRACTION_UNITS = (("%", 0.01, 0.0),)
+MASS_FLOW_UNITS = (("kg/s", 1.0, 0.0), ("g/s", 1e-3, 0.0))
+ENTHALPY_UNITS = (("J/kg", 1.0, 0.0), ("kJ/kg", 1e3, 0.0))
 
-AXES: dict[str, AxisSpec] = {
-    a.name: a
-    for a in (
-        AxisSpec(
-            "mdot", "kg s-1", "refrigerant mass flow rate", 0.0, cli_units=(("kg/s", 1.0, 0.0), ("g/s", 1e-3, 0.0))
-        ),
-        AxisSpec(
-            "fan",
-            "1",
-            "condenser fan speed, fraction of maximum",
-            0.0,
-            1.0,
-            upper_open=False,
-            cli_units=_FRACTION_UNITS,
-        ),
-        AxisSpec(
-            "blower",
-            "1",
-            "evaporator blower air flow, fraction of maximum",
-            0.0,
-            1.0,
-            upper_open=False,
-            cli_units=_FRACTION_UNITS,
-        ),
-        AxisSpec(
-            "speed", "1", "compressor speed, fraction of maximum", 0.0, 1.0, upper_open=False, cli_units=_FRACTION_UNITS
-        ),
-        AxisSpec("p_in", "Pa", "refrigerant inlet pressure", 0.0, cli_units=_PRESSURE_UNITS),
-        AxisSpec("T_in", "K", "refrigerant inlet temperature", 0.0, cli_units=_TEMPERATURE_UNITS),
-        AxisSpec(
-            "h_in", "J kg-1", "refrigerant inlet specific enthalpy", cli_units=(("J/kg", 1.0, 0.0), ("kJ/kg", 1e3, 0.0))
-        ),
-        AxisSpec("T_res", "K", "outlet reservoir temperature", 0.0, cli_units=_TEMPERATURE_UNITS),
-        AxisSpec("pr", "1", "compressor pressure ratio p_out/p_in", 1.0),
-        AxisSpec(
-            "T_air_in",
-            "K",
-            "air temperature entering the coil",
-            233.15,
-            353.15,
-            lower_open=False,
-            upper_open=False,
-            cli_units=_TEMPERATURE_UNITS,
-        ),
-        AxisSpec(
-            "RH_air_in",
-            "1",
-            "relative humidity of the air entering the coil",
-            0.0,
-            1.0,
-            lower_open=False,
-            upper_open=False,
-            cli_units=_FRACTION_UNITS,
-        ),
-    )
-}
+#: The module holding the component registry: its ``component_specs()`` gives
+#: every component's :class:`ComponentSpec`. The LUT layer knows no component
+#: itself; each is declared once, in its bench module, and read from there.
+COMPONENT_REGISTRY = "evtms.benches"
 
-#: Variable name -> (units, long_name).
-VARIABLES: dict[str, tuple[str, str]] = {
-    "status": ("1", "point status: 0 valid, other codes per flag_meanings"),
-    "h_in": ("J kg-1", "refrigerant specific enthalpy at inlet"),
-    "h_out": ("J kg-1", "refrigerant specific enthalpy at outlet"),
-    "p_out": ("Pa", "refrigerant outlet pressure"),
-    "T_out": ("K", "refrigerant outlet temperature"),
-    "x_out": ("1", "outlet thermodynamic quality (h-h_l)/(h_v-h_l)"),
-    "Q": ("W", "heat flow from refrigerant to air"),
-    "T_air_out": ("K", "air temperature leaving the coil"),
-    "Q_latent": ("W", "part of Q that condensed moisture out of the air"),
-    "dp": ("Pa", "refrigerant pressure drop p_in - p_out"),
-    "W": ("W", "compressor shaft power"),
-    "mdot": ("kg s-1", "refrigerant mass flow delivered"),
-    "p_in": ("Pa", "compressor suction pressure"),
-    "eta_is": ("1", "isentropic efficiency"),
-    "eta_vol": ("1", "volumetric efficiency"),
-    # evtms extension (not required by the format): a smooth closure variable for cycles.
-    "capacity_ratio": ("1", "coil length over the length needed to finish the phase change"),
-    "h_out_continued": (
-        "J kg-1",
-        "outlet enthalpy continued smoothly past the phase boundary (h_out where the outlet is in the last zone)",
-    ),
-}
 
-#: Component -> axes of the thesis order.
-COMPONENT_AXES: dict[str, tuple[str, ...]] = {
-    "condenser": ("mdot", "fan", "p_in", "T_in", "T_res"),
-    "evaporator": ("mdot", "blower", "p_in", "T_in", "T_res"),
-    "expansion_valve": ("T_in", "p_in", "mdot"),
-    "compressor": ("speed", "T_in", "pr"),
-}
+@dataclass(frozen=True)
+class ComponentSpec:
+    """What a LUT of one component holds, as its bench declares it.
 
-#: Component -> data variables every file of that component holds.
-COMPONENT_VARIABLES: dict[str, tuple[str, ...]] = {
-    "condenser": ("status", "Q", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp"),
-    "evaporator": ("status", "Q", "Q_latent", "h_in", "h_out", "T_out", "p_out", "x_out", "T_air_out", "dp"),
-    "expansion_valve": ("status", "dp", "h_in", "h_out", "T_out", "p_out", "x_out"),
-    "compressor": ("status", "W", "mdot", "h_in", "h_out", "T_out", "p_out", "eta_is", "eta_vol"),
-}
+    Attributes
+    ----------
+    name : str
+        Component name (the file's ``component`` attribute).
+    axes : tuple of str
+        Standard axes in the format's order (``T_in`` may be given as ``h_in``).
+    extra_axes : tuple of str
+        Axes a grid may add after the standard ones.
+    axis_specs : mapping of str to AxisSpec
+        Every axis the component accepts (standard, alternate and extra).
+    variables : mapping of str to (str, str)
+        Units and long name of every output.
+    required : tuple of str
+        Outputs every file of the component holds (``status`` first).
+    """
+
+    name: str
+    axes: tuple[str, ...]
+    extra_axes: tuple[str, ...]
+    axis_specs: Mapping[str, AxisSpec]
+    variables: Mapping[str, tuple[str, str]]
+    required: tuple[str, ...]
+
+
+_SPECS: dict[str, ComponentSpec] = {}
+
+
+def component_specs() -> dict[str, ComponentSpec]:
+    """Every registered component, from :data:`COMPONENT_REGISTRY` (read once)."""
+    if not _SPECS:
+        specs = importlib.import_module(COMPONENT_REGISTRY).component_specs()
+        axes: dict[str, AxisSpec] = {}
+        for spec in specs.values():
+            for name, axis in spec.axis_specs.items():
+                if axes.setdefault(name, axis) != axis:
+                    raise ValueError(f"axis {name!r} is declared twice with different meanings ({spec.name})")
+        _SPECS.update(specs)
+    return _SPECS
+
+
+class _View(Mapping):
+    """A read-only mapping computed from the registered components on first use."""
+
+    def __init__(self, build: Callable[[dict[str, ComponentSpec]], dict]) -> None:
+        self._build = build
+        self._data: dict | None = None
+
+    def _get(self) -> dict:
+        if self._data is None:
+            self._data = self._build(component_specs())
+        return self._data
+
+    def __getitem__(self, key: str) -> Any:
+        return self._get()[key]
+
+    def __iter__(self) -> Iterator:
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+    def __repr__(self) -> str:
+        return repr(self._get())
+
+
+def _all_axes(specs: dict[str, ComponentSpec]) -> dict[str, AxisSpec]:
+    return {k: v for spec in specs.values() for k, v in spec.axis_specs.items()}
+
+
+def _all_variables(specs: dict[str, ComponentSpec]) -> dict[str, tuple[str, str]]:
+    out: dict[str, tuple[str, str]] = {}
+    for spec in specs.values():
+        for k, v in spec.variables.items():
+            out.setdefault(k, v)
+    return out
+
+
+#: Axis name -> :class:`AxisSpec`, over every registered component.
+AXES: Mapping[str, AxisSpec] = _View(_all_axes)
+#: Variable name -> (units, long name), the first component's meaning where
+#: components differ (``Q`` is to air in a coil, to coolant in the chiller):
+#: per component, see :func:`variable_spec`.
+VARIABLES: Mapping[str, tuple[str, str]] = _View(_all_variables)
+#: Component -> its standard axes, in the format's order.
+COMPONENT_AXES: Mapping[str, tuple[str, ...]] = _View(lambda s: {k: v.axes for k, v in s.items()})
+#: Component -> the data variables every file of that component holds.
+COMPONENT_VARIABLES: Mapping[str, tuple[str, ...]] = _View(lambda s: {k: v.required for k, v in s.items()})
+#: Component -> axes a grid may add to its standard ones.
+EXTRA_AXES: Mapping[str, tuple[str, ...]] = _View(lambda s: {k: v.extra_axes for k, v in s.items()})
+
+
+def variable_spec(component: str | None, name: str) -> tuple[str, str] | None:
+    """(units, long name) of variable ``name`` of ``component``, or None if unknown."""
+    specs = component_specs()
+    if component in specs and name in specs[component].variables:
+        return specs[component].variables[name]
+    return VARIABLES.get(name)
+
 
 #: Inlet-state axes that may stand in for each other at the same position.
 ALTERNATE_AXES = {"T_in": "h_in", "h_in": "T_in"}

@@ -34,11 +34,12 @@ from evtms.luts.schema import (
     AXES,
     COMPONENT_AXES,
     COMPONENT_VARIABLES,
+    EXTRA_AXES,
     READABLE_VERSIONS,
     REQUIRED_GLOBAL_ATTRS,
-    VARIABLES,
     accepted_units,
     unit_conversion,
+    variable_spec,
 )
 
 if TYPE_CHECKING:
@@ -46,12 +47,6 @@ if TYPE_CHECKING:
 
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _CLASSIC_SIGNATURE = b"CDF"
-#: Axes a grid may add to a component's standard ones.
-EXTRA_AXES = {
-    "compressor": ("p_in",),
-    "condenser": ("T_air_in", "RH_air_in"),
-    "evaporator": ("T_air_in", "RH_air_in"),
-}
 #: Largest grid (points) a file may declare; a file declaring more is refused before anything is read.
 MAX_POINTS = 200_000_000
 #: Share of the available memory that loading variables may take.
@@ -269,7 +264,7 @@ def _check_header(name: str, h: _Header, convert_units: bool) -> _Checked:
         axis_attrs[d] = {k: v for k, v in attrs.items() if k != "_FillValue"} | {"units": AXES[d].units}
     # Variables.
     for var in COMPONENT_VARIABLES[component]:
-        if var in dims or var in fixed or (var == "p_in" and component == "compressor"):
+        if var in dims or var in fixed:
             continue
         if var not in h.variables:
             _fail(name, f"required variable {var!r} is missing")
@@ -279,8 +274,9 @@ def _check_header(name: str, h: _Header, convert_units: bool) -> _Checked:
         if list(vdims) != data_dims:
             _fail(name, f"variable {var!r} has dimensions {', '.join(vdims)}; expected {', '.join(data_dims)}")
         units = attrs.get("units")
-        if var in VARIABLES and units != VARIABLES[var][0]:
-            _fail(name, f"variable {var!r} has units {units!r}; expected {VARIABLES[var][0]!r}")
+        known = variable_spec(component, var)
+        if known is not None and units != known[0]:
+            _fail(name, f"variable {var!r} has units {units!r}; expected {known[0]!r}")
         if units is None or "long_name" not in attrs:
             _fail(name, f"variable {var!r} needs units and long_name")
         if "scale_factor" in attrs or "add_offset" in attrs:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms.benches import BENCHES
 from evtms.errors import EvtmsInputError
 from evtms.luts.schema import AXES
 from evtms.luts.validate import fixed_inputs
@@ -24,20 +25,10 @@ from evtms.reports.cycle_plots import _figure, _save
 if TYPE_CHECKING:
     import xarray as xr
 
-#: Main output and the family axis (one line/surface per value) per component.
-MAIN = {
-    "condenser": ("Q", "mdot"),
-    "evaporator": ("Q", "mdot"),
-    "expansion_valve": ("dp", "mdot"),
-    "compressor": ("W", "speed"),
-}
-#: Default surface axes per component (the first that exist).
-SURFACE_AXES = {
-    "condenser": (("p_in", "T_in"), ("p_in", "h_in")),
-    "evaporator": (("p_in", "T_in"), ("p_in", "h_in")),
-    "expansion_valve": (("p_in", "T_in"), ("p_in", "h_in")),
-    "compressor": (("pr", "T_in"),),
-}
+#: Main output and the family axis (one line/surface per value) per component, as its bench declares.
+MAIN = {name: bench.main_output for name, bench in BENCHES.items()}
+#: Surface axes per component (the first pair the LUT has), as its bench declares.
+SURFACE_AXES = {name: bench.surface_axes for name, bench in BENCHES.items()}
 #: Display units: SI unit -> (label, factor to divide by).
 _DISPLAY = {
     "Pa": ("MPa", 1e6),
