@@ -1,6 +1,6 @@
 """LUT cycle against the direct physics on random points over the whole envelope.
 
-Run:  python benchmarks/accuracy_cycle.py LUT_FOLDER [--points 100]
+Run:  python benchmarks/accuracy_cycle.py LUT_FOLDER [--points 100] [--topology cabin,chiller,cabin+chiller]
 
 The tests compare 24 points (fan and blower from 0.2, speed from 0.15); this
 script draws points over the full envelope of the README (speed 0.1-1, fan and
@@ -8,7 +8,9 @@ blower 0.1-1, ambient 15-45 degC, cabin 15-35 degC at RH 0.2-0.8, superheat
 5-10 K) and prints the median, 90th percentile and worst relative error of
 the suction and discharge pressures, Q_evap, COP and valve opening, the
 floating superheat where the valve is saturated in both, the statuses of both
-solutions and the worst energy-balance residuals. The direct reference takes
+solutions and the worst energy-balance residuals, for each circuit topology
+(the chiller's coolant 0.05-0.4 kg/s at 15-40 degC; with two branches also the
+chiller's heat flow and share of the refrigerant flow). The direct reference takes
 about 0.25 s a point (a point with the valve saturated several times that).
 """
 
@@ -33,25 +35,42 @@ def envelope(n: int, seed: int = 11) -> OperatingPoints:
         RH_amb=0.4,
         T_cabin=rng.uniform(288.15, 308.15, n),
         RH_cabin=rng.uniform(0.2, 0.8, n),
+        mdot_coolant=rng.uniform(0.05, 0.4, n),
+        T_coolant_in=rng.uniform(288.15, 313.15, n),
         superheat=rng.uniform(5.0, 10.0, n),
     )
+
+
+#: Figures compared per topology: (result variable, label).
+FIGURES = {
+    "cabin": ("p_A", "p_B", "Q_evap", "COP", "valve_opening"),
+    "chiller": ("p_A", "p_B", "Q_chiller", "COP", "valve_opening"),
+    "cabin+chiller": ("p_A", "p_B", "Q_evap", "Q_chiller", "mdot_chiller", "COP", "valve_opening"),
+}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("luts")
     ap.add_argument("--points", type=int, default=100)
+    ap.add_argument("--topology", default="cabin,chiller,cabin+chiller")
     args = ap.parse_args()
     points = envelope(args.points)
-    lut = run_cycle(points, load_cycle_luts(args.luts))
-    direct = run_cycle(points)
+    for circuit in args.topology.split(","):
+        print(f"== topology {circuit}, {args.points} random points")
+        compare(points, load_cycle_luts(args.luts, circuit), circuit)
+
+
+def compare(points: OperatingPoints, luts, circuit: str) -> None:
+    lut = run_cycle(points, luts, circuit=circuit)
+    direct = run_cycle(points, circuit=circuit)
     for name, r in (("LUT", lut), ("direct", direct)):
         counts = Counter(CYCLE_FLAGS[c] for c in r["status"].tolist())
         print(f"statuses {name}: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     print(f"status equal in {(lut['status'] == direct['status']).sum()} of {len(points)} points")
     ok = np.isin(lut["status"], VALID_CYCLE_FLAGS) & np.isin(direct["status"], VALID_CYCLE_FLAGS)
     print(f"{ok.sum()} points valid in both")
-    for name in ("p_A", "p_B", "Q_evap", "COP", "valve_opening"):
+    for name in FIGURES[circuit]:
         err = np.abs(lut[name][ok] / direct[name][ok] - 1) * 100
         print(
             f"{name:14s} median {np.median(err):.2f} %  90 % within {np.quantile(err, 0.9):.2f} %  "

@@ -627,83 +627,20 @@ def lut_diff_cmd(
 cycle_app = typer.Typer(help="Solve the vapor-compression cycle on the component LUTs.", no_args_is_help=True)
 app.add_typer(cycle_app, name="cycle")
 
-_CYCLE_RANGES = {
-    "speed": (0.0, 1.0),
-    "fan": (0.0, 1.0),
-    "blower": (0.0, 1.0),
-    "RH_amb": (0.0, 1.0),
-    "RH_cabin": (0.0, 1.0),
-    "superheat": (0.0, 50.0),
-    "subcooling": (0.0, 30.0),
-    "T_amb": (233.15, 333.15),
-    "T_cabin": (253.15, 323.15),
-}
 #: Operating points one 'cycle sweep' solves at most unless --max-points says otherwise.
 DEFAULT_MAX_CYCLE_POINTS = 2_000_000
 
 
-def _cycle_values(name: str, text: str, celsius: bool, max_points: int) -> list[float]:
-    """A cycle input: one value, v1,v2,... or start:stop:count; degC inputs to K, rounded to 12 digits."""
-    import numpy as np
+def _cycle_inputs(topology: str, texts: dict[str, str | None], max_points: int = DEFAULT_MAX_CYCLE_POINTS):
+    """(circuit, grid of its inputs) from the command line's texts; the library checks every value."""
+    from evtms.cycle.topology import parse_inputs
+    from evtms.cycle.topology import topology as circuit_named
 
-    option = f"--{name.replace('_', '-').lower()}"
-    try:
-        parts = [float(v) for v in text.split(":" if ":" in text else ",")]
-    except ValueError:
-        raise EvtmsInputError(f"{option} {text!r} is not a number, v1,v2,... or start:stop:count") from None
-    if ":" in text:
-        if len(parts) != 3:
-            raise EvtmsInputError(f"{option} {text!r} is not start:stop:count")
-        start, stop, count = parts
-        if not count.is_integer() or count < 1:
-            raise EvtmsInputError(f"{option} {text!r}: the count {count:g} must be a whole number >= 1")
-        if count > max_points:
-            raise EvtmsInputError(f"{option} {text!r}: {count:,.0f} values is above the limit of {max_points:,}")
-        values = np.linspace(start, stop, int(count))
-    else:
-        values = np.array(parts)
-    if celsius:
-        values = values + 273.15
-    values = [float(f"{v:.12g}") for v in values]  # -40 degC is 233.15 K exactly, 0.3 is 0.3
-    lo, hi = _CYCLE_RANGES[name]
-    for v in values:
-        if not lo <= v <= hi or (name in ("speed", "fan", "blower") and v == 0):
-            shown = f"{v - 273.15:g} degC" if celsius else f"{v:g}"
-            allowed = f"{lo - 273.15:g} to {hi - 273.15:g} degC" if celsius else f"{lo:g} to {hi:g}"
-            if name in ("speed", "fan", "blower"):
-                allowed = f"0 < {name} <= 1"
-            raise EvtmsInputError(f"{name} = {shown} is not allowed; allowed: {allowed}")
-    if any(b <= a for a, b in zip(values, values[1:], strict=False)):
-        raise EvtmsInputError(f"{name} values must be strictly increasing")
-    return values
+    circuit = circuit_named(topology)
+    return circuit, parse_inputs(texts, circuit, max_points)
 
 
-def _cycle_inputs(
-    speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling, max_points=DEFAULT_MAX_CYCLE_POINTS
-) -> dict[str, list[float]]:
-    raw = {
-        "speed": (speed, False),
-        "fan": (fan, False),
-        "blower": (blower, False),
-        "T_amb": (t_amb, True),
-        "RH_amb": (rh_amb, False),
-        "T_cabin": (t_cabin, True),
-        "RH_cabin": (rh_cabin, False),
-        "superheat": (superheat, False),
-        "subcooling": (subcooling, False),
-    }
-    grid = {name: _cycle_values(name, text, c, max_points) for name, (text, c) in raw.items()}
-    points = math.prod(len(v) for v in grid.values())
-    if points > max_points:
-        sizes = " x ".join(f"{k} {len(v)}" for k, v in grid.items() if len(v) > 1)
-        raise EvtmsInputError(
-            f"the sweep has {points:,} operating points ({sizes}), above the limit of {max_points:,}; "
-            "raise it with --max-points or sweep fewer values"
-        )
-    return grid
-
-
-def _cycle_models(luts: Path | None, direct: bool, params: Path | None):
+def _cycle_models(luts: Path | None, direct: bool, params: Path | None, circuit):
     """(LUT tables or None, parameters) for a cycle command; a --params that the LUTs contradict is refused."""
     from evtms.cycle import load_cycle_luts
     from evtms.cycle.api import parameter_conflicts
@@ -717,7 +654,7 @@ def _cycle_models(luts: Path | None, direct: bool, params: Path | None):
     if direct:
         return None, parameters
     folder = luts or Path("luts")
-    tables = load_cycle_luts(folder)
+    tables = load_cycle_luts(folder, circuit)
     if params is not None:
         conflicts = parameter_conflicts(tables, parameters)
         if conflicts:
@@ -729,17 +666,6 @@ def _cycle_models(luts: Path | None, direct: bool, params: Path | None):
     return tables, parameters
 
 
-def _solve(tables, parameters, grid: dict[str, list[float]]):
-    import numpy as np
-
-    from evtms.cycle import OperatingPoints, run_cycle
-    from evtms.cycle.solver import INPUTS
-
-    mesh = np.meshgrid(*[np.asarray(grid[k]) for k in INPUTS], indexing="ij")
-    points = OperatingPoints(**{k: m.ravel() for k, m in zip(INPUTS, mesh, strict=True)})
-    return points, run_cycle(points, tables, parameters)
-
-
 _SPEED = typer.Option("--speed", help="Compressor speed fraction (0-1].")
 _FAN = typer.Option("--fan", help="Condenser fan fraction (0-1].")
 _BLOWER = typer.Option("--blower", help="Evaporator blower fraction (0-1].")
@@ -747,6 +673,12 @@ _TAMB = typer.Option("--t-amb", help="Ambient air temperature [degC], -40 to 60.
 _RHAMB = typer.Option("--rh-amb", help="Ambient relative humidity [0-1].")
 _TCAB = typer.Option("--t-cabin", help="Air temperature entering the evaporator [degC], -20 to 50.")
 _RHCAB = typer.Option("--rh-cabin", help="Relative humidity entering the evaporator [0-1].")
+_TCOOL = typer.Option("--t-coolant", help="Coolant temperature entering the chiller [degC], -20 to 60.")
+_MCOOL = typer.Option("--coolant-flow", help="Coolant (50 % ethylene glycol) mass flow through the chiller [kg/s].")
+_TOPOLOGY = typer.Option(
+    "--topology",
+    help="Circuit: cabin (evaporator), chiller (battery coolant, blower off) or cabin+chiller (both in parallel).",
+)
 _SH = typer.Option("--superheat", help="Thermostatic-valve superheat setpoint [K], 0-50.")
 _SC = typer.Option("--subcooling", help="Condenser-outlet subcooling [K], 0-30; 0 = saturated liquid (receiver).")
 _LUTS = typer.Option("--luts", help="Folder with the cycle LUTs (evtms bench all --grid cycle). Default: luts/")
@@ -758,30 +690,52 @@ _PARAMS = typer.Option(
 _STATES = {"A": "A evaporator outlet", "B": "B compressor outlet", "C": "C condenser outlet", "D": "D valve outlet"}
 _PERFORMANCE = (
     ("mdot", "mass flow", 1e3, "g/s", "kg s-1"),
-    ("Q_evap", "cooling |Q_evap|", -1.0, "W", "W"),
+    ("mdot_evap", "  through the evaporator", 1e3, "g/s", "kg s-1"),
+    ("mdot_chiller", "  through the chiller", 1e3, "g/s", "kg s-1"),
+    ("Q_evap", "cabin cooling |Q_evap|", -1.0, "W", "W"),
     ("Q_latent", "  of which latent", -1.0, "W", "W"),
+    ("Q_chiller", "battery cooling |Q_chiller|", -1.0, "W", "W"),
     ("Q_cond", "Q_cond", 1.0, "W", "W"),
     ("W", "compressor shaft power W", 1.0, "W", "W"),
     ("COP", "cooling COP", 1.0, "-", "1"),
     ("dp_valve", "valve pressure drop", 1e-3, "kPa", "Pa"),
     ("valve_opening", "valve opening / nominal", 1.0, "-", "1"),
+    ("valve_opening_chiller", "chiller valve opening / nom.", 1.0, "-", "1"),
     ("superheat_actual", "evaporator-outlet superheat", 1.0, "K", "K"),
     ("balance_residual", "energy balance residual", 1.0, "W", "W"),
     ("balance_relative", "  relative to W_fluid", 100.0, "%", "1"),
 )
+#: Rows only a circuit with that component shows (the split only with two branches).
+_PERFORMANCE_NEEDS = {
+    "mdot_evap": ("evaporator", "chiller"),
+    "mdot_chiller": ("evaporator", "chiller"),
+    "Q_evap": ("evaporator",),
+    "Q_latent": ("evaporator",),
+    "Q_chiller": ("chiller",),
+    "valve_opening_chiller": ("evaporator", "chiller"),
+}
+
+
+def _performance(circuit) -> list[tuple]:
+    """The performance rows that apply to ``circuit``."""
+    have = set(circuit.components)
+    return [row for row in _PERFORMANCE if set(_PERFORMANCE_NEEDS.get(row[0], ())) <= have]
 
 
 @cycle_app.command("run")
 def cycle_run(
-    speed: Annotated[str, _SPEED] = "0.6",
-    fan: Annotated[str, _FAN] = "0.5",
-    blower: Annotated[str, _BLOWER] = "0.4",
-    t_amb: Annotated[str, _TAMB] = "30",
-    rh_amb: Annotated[str, _RHAMB] = "0.4",
-    t_cabin: Annotated[str, _TCAB] = "27",
-    rh_cabin: Annotated[str, _RHCAB] = "0.5",
-    superheat: Annotated[str, _SH] = "10",
-    subcooling: Annotated[str, _SC] = "0",
+    topology: Annotated[str, _TOPOLOGY] = "cabin",
+    speed: Annotated[str | None, _SPEED] = None,
+    fan: Annotated[str | None, _FAN] = None,
+    blower: Annotated[str | None, _BLOWER] = None,
+    t_amb: Annotated[str | None, _TAMB] = None,
+    rh_amb: Annotated[str | None, _RHAMB] = None,
+    t_cabin: Annotated[str | None, _TCAB] = None,
+    rh_cabin: Annotated[str | None, _RHCAB] = None,
+    coolant_flow: Annotated[str | None, _MCOOL] = None,
+    t_coolant: Annotated[str | None, _TCOOL] = None,
+    superheat: Annotated[str | None, _SH] = None,
+    subcooling: Annotated[str | None, _SC] = None,
     luts: Annotated[Path | None, _LUTS] = None,
     direct: Annotated[bool, _DIRECT] = False,
     params: Annotated[Path | None, _PARAMS] = None,
@@ -791,28 +745,46 @@ def cycle_run(
 
     Example: evtms cycle run --luts luts/ --speed 0.6 --fan 0.5 --blower 0.4 --t-amb 30 --t-cabin 27
     """
+    from evtms.cycle.api import solve_grid
     from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
+    from evtms.cycle.topology import INPUTS
 
-    grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling)
-    several = [f"--{k.replace('_', '-').lower()} ({len(v)} values)" for k, v in grid.items() if len(v) != 1]
+    circuit, grid = _cycle_inputs(
+        topology,
+        {
+            "speed": speed,
+            "fan": fan,
+            "blower": blower,
+            "T_amb": t_amb,
+            "RH_amb": rh_amb,
+            "T_cabin": t_cabin,
+            "RH_cabin": rh_cabin,
+            "mdot_coolant": coolant_flow,
+            "T_coolant_in": t_coolant,
+            "superheat": superheat,
+            "subcooling": subcooling,
+        },
+    )
+    several = [f"{INPUTS[k].option} ({len(v)} values)" for k, v in grid.items() if len(v) != 1]
     if several:
         fail(f"{', '.join(several)}: cycle run takes one value per input; use 'evtms cycle sweep' for several")
-    tables, parameters = _cycle_models(luts, direct, params)
-    _, r = _solve(tables, parameters, grid)
+    tables, parameters = _cycle_models(luts, direct, params, circuit)
+    _, r = solve_grid(grid, tables, parameters, circuit)
     status = int(r["status"][0])
     if status not in VALID_CYCLE_FLAGS:
         fail(f"operating point not solved: {r['reason'][0]}")
     if json_out:
         print_json(
             {
+                "topology": circuit.name,
                 "inputs": {k: v[0] for k, v in grid.items()},
                 "models": "direct" if direct else str(luts or "luts"),
                 "status": status,
                 "status_meaning": CYCLE_FLAGS[status],
                 "note": str(r["reason"][0]),
                 "states": {s: {q: float(r[f"{q}_{s}"][0]) for q in ("p", "T", "h")} for s in _STATES},
-                **{key: float(r[key][0]) for key, *_ in _PERFORMANCE},
-                "units": {"p": "Pa", "T": "K", "h": "J kg-1", **{key: si for key, *_, si in _PERFORMANCE}},
+                **{key: float(r[key][0]) for key, *_ in _performance(circuit)},
+                "units": {"p": "Pa", "T": "K", "h": "J kg-1", **{key: si for key, *_, si in _performance(circuit)}},
             }
         )
         return
@@ -821,7 +793,7 @@ def cycle_run(
         typer.echo(
             f"{label:<26} {r['p_' + s][0] / 1e6:9.4f} {r['T_' + s][0] - 273.15:9.2f} {r['h_' + s][0] / 1e3:10.2f}"
         )
-    for key, label, scale, unit, _ in _PERFORMANCE:
+    for key, label, scale, unit, _ in _performance(circuit):
         typer.echo(f"{label:<26} {scale * r[key][0]:10.4g} {unit}")
     if r["reason"][0]:
         typer.echo(f"note: {r['reason'][0]}")
@@ -830,15 +802,18 @@ def cycle_run(
 @cycle_app.command("sweep")
 def cycle_sweep(
     output: Annotated[Path, typer.Option("--output", "-o", help="Output netCDF file.")],
-    speed: Annotated[str, _SPEED] = "0.6",
-    fan: Annotated[str, _FAN] = "0.5",
-    blower: Annotated[str, _BLOWER] = "0.4",
-    t_amb: Annotated[str, _TAMB] = "30",
-    rh_amb: Annotated[str, _RHAMB] = "0.4",
-    t_cabin: Annotated[str, _TCAB] = "27",
-    rh_cabin: Annotated[str, _RHCAB] = "0.5",
-    superheat: Annotated[str, _SH] = "10",
-    subcooling: Annotated[str, _SC] = "0",
+    topology: Annotated[str, _TOPOLOGY] = "cabin",
+    speed: Annotated[str | None, _SPEED] = None,
+    fan: Annotated[str | None, _FAN] = None,
+    blower: Annotated[str | None, _BLOWER] = None,
+    t_amb: Annotated[str | None, _TAMB] = None,
+    rh_amb: Annotated[str | None, _RHAMB] = None,
+    t_cabin: Annotated[str | None, _TCAB] = None,
+    rh_cabin: Annotated[str | None, _RHCAB] = None,
+    coolant_flow: Annotated[str | None, _MCOOL] = None,
+    t_coolant: Annotated[str | None, _TCOOL] = None,
+    superheat: Annotated[str | None, _SH] = None,
+    subcooling: Annotated[str | None, _SC] = None,
     luts: Annotated[Path | None, _LUTS] = None,
     direct: Annotated[bool, _DIRECT] = False,
     params: Annotated[Path | None, _PARAMS] = None,
@@ -854,21 +829,37 @@ def cycle_sweep(
     import numpy as np
 
     from evtms.cycle import cycle_dataset
-    from evtms.cycle.api import COMPONENTS, cycle_encoding
+    from evtms.cycle.api import cycle_encoding, solve_grid
     from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
     from evtms.luts.io import atomic_output
 
     if max_points < 1:
         fail(f"--max-points {max_points} is not allowed; allowed: 1 or more")
     folder = luts or Path("luts")
-    inputs = [params] + ([] if direct else [folder / f"{c}.nc" for c in COMPONENTS])
+    circuit, grid = _cycle_inputs(
+        topology,
+        {
+            "speed": speed,
+            "fan": fan,
+            "blower": blower,
+            "T_amb": t_amb,
+            "RH_amb": rh_amb,
+            "T_cabin": t_cabin,
+            "RH_cabin": rh_cabin,
+            "mdot_coolant": coolant_flow,
+            "T_coolant_in": t_coolant,
+            "superheat": superheat,
+            "subcooling": subcooling,
+        },
+        max_points,
+    )
+    inputs = [params] + ([] if direct else [folder / f"{c}.nc" for c in circuit.components])
     output_file(output, inputs, (".nc",))
-    grid = _cycle_inputs(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, superheat, subcooling, max_points)
-    tables, parameters = _cycle_models(luts, direct, params)
+    tables, parameters = _cycle_models(luts, direct, params, circuit)
     t0 = time.perf_counter()
-    points, r = _solve(tables, parameters, grid)
+    points, r = solve_grid(grid, tables, parameters, circuit)
     wall = time.perf_counter() - t0
-    ds = cycle_dataset(grid, r, "direct" if direct else f"LUTs in {folder}")
+    ds = cycle_dataset(grid, r, "direct" if direct else f"LUTs in {folder}", circuit)
     with creating_parents(output), atomic_output(output) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", encoding=cycle_encoding(ds))
     status = np.asarray(r["status"])

@@ -160,8 +160,9 @@ def run_demo(
 
 
 def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify: Notify) -> None:
-    from evtms.cycle import OperatingPoints, cycle_dataset, load_cycle_luts, run_cycle
-    from evtms.cycle.solver import INPUTS
+    from evtms.cycle import cycle_dataset, load_cycle_luts
+    from evtms.cycle.api import solve_grid
+    from evtms.cycle.topology import INPUTS, TOPOLOGIES
     from evtms.fluid import Fluid
     from evtms.luts import open_lut
     from evtms.luts.io import atomic_output
@@ -173,21 +174,10 @@ def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify
     # Cycle over compressor speed at the default conditions.
     notify("solving the cycle over compressor speed on the cycle LUTs")
     luts = load_cycle_luts(out / "luts" / "cycle")
-    defaults = {
-        "speed": np.linspace(0.2, 1.0, 9),
-        "fan": [0.5],
-        "blower": [0.4],
-        "T_amb": [303.15],
-        "RH_amb": [0.4],
-        "T_cabin": [300.15],
-        "RH_cabin": [0.5],
-        "superheat": [10.0],
-        "subcooling": [0.0],
-    }
-    grid = {k: np.asarray(v, float) for k, v in defaults.items()}
-    mesh = np.meshgrid(*[grid[k] for k in INPUTS], indexing="ij")
-    points = OperatingPoints(**{k: m.ravel() for k, m in zip(INPUTS, mesh, strict=True)})
-    res = run_cycle(points, luts, params, fluid)
+    # Over compressor speed, every other input at its default.
+    grid = {"speed": np.linspace(0.2, 1.0, 9)}
+    grid |= {k: np.array([INPUTS[k].default]) for k in TOPOLOGIES["cabin"].inputs if k != "speed"}
+    _, res = solve_grid(grid, luts, params, "cabin", fluid)
     sweep = cycle_dataset(grid, res, "LUTs in luts/cycle")
     (out / "cycle").mkdir(exist_ok=True)
     with atomic_output(out / "cycle" / "speed_sweep.nc") as tmp:
@@ -201,7 +191,7 @@ def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify
     cycle_figures.append(
         ("Energy balance over compressor speed (table: energy_balance.csv)", figs / "energy_balance.png")
     )
-    mid = {d: 0 for d in INPUTS}
+    mid = {d: 0 for d in sweep["status"].dims}
     mid["speed"] = 4  # speed 0.6
     states = diagram_data(sweep, mid)
     for fmt in ("png", "svg"):

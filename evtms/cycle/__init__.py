@@ -1,18 +1,26 @@
 """Vapor-compression cycle on component LUTs, with a direct-physics reference.
 
-``run_cycle`` solves operating points from LUT files (or the benches directly
-with ``direct=True``); see :mod:`evtms.cycle.solver` for the closure.
+``run_cycle`` solves operating points of a circuit (:mod:`evtms.cycle.topology`:
+``cabin``, ``chiller``, ``cabin+chiller``) from LUT files, or from the benches
+directly when no LUTs are given; ``solve_grid`` does it on every combination of
+input values; see :mod:`evtms.cycle.solver` for the closure.
 """
 
-from evtms.cycle.api import cycle_dataset, energy_balance, load_cycle_luts, run_cycle
-from evtms.cycle.solver import CYCLE_FLAGS, CycleSolver, OperatingPoints
+from evtms.cycle.api import cycle_dataset, energy_balance, load_cycle_luts, run_cycle, solve_grid
+from evtms.cycle.solver import CYCLE_FLAGS, CycleSolver, CycleStatus, OperatingPoints
+from evtms.cycle.topology import INPUTS, TOPOLOGIES, Topology
 
 __all__ = [
     "CYCLE_FLAGS",
+    "INPUTS",
+    "TOPOLOGIES",
     "CycleSolver",
+    "CycleStatus",
+    "Topology",
     "OperatingPoints",
     "cycle_dataset",
     "energy_balance",
     "load_cycle_luts",
     "run_cycle",
+    "solve_grid",
 ]

@@ -10,7 +10,8 @@ import numpy as np
 
 from evtms import __version__
 from evtms.cycle.models import DirectModels, LutModels
-from evtms.cycle.solver import CYCLE_FLAGS, INPUTS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
+from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
+from evtms.cycle.topology import INPUTS, TOPOLOGIES, Topology, topology
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid, SaturationCurve
 from evtms.params import Parameters
@@ -18,7 +19,8 @@ from evtms.params import Parameters
 if TYPE_CHECKING:
     import xarray as xr
 
-COMPONENTS = ("condenser", "evaporator", "expansion_valve", "compressor")
+#: Components of the cabin loop (every topology's are ``Topology.components``).
+COMPONENTS = TOPOLOGIES["cabin"].components
 
 #: Result variable -> (units, long_name).
 RESULT_VARIABLES = {
@@ -26,28 +28,21 @@ RESULT_VARIABLES = {
     **{f"T_{s}": ("K", f"refrigerant temperature at state {s}") for s in "ABCD"},
     **{f"h_{s}": ("J kg-1", f"refrigerant specific enthalpy at state {s}") for s in "ABCD"},
     "mdot": ("kg s-1", "refrigerant mass flow rate"),
-    "Q_evap": ("W", "evaporator heat flow from refrigerant to air (< 0: cooling)"),
+    "mdot_evap": ("kg s-1", "refrigerant mass flow through the cabin evaporator (0 without one)"),
+    "mdot_chiller": ("kg s-1", "refrigerant mass flow through the chiller (0 without one)"),
+    "Q_evap": ("W", "evaporator heat flow from refrigerant to air (< 0: cooling; 0 without one)"),
     "Q_latent": ("W", "latent (dehumidification) part of Q_evap"),
+    "Q_chiller": ("W", "chiller heat flow from refrigerant to coolant (< 0: cooling; 0 without one)"),
     "Q_cond": ("W", "condenser heat flow from refrigerant to air"),
     "W": ("W", "compressor shaft power"),
     "W_fluid": ("W", "power given to the refrigerant, mdot (h_B - h_A)"),
-    "COP": ("1", "cooling coefficient of performance |Q_evap| / W"),
-    "dp_valve": ("Pa", "expansion-valve pressure drop p_C - p_D"),
-    "valve_opening": ("1", "valve opening relative to its nominal opening"),
+    "COP": ("1", "cooling coefficient of performance (|Q_evap| + |Q_chiller|) / W"),
+    "dp_valve": ("Pa", "expansion-valve pressure drop p_C - p_D (of the first branch)"),
+    "valve_opening": ("1", "first branch's valve opening relative to its nominal opening"),
+    "valve_opening_chiller": ("1", "chiller valve opening relative to its nominal opening (NaN without a chiller)"),
     "superheat_actual": ("K", "evaporator-outlet superheat: the setpoint, or floating where the valve is saturated"),
-    "balance_residual": ("W", "Q_cond + Q_evap - W_fluid, each from its own component"),
+    "balance_residual": ("W", "Q_cond + Q_evap + Q_chiller - W_fluid, each from its own component"),
     "balance_relative": ("1", "balance_residual / W_fluid"),
-}
-INPUT_UNITS = {
-    "speed": ("1", "compressor speed, fraction of maximum"),
-    "fan": ("1", "condenser fan fraction"),
-    "blower": ("1", "evaporator blower fraction"),
-    "T_amb": ("K", "ambient air temperature at the condenser"),
-    "RH_amb": ("1", "ambient relative humidity"),
-    "T_cabin": ("K", "air temperature entering the evaporator"),
-    "RH_cabin": ("1", "relative humidity of the air entering the evaporator"),
-    "superheat": ("K", "superheat setpoint at the evaporator outlet"),
-    "subcooling": ("K", "subcooling at the condenser outlet (0 = saturated liquid)"),
 }
 
 
@@ -61,8 +56,8 @@ def cycle_variables(component: str) -> list[str]:
     return list(dict.fromkeys(names))
 
 
-def load_cycle_luts(folder: str | Path) -> dict[str, xr.Dataset]:
-    """Open and validate the four component LUTs ``<folder>/<component>.nc``.
+def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> dict[str, xr.Dataset]:
+    """Open and validate the component LUTs ``<folder>/<component>.nc`` the circuit needs.
 
     Only the variables the cycle interpolates are loaded (the evaporator's
     cycle LUT holds 2.4 million points per variable).
@@ -82,7 +77,7 @@ def load_cycle_luts(folder: str | Path) -> dict[str, xr.Dataset]:
     if not folder.is_dir():
         raise EvtmsInputError(f"LUT folder {str(folder)!r} does not exist")
     luts = {}
-    for c in COMPONENTS:
+    for c in topology(circuit).components:
         path = folder / f"{c}.nc"
         if not path.exists():
             raise EvtmsInputError(f"{path}: no such file; write the cycle LUTs with 'evtms bench all --grid cycle'")
@@ -129,12 +124,13 @@ def cycle_encoding(ds: xr.Dataset) -> dict[str, dict]:
 def energy_balance(result: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """First-law residual of the cycle, each term from its own component.
 
-    ``residual = Q_cond + Q_evap - W_fluid`` [W] (``Q_evap`` < 0), and
+    ``residual = Q_cond + Q_evap + Q_chiller - W_fluid`` [W] (``Q_evap``,
+    ``Q_chiller`` < 0), and
     ``relative = residual / W_fluid`` [1]. The valve is isenthalpic, so with
     exact components the residual is zero; with LUTs it measures how
     consistently the separately interpolated LUTs describe the same states.
     """
-    residual = result["Q_cond"] + result["Q_evap"] - result["W_fluid"]
+    residual = result["Q_cond"] + result["Q_evap"] + result.get("Q_chiller", 0.0) - result["W_fluid"]
     with np.errstate(invalid="ignore", divide="ignore"):
         relative = residual / result["W_fluid"]
     return {"residual": residual, "relative": relative}
@@ -145,37 +141,62 @@ def run_cycle(
     luts: dict[str, xr.Dataset] | None = None,
     params: Parameters | None = None,
     fluid: Fluid | None = None,
+    circuit: Topology | str = "cabin",
 ) -> dict[str, np.ndarray]:
-    """Solve operating points on LUTs, or with the bench physics if ``luts`` is None.
+    """Solve operating points of a circuit on LUTs, or with the bench physics if ``luts`` is None.
 
     Returns the solver's result (see :meth:`CycleSolver.solve`) plus
     ``balance_residual`` and ``balance_relative``.
     """
     params = params or Parameters()
     fluid = fluid or Fluid(params.fluid, params.backend)
-    models = LutModels(luts) if luts is not None else DirectModels(params, fluid)
-    solver = CycleSolver(models, SaturationCurve(fluid))
+    circuit = topology(circuit)
+    models = LutModels(luts, circuit.components) if luts is not None else DirectModels(params, fluid)
+    solver = CycleSolver(models, SaturationCurve(fluid), circuit)
     result = solver.solve(points)
     bal = energy_balance(result)
     result["balance_residual"], result["balance_relative"] = bal["residual"], bal["relative"]
     return result
 
 
-def cycle_dataset(grid: dict[str, np.ndarray], result: dict[str, np.ndarray], source: str) -> xr.Dataset:
+def solve_grid(
+    grid: dict[str, list[float] | np.ndarray],
+    luts: dict[str, xr.Dataset] | None = None,
+    params: Parameters | None = None,
+    circuit: Topology | str = "cabin",
+    fluid: Fluid | None = None,
+) -> tuple[OperatingPoints, dict[str, np.ndarray]]:
+    """Solve the circuit on every combination of its inputs' values (the CLI's and the demo's sweep).
+
+    ``grid`` gives each input of ``circuit`` (``Topology.inputs``) its
+    values; an input it lacks takes its default (:data:`INPUTS`). Returns
+    the operating points (C order of the grid) and :func:`run_cycle`'s result.
+    """
+    circuit = topology(circuit)
+    axes = [np.asarray(grid.get(k, [INPUTS[k].default]), float) for k in circuit.inputs]
+    mesh = np.meshgrid(*axes, indexing="ij")
+    points = OperatingPoints(**{k: m.ravel() for k, m in zip(circuit.inputs, mesh, strict=True)})
+    return points, run_cycle(points, luts, params, fluid, circuit)
+
+
+def cycle_dataset(
+    grid: dict[str, np.ndarray], result: dict[str, np.ndarray], source: str, circuit: Topology | str = "cabin"
+) -> xr.Dataset:
     """Results of a cycle sweep on a grid of inputs as a dataset with units.
 
-    ``grid`` gives each input of :class:`OperatingPoints` its values (one
-    dimension per input, in :data:`INPUTS` order); ``result`` holds flat
-    arrays in C order of that grid.
+    ``grid`` gives each input of the circuit its values (one dimension per
+    input, in ``Topology.inputs`` order); ``result`` holds flat arrays in C
+    order of that grid.
     """
     import datetime as dt
 
     import xarray as xr
 
-    dims = tuple(INPUTS)
+    circuit = topology(circuit)
+    dims = circuit.inputs
     shape = tuple(len(grid[d]) for d in dims)
     coords = {
-        d: xr.Variable(d, np.asarray(grid[d], float), {"units": INPUT_UNITS[d][0], "long_name": INPUT_UNITS[d][1]})
+        d: xr.Variable(d, np.asarray(grid[d], float), {"units": INPUTS[d].units, "long_name": INPUTS[d].long_name})
         for d in dims
     }
     data = {}
@@ -206,6 +227,7 @@ def cycle_dataset(grid: dict[str, np.ndarray], result: dict[str, np.ndarray], so
         "title": "evtms vapor-compression cycle sweep",
         "evtms_version": __version__,
         "models": source,
+        "topology": circuit.name,
         "created": created,
         "history": f"{created} evtms cycle sweep",
         "inputs": json.dumps({d: list(map(float, grid[d])) for d in dims}),

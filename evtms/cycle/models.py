@@ -43,6 +43,7 @@ ITERATION_OUTPUTS = {
     "condenser": ("capacity_ratio", "p_out"),
     "condenser_subcooled": ("capacity_ratio", "p_out", "h_out_continued"),
     "evaporator": ("h_out_continued", "p_out"),
+    "chiller": ("h_out_continued", "p_out"),
 }
 
 #: Variables whose interpolation gets the quadratic (curvature) correction: the coils'
@@ -51,6 +52,7 @@ CURVED = {
     "compressor": ("mdot", "h_out", "T_out", "W"),
     "condenser": ("capacity_ratio", "h_out_continued"),
     "evaporator": ("h_out_continued", "Q_latent"),
+    "chiller": ("h_out_continued",),
 }
 
 #: Variables each component model returns for the final states.
@@ -58,6 +60,7 @@ COMPONENT_OUTPUTS = {
     "compressor": ("mdot", "h_in", "h_out", "T_out", "W"),
     "condenser": ("p_out", "capacity_ratio", "h_out_continued"),
     "evaporator": ("Q_latent", "h_out_continued", "p_out"),
+    "chiller": ("h_out_continued", "p_out"),
 }
 
 
@@ -95,6 +98,11 @@ class DirectModels:
         for code, meaning in bench.flags.items():
             reasons[bad & (out["status"] == code)] = f"{component}: {meaning}"
         result = {k: out[k] for k in COMPONENT_OUTPUTS[component]}
+        # The bench's code for a refrigerant inlet on the wrong side of the secondary
+        # stream (not warmer than the air in a condenser, not colder in an evaporator):
+        # the cycle's closures read it as "no heat flows", not as a failed point.
+        wrong_side = [c for c, meaning in bench.flags.items() if meaning.startswith("refrigerant_inlet_not_")]
+        result["no_heat_flow"] = np.isin(out["status"], wrong_side)
         if component == "evaporator":
             result["frost_risk"] = np.isin(out["status"], EVAPORATOR_FROST_FLAGS).astype(float)
         result["reason"] = reasons
@@ -130,6 +138,16 @@ class DirectModels:
                 "RH_air_in": RH_air,
             },
         )
+
+    def chiller(self, mdot, p_in, h_in, mdot_coolant, T_coolant_in) -> Result:
+        return self._run(
+            "chiller",
+            {"mdot": mdot, "p_in": p_in, "h_in": h_in, "mdot_coolant": mdot_coolant, "T_coolant_in": T_coolant_in},
+        )
+
+    def flow_range(self, component: str) -> tuple[float, float]:
+        """Refrigerant flows [kg/s] a branch model covers: any positive flow."""
+        return 1e-6, np.inf
 
     def detailed(self, on: bool) -> None:
         """The bench functions always return every variable."""
@@ -255,14 +273,17 @@ class LutModels:
 
     name = "lut"
 
-    def __init__(self, luts: dict[str, xr.Dataset]) -> None:
+    def __init__(self, luts: dict[str, xr.Dataset], components: tuple[str, ...] | None = None) -> None:
         # Axes the solver searches along (an input it only sets may be a fixed input of the LUT).
-        need = {
+        searched = {
             "condenser": ("p_in", "h_in"),
-            "evaporator": ("p_in", "h_in"),
+            "evaporator": ("p_in", "h_in", "mdot"),
+            "chiller": ("p_in", "h_in", "mdot"),
             "expansion_valve": (),
             "compressor": ("p_in", "pr"),
         }
+        components = components or ("condenser", "evaporator", "expansion_valve", "compressor")
+        need = {c: searched[c] for c in components}
         self.luts = {}
         for component, axes in need.items():
             if component not in luts:
@@ -303,6 +324,15 @@ class LutModels:
             {"mdot": mdot, "blower": blower, "p_in": p_in, "h_in": h_in, "T_air_in": T_air, "RH_air_in": RH_air}
         )
 
+    def chiller(self, mdot, p_in, h_in, mdot_coolant, T_coolant_in) -> Result:
+        return self.luts["chiller"](
+            {"mdot": mdot, "p_in": p_in, "h_in": h_in, "mdot_coolant": mdot_coolant, "T_coolant_in": T_coolant_in}
+        )
+
+    def flow_range(self, component: str) -> tuple[float, float]:
+        """Refrigerant flows [kg/s] a branch's LUT covers (its ``mdot`` axis)."""
+        return self.luts[component].ranges["mdot"]
+
     def valve(self) -> tuple[ExpansionValveParams, float]:
         """The valve's parameters, as its LUT was made with, and its flow area at the nominal opening [m2].
 
@@ -321,17 +351,18 @@ class LutModels:
 
     def limits(self) -> dict[str, tuple[float, float]]:
         """Pressure ranges the solver may search: where the LUTs have data."""
-        evap = self.luts["evaporator"].ranges["p_in"]
-        comp = self.luts["compressor"].ranges["p_in"]
+        # Suction: every evaporating branch's inlet-pressure axis and the compressor's.
+        suction = [(c, self.luts[c].ranges["p_in"]) for c in ("evaporator", "chiller", "compressor") if c in self.luts]
+        low = max(suction, key=lambda item: item[1][0])
+        high = min(suction, key=lambda item: item[1][1])
         cond = self.luts["condenser"].ranges["p_in"]
-        e, c = "evaporator LUT axis p_in", "compressor LUT axis p_in"
         return {
-            "p_suction": (max(evap[0], comp[0]), min(evap[1], comp[1])),
+            "p_suction": (low[1][0], high[1][1]),
             "p_discharge": cond,
             "pr": self.luts["compressor"].ranges["pr"],
             # Which LUT axis each limit is, for the reason of a point beyond it.
             "axes": {
-                "p_suction": (e if evap[0] >= comp[0] else c, e if evap[1] <= comp[1] else c),
+                "p_suction": (f"{low[0]} LUT axis p_in", f"{high[0]} LUT axis p_in"),
                 "p_discharge": ("condenser LUT axis p_in", "condenser LUT axis p_in"),
                 "pr": ("compressor LUT axis pr", "compressor LUT axis pr"),
             },

@@ -2,7 +2,12 @@
 
 States: A evaporator outlet = compressor suction, B compressor discharge =
 condenser inlet, C condenser outlet = valve inlet, D valve outlet =
-evaporator inlet. The circuit has a receiver after the condenser, so the
+evaporator inlet. The evaporating side is one branch (the cabin evaporator or
+the battery chiller) or both in parallel (:mod:`evtms.cycle.topology`; with two
+branches, A is the mixed suction state and D the first branch's valve outlet,
+the flow split is solved at each suction iterate, :meth:`CycleSolver._parallel`).
+"Cabin air" below stands for the branch's secondary inlet (the coldest of the
+two with parallel branches). The circuit has a receiver after the condenser, so the
 condenser ends in saturated liquid (or at a given subcooling), and a
 thermostatic valve that holds the evaporator-outlet superheat at its
 setpoint. The two unknowns are the suction pressure ``p_A`` and the discharge
@@ -86,31 +91,57 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import IntEnum
 
 import numpy as np
 
+from evtms.cycle.topology import INPUTS as CYCLE_INPUTS
+from evtms.cycle.topology import Topology, topology
 from evtms.fluid import SaturationCurve
 
-STATUS_CONVERGED = 0
-STATUS_OUTSIDE_ENVELOPE = 1
-STATUS_CONDENSER_NO_ROOT = 2
-STATUS_EVAPORATOR_NO_ROOT = 3
-STATUS_NOT_CONVERGED = 4
-STATUS_VALVE_SATURATED = 5
-STATUS_FROST_RISK = 6
-STATUS_VALVE_SATURATED_FROST_RISK = 7
-STATUS_EVAPORATOR_WET = 8
 
+class CycleStatus(IntEnum):
+    """Status of a solved operating point (the ``status`` of a cycle result).
+
+    0 and 5-7 are solved points (5-7 with a note); the others failed and
+    their states are NaN, with the reason in ``reason``.
+    """
+
+    CONVERGED = 0
+    OUTSIDE_ENVELOPE = 1
+    CONDENSER_NO_ROOT = 2
+    EVAPORATOR_NO_ROOT = 3
+    NOT_CONVERGED = 4
+    VALVE_SATURATED = 5
+    FROST_RISK = 6
+    VALVE_SATURATED_FROST_RISK = 7
+    EVAPORATOR_WET = 8
+    BRANCH_VALVE_SATURATED = 9
+
+
+STATUS_CONVERGED = CycleStatus.CONVERGED
+STATUS_OUTSIDE_ENVELOPE = CycleStatus.OUTSIDE_ENVELOPE
+STATUS_CONDENSER_NO_ROOT = CycleStatus.CONDENSER_NO_ROOT
+STATUS_EVAPORATOR_NO_ROOT = CycleStatus.EVAPORATOR_NO_ROOT
+STATUS_NOT_CONVERGED = CycleStatus.NOT_CONVERGED
+STATUS_VALVE_SATURATED = CycleStatus.VALVE_SATURATED
+STATUS_FROST_RISK = CycleStatus.FROST_RISK
+STATUS_VALVE_SATURATED_FROST_RISK = CycleStatus.VALVE_SATURATED_FROST_RISK
+STATUS_EVAPORATOR_WET = CycleStatus.EVAPORATOR_WET
+STATUS_BRANCH_VALVE_SATURATED = CycleStatus.BRANCH_VALVE_SATURATED
+
+#: Status code -> CF flag meaning.
 CYCLE_FLAGS = {
-    STATUS_CONVERGED: "converged",
-    STATUS_OUTSIDE_ENVELOPE: "outside_model_envelope",
-    STATUS_CONDENSER_NO_ROOT: "condenser_outlet_condition_not_reachable",
-    STATUS_EVAPORATOR_NO_ROOT: "superheat_setpoint_not_reachable",
-    STATUS_NOT_CONVERGED: "not_converged",
-    STATUS_VALVE_SATURATED: "converged_valve_saturated_superheat_floating",
-    STATUS_FROST_RISK: "converged_frost_risk",
-    STATUS_VALVE_SATURATED_FROST_RISK: "converged_valve_saturated_frost_risk",
-    STATUS_EVAPORATOR_WET: "evaporator_outlet_wet",
+    int(STATUS_CONVERGED): "converged",
+    int(STATUS_OUTSIDE_ENVELOPE): "outside_model_envelope",
+    int(STATUS_CONDENSER_NO_ROOT): "condenser_outlet_condition_not_reachable",
+    int(STATUS_EVAPORATOR_NO_ROOT): "superheat_setpoint_not_reachable",
+    int(STATUS_NOT_CONVERGED): "not_converged",
+    int(STATUS_VALVE_SATURATED): "converged_valve_saturated_superheat_floating",
+    int(STATUS_FROST_RISK): "converged_frost_risk",
+    int(STATUS_VALVE_SATURATED_FROST_RISK): "converged_valve_saturated_frost_risk",
+    int(STATUS_EVAPORATOR_WET): "evaporator_outlet_wet",
+    int(STATUS_BRANCH_VALVE_SATURATED): "branch_valve_beyond_max_opening",
 }
 #: Solved points: their states are valid (the flags 5-7 are notes on a valid point).
 VALID_CYCLE_FLAGS = (STATUS_CONVERGED, STATUS_VALVE_SATURATED, STATUS_FROST_RISK, STATUS_VALVE_SATURATED_FROST_RISK)
@@ -158,7 +189,8 @@ _SH_BRACKET_STEPS = 4
 _SH_XTOL = 1e-4
 _SH_FTOL = 1e-4
 
-INPUTS = ("speed", "fan", "blower", "T_amb", "RH_amb", "T_cabin", "RH_cabin", "superheat", "subcooling")
+#: Every operating input, in the order of a sweep's dimensions (declared in :mod:`evtms.cycle.topology`).
+INPUTS = tuple(CYCLE_INPUTS)
 
 
 @dataclass
@@ -175,8 +207,10 @@ class OperatingPoints:
         Ambient air at the condenser [K], [1].
     T_cabin, RH_cabin : array_like
         Air entering the evaporator [K], [1].
+    mdot_coolant, T_coolant_in : array_like
+        Coolant entering the chiller [kg/s], [K].
     superheat : array_like
-        Thermostatic-valve superheat setpoint at the evaporator outlet [K].
+        Thermostatic-valve superheat setpoint at each evaporating branch's outlet [K].
     subcooling : array_like
         Condenser-outlet subcooling [K]; 0 = saturated liquid (receiver).
     """
@@ -188,6 +222,8 @@ class OperatingPoints:
     RH_amb: np.ndarray = field(default=0.4)
     T_cabin: np.ndarray = field(default=300.15)
     RH_cabin: np.ndarray = field(default=0.5)
+    mdot_coolant: np.ndarray = field(default=0.15)
+    T_coolant_in: np.ndarray = field(default=303.15)
     superheat: np.ndarray = field(default=10.0)
     subcooling: np.ndarray = field(default=0.0)
 
@@ -203,9 +239,10 @@ class OperatingPoints:
         return {k: getattr(self, k)[idx] for k in INPUTS}
 
 
-def _says(reasons: np.ndarray, words: str) -> np.ndarray:
-    """Mask of reason strings that contain ``words``."""
-    return np.array([words in r for r in reasons], dtype=bool)
+def _no_heat_flow(result: dict) -> np.ndarray:
+    """Points where a heat exchanger's refrigerant inlet is not on the side of the secondary
+    stream that lets heat flow the required way (its bench status; LUTs hold NaN there)."""
+    return np.asarray(result.get("no_heat_flow", False), bool)
 
 
 def _bound(candidates: list[tuple[np.ndarray | float, str | None]], upper: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -399,11 +436,158 @@ class CycleSolver:
         Where the component responses come from.
     saturation : SaturationCurve
         Tabulated saturation properties of the refrigerant.
+    circuit : Topology or str
+        The circuit (:data:`evtms.cycle.topology.TOPOLOGIES`), default ``cabin``.
     """
 
-    def __init__(self, models, saturation: SaturationCurve) -> None:
+    def __init__(self, models, saturation: SaturationCurve, circuit: Topology | str = "cabin") -> None:
         self.models = models
         self.sat = saturation
+        self.circuit = topology(circuit)
+
+    # -- the evaporating side ------------------------------------------------
+    def _branch(self, component: str, ops: dict, mdot, p_in, h_in) -> dict:
+        """One evaporating branch's model at refrigerant flow ``mdot``, inlet ``(p_in, h_in)``."""
+        if component == "evaporator":
+            r = self.models.evaporator(mdot, ops["blower"], p_in, h_in, ops["T_cabin"], ops["RH_cabin"])
+        else:
+            r = self.models.chiller(mdot, p_in, h_in, ops["mdot_coolant"], ops["T_coolant_in"])
+        if self.circuit.parallel and "no_heat_flow" in r:
+            # A branch whose inlet is not colder than its stream takes no heat: its outlet is its inlet.
+            none = r["no_heat_flow"] & np.isfinite(np.asarray(h_in, float))
+            r["h_out_continued"] = np.where(none, h_in, r["h_out_continued"])
+            r["p_out"] = np.where(none, p_in, r["p_out"])
+            r["reason"] = np.where(none, "", r["reason"])
+        return r
+
+    def _secondary_temperature(self, ops: dict) -> np.ndarray:
+        """The coldest secondary inlet of the branches: every branch must evaporate below it [K]."""
+        return np.minimum.reduce([np.asarray(ops[b.secondary_temperature], float) for b in self.circuit.branches])
+
+    def _parallel(self, ops: dict, mdot: np.ndarray, p_A: np.ndarray, h_D: np.ndarray, idx: np.ndarray, final: bool):
+        r"""Two evaporating branches in parallel from the valves to the suction, at total flow ``mdot``.
+
+        Both valves see the condenser's liquid (enthalpy ``h_D``) and both
+        branches end at the suction pressure ``p_A``, each after its own
+        pressure drop (a fixed point per branch, one pass per suction iterate,
+        as the single branch's). Each valve holds its branch's outlet at the
+        setpoint superheat; at a suction iterate the flow splits so that both
+        outlets leave at the same enthalpy,
+
+        .. math:: h_{out,1}((1 - s)\,\dot m) = h_{out,2}(s\,\dot m)
+
+        (``h_out_continued`` of each branch [J/kg], ``s`` the share of the
+        flow through the second branch [1]). More flow through a branch
+        lowers its outlet enthalpy, so the difference rises monotonically
+        with ``s``: regula falsi (:func:`bracketed_root`) on ``s`` within the
+        flows the branch models cover, warm-started from the previous suction
+        iterate's split. At the suction root both outlets are at the setpoint,
+        and the outlets mix at that state. ``idx`` are the points' indices in
+        the whole batch; with ``final``, the stored split and drops are used
+        as they are (the last iterate's).
+
+        Returns the mixed outlet (``h_out_continued``, ``p_out`` = ``p_A``),
+        ``reason``, ``p_D`` (the first branch's inlet), and per branch
+        ``branches`` (model results), ``flows`` [kg/s] and ``inlets`` [Pa].
+        """
+        names = [b.component for b in self.circuit.branches]
+        n = p_A.size
+        inlets = {c: p_A + self._dp_branch[c][idx] for c in names}
+        (lo1, hi1), (lo2, hi2) = (self.models.flow_range(c) for c in names)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s_lo = np.maximum(lo2 / mdot, 1.0 - hi1 / mdot) * (1 + 1e-9)
+            s_hi = np.minimum(1.0 - lo1 / mdot, hi2 / mdot) * (1 - 1e-9)
+        ok = np.isfinite(mdot) & np.isfinite(p_A) & np.isfinite(h_D) & (s_lo < s_hi)
+        reason = np.full(n, "", dtype=object)
+        reason[~ok & np.isfinite(mdot)] = "the flow cannot be split between the branches within their models' flows"
+        latest: dict = {}
+
+        def evaluate(share: np.ndarray, i: np.ndarray) -> tuple[dict, dict]:
+            o = {k: v[i] for k, v in ops.items()}
+            m = mdot[i]
+            r1 = self._branch(names[0], o, m * (1.0 - share), inlets[names[0]][i], h_D[i])
+            r2 = self._branch(names[1], o, m * share, inlets[names[1]][i], h_D[i])
+            return r1, r2
+
+        def residual(share: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            r1, r2 = evaluate(share, i)
+            f = (r2["h_out_continued"] - r1["h_out_continued"]) / _CP_SCALE
+            why = np.where(r1["reason"] != "", r1["reason"], r2["reason"])
+            return f, why
+
+        share = np.where(ok, self._split[idx], np.nan)
+        if not final:
+            todo = np.nonzero(ok)[0]
+            lo, hi = s_lo[todo].copy(), s_hi[todo].copy()
+            f_lo, f_hi = np.full(todo.size, np.nan), np.full(todo.size, np.nan)
+            w_lo, w_hi = np.full(todo.size, "", dtype=object), np.full(todo.size, "", dtype=object)
+            # Warm start: a narrow bracket around the previous split, where it holds the root.
+            prev = share[todo]
+            warm = np.isfinite(prev)
+            if warm.any():
+                k = np.nonzero(warm)[0]
+                a = np.maximum(prev[k] - 0.03, lo[k])
+                b = np.minimum(prev[k] + 0.03, hi[k])
+                fa, wa = residual(a, idx[todo[k]])
+                fb, wb = residual(b, idx[todo[k]])
+                good = np.isfinite(fa) & np.isfinite(fb) & (fa > 0) & (fb <= 0)
+                g = k[good]
+                lo[g], hi[g], f_lo[g], f_hi[g] = a[good], b[good], fa[good], fb[good]
+                warm[k[~good]] = False
+            cold = np.nonzero(~warm)[0]
+            if cold.size:
+                f_lo[cold], w_lo[cold] = residual(lo[cold], idx[todo[cold]])
+                f_hi[cold], w_hi[cold] = residual(hi[cold], idx[todo[cold]])
+            no_root = ~((f_lo > 0) | ~np.isfinite(f_lo)) | ~((f_hi <= 0) | ~np.isfinite(f_hi))
+            no_root |= ~np.isfinite(f_lo) & ~np.isfinite(f_hi)
+            bad = todo[no_root]
+            reason[bad] = np.where(
+                ~np.isfinite(f_lo[no_root]) & ~np.isfinite(f_hi[no_root]),
+                w_lo[no_root],
+                "no split of the flow brings both branch outlets to one state within their models' flows",
+            )
+            go = np.nonzero(~no_root)[0]
+            share[todo] = np.nan
+            if go.size:
+                x, state, why = bracketed_root(
+                    lambda v, i: residual(v, idx[i]),
+                    lo[go],
+                    hi[go],
+                    f_lo[go],
+                    f_hi[go],
+                    todo[go],
+                    _XTOL,
+                    _INNER_FTOL,
+                    why_lo=w_lo[go],
+                    why_hi=w_hi[go],
+                )
+                fine = state == 1
+                share[todo[go[fine]]] = x[fine]
+                failed = np.where(state[~fine] == 3, "flow-split iteration did not converge", why[~fine])
+                reason[todo[go[~fine]]] = failed
+            self._split[idx] = np.where(np.isfinite(share), share, self._split[idx])
+        everyone = np.arange(n)
+        r1, r2 = evaluate(np.where(np.isfinite(share), share, np.nan), idx[everyone])
+        flows = {names[0]: mdot * (1.0 - share), names[1]: mdot * share}
+        branches = {names[0]: r1, names[1]: r2}
+        if not final:
+            for c in names:
+                out = branches[c]["p_out"]
+                self._dp_branch[c][idx] = np.where(np.isfinite(out), inlets[c] - out, self._dp_branch[c][idx])
+        with np.errstate(invalid="ignore"):
+            h_mix = (flows[names[0]] * r1["h_out_continued"] + flows[names[1]] * r2["h_out_continued"]) / mdot
+        for r in (r1, r2):
+            reason = np.where(reason != "", reason, r["reason"])
+        latest.update(
+            h_out_continued=h_mix,
+            p_out=p_A.copy(),
+            reason=reason,
+            p_D=inlets[names[0]],
+            branches=branches,
+            flows=flows,
+            inlets=inlets,
+        )
+        return latest
 
     # -- the two residuals ---------------------------------------------------
     def _discharge_side(self, ops: dict, p_A: np.ndarray, p_B: np.ndarray) -> dict:
@@ -421,7 +605,7 @@ class CycleSolver:
             x_out = (cond["h_out_continued"] - h_l) / (h_v - h_l)
             residual = np.where(ops["subcooling"] > 0, x_out - x_target, residual)
         # Refrigerant not warmer than the air condenses nothing: far above the target.
-        residual = np.where(_says(cond["reason"], "not_warmer_than_air") & np.isfinite(comp["mdot"]), 1.0, residual)
+        residual = np.where(_no_heat_flow(cond) & np.isfinite(comp["mdot"]), 1.0, residual)
         reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
         return {"T_A": T_A, "comp": comp, "cond": cond, "residual": residual, "reason": reason}
 
@@ -606,14 +790,19 @@ class CycleSolver:
             h_D = np.where(saturated, h_D, cond["h_out_continued"])
         # Evaporator inlet = outlet pressure + its own drop: a fixed point, warm-started
         # from the drop at the previous suction iterate (the drop changes slowly).
-        p_D = p_A + self._dp_guess[idx]
-        if not final:
-            for _ in range(_DP_PASSES):
-                evap = self.models.evaporator(comp["mdot"], ops["blower"], p_D, h_D, ops["T_cabin"], ops["RH_cabin"])
-                drop = np.where(np.isfinite(evap["p_out"]), p_D - evap["p_out"], self._dp_guess[idx])
-                p_D = p_A + drop
-            self._dp_guess[idx] = drop
-        evap = self.models.evaporator(comp["mdot"], ops["blower"], p_D, h_D, ops["T_cabin"], ops["RH_cabin"])
+        if self.circuit.parallel:
+            evap = self._parallel(ops, comp["mdot"], p_A, h_D, idx, final)
+            p_D = evap["p_D"]
+        else:
+            branch = self.circuit.branches[0].component
+            p_D = p_A + self._dp_guess[idx]
+            if not final:
+                for _ in range(_DP_PASSES):
+                    evap = self._branch(branch, ops, comp["mdot"], p_D, h_D)
+                    drop = np.where(np.isfinite(evap["p_out"]), p_D - evap["p_out"], self._dp_guess[idx])
+                    p_D = p_A + drop
+                self._dp_guess[idx] = drop
+            evap = self._branch(branch, ops, comp["mdot"], p_D, h_D)
         # The valve holds the outlet at the superheat setpoint, i.e. at the compressor's
         # suction state A. The residual compares enthalpies (scaled to about kelvin):
         # interpolated outlet enthalpy stays smooth where the LUT's outlet temperature
@@ -621,9 +810,7 @@ class CycleSolver:
         # energy balance.
         sh = (evap["h_out_continued"] - comp["h_in"]) / _CP_SCALE
         # An inlet not colder than the air evaporates nothing: the outlet stays at h_D.
-        sh = np.where(
-            _says(evap["reason"], "not_colder_than_air") & np.isfinite(h_D), (h_D - comp["h_in"]) / _CP_SCALE, sh
-        )
+        sh = np.where(_no_heat_flow(evap) & np.isfinite(h_D), (h_D - comp["h_in"]) / _CP_SCALE, sh)
         status = dis["status"].copy()
         reason = dis["reason"].copy()
         bad = (status == STATUS_CONVERGED) & ~np.isfinite(sh)
@@ -668,6 +855,22 @@ class CycleSolver:
         valve, _ = self.models.valve()
         self.max_opening = valve.capacity_max / valve.capacity_nominal
         saturated = (res["status"] == STATUS_CONVERGED) & (res["valve_opening"] > self.max_opening)
+        if self.circuit.parallel:
+            # A saturated valve in one of two parallel branches floats that branch's superheat
+            # while the other holds its own, and the suction state becomes their mixture: not
+            # solved here; such points are invalid and say which valve.
+            for key, label in (("valve_opening", "cabin evaporator"), ("valve_opening_chiller", "chiller")):
+                over = (res["status"] == STATUS_CONVERGED) & (res[key] > self.max_opening)
+                res["status"][over] = STATUS_BRANCH_VALVE_SATURATED
+                res["reason"][over] = [
+                    f"the {label} valve would need {x:.3g} x its nominal opening, beyond its maximum "
+                    f"{self.max_opening:.3g}: a saturated valve in parallel branches is not modelled"
+                    for x in res[key][over]
+                ]
+            for v in res.values():
+                if v.dtype.kind == "f":
+                    v[res["status"] == STATUS_BRANCH_VALVE_SATURATED] = np.nan
+            saturated[:] = False
         idx = np.nonzero(saturated)[0]
         if idx.size:
             self._float_superheat(ops, res, idx)
@@ -703,16 +906,19 @@ class CycleSolver:
         self._pr = (max(limits["pr"][0], 1.0) * (1 + 1e-9), limits["pr"][1] * (1 - 1e-9))
         p_lo_lim, p_hi_lim = limits["p_suction"][0] * (1 + 1e-9), limits["p_suction"][1] * (1 - 1e-9)
         self._axes = limits["axes"]
-        # Evaporating 45 K below the cabin air leaves a large superheat: the low end of the range.
+        # Evaporating 45 K below the (coldest) secondary stream leaves a large superheat: the low end.
+        T_sec = self._secondary_temperature(ops)
         lo, lo_axis = _bound(
-            [(self.sat.pressure(ops["T_cabin"] - 45.0), None), (p_lo_lim, self._axes["p_suction"][0])], upper=False
+            [(self.sat.pressure(T_sec - 45.0), None), (p_lo_lim, self._axes["p_suction"][0])], upper=False
         )
         hi, hi_axis = _bound(
-            [(self.sat.pressure(ops["T_cabin"] - 0.5), None), (p_hi_lim, self._axes["p_suction"][1])], upper=True
+            [(self.sat.pressure(T_sec - 0.5), None), (p_hi_lim, self._axes["p_suction"][1])], upper=True
         )
         t_lo, t_hi = self.sat.temperature(lo), self.sat.temperature(hi)
         self._guess = np.full(n, np.nan) if p_B_guess is None else np.asarray(p_B_guess, float).copy()
         self._dp_guess = np.zeros(n) if dp_guess is None else np.nan_to_num(np.asarray(dp_guess, float))
+        self._dp_branch = {b.component: np.zeros(n) for b in self.circuit.branches}
+        self._split = np.full(n, np.nan)
         self._slope = np.full(n, np.nan)
         self.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
 
@@ -723,8 +929,8 @@ class CycleSolver:
         # First guess: evaporating 23 K below the cabin air, the middle of the default
         # circuit's envelope; the superheat falls about 4 K per kelvin above it.
         if t_guess is None:
-            t_guess = ops["T_cabin"] - 23.0
-        t_guess = np.where(np.isfinite(t_guess), t_guess, ops["T_cabin"] - 23.0)
+            t_guess = T_sec - 23.0
+        t_guess = np.where(np.isfinite(t_guess), t_guess, T_sec - 23.0)
         br = self._bracket(residual, t_lo, t_hi, t_guess, np.broadcast_to(np.asarray(outer_slope, float), (n,)), 15.0)
         status, reason = _range_status(
             br,
@@ -738,7 +944,7 @@ class CycleSolver:
                 "the superheat setpoint lies below the suction pressure",
             ),
             (
-                "the superheat stays above its setpoint up to saturation at the cabin air temperature",
+                "the superheat stays above its setpoint up to saturation at the secondary inlet temperature",
                 "the superheat setpoint lies above the suction pressure",
             ),
         )
@@ -751,7 +957,7 @@ class CycleSolver:
             status[low[wet]] = STATUS_EVAPORATOR_WET
             reason[low[wet]] = (
                 "the evaporator outlet stays two-phase down to the lowest suction pressure searched "
-                "(evaporating 45 K below the cabin air): the evaporator floods and the compressor would draw liquid"
+                "(evaporating 45 K below the secondary inlet): the evaporator floods and the compressor would draw liquid"
             )
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
@@ -1006,15 +1212,24 @@ class CycleSolver:
         h_l, T_sat = self.sat.liquid_enthalpy(p_C), self.sat.temperature(p_C)
         h_C = np.where(saturated, h_l, cond["h_out_continued"])
         T_C = np.where(saturated, T_sat, T_sat - (h_l - h_C) / self.sat.liquid_cp(p_C))
-        # The opening (over the nominal) that passes mdot at the cycle's valve drop, by
+        # Each branch: its flow, valve-outlet pressure and outlet enthalpy.
+        names = [b.component for b in self.circuit.branches]
+        if self.circuit.parallel:
+            branches, flows, inlets = evap["branches"], evap["flows"], evap["inlets"]
+        else:
+            branches, flows, inlets = {names[0]: evap}, {names[0]: mdot}, {names[0]: fin["p_D"]}
+        zero = np.zeros(p_A.size)
+        # The opening (over the nominal) that passes a branch's flow at its valve drop, by
         # the valve's orifice law for a liquid inlet, mdot = S sqrt(2 rho_in dp); a
         # subcooled liquid's density is the saturated liquid's at its temperature.
         _, area = self.models.valve()
-        dp_valve = p_C - fin["p_D"]
         rho_C = self.sat.liquid_density(np.where(saturated, p_C, self.sat.pressure(T_C)))
+        opening = {}
         with np.errstate(invalid="ignore", divide="ignore"):
-            opening = mdot / (area * np.sqrt(2.0 * rho_C * dp_valve))
-        # Heat flows as mdot times each component's enthalpy change, the outlet from its own model.
+            for c in names:
+                opening[c] = flows[c] / (area * np.sqrt(2.0 * rho_C * (p_C - inlets[c])))
+        # Heat flows as each branch's flow times its enthalpy change, the outlet from its own model.
+        heat = {c: -flows[c] * (branches[c]["h_out_continued"] - h_C) for c in names}
         h_B = comp["h_out"]
         res = {
             "p_A": p_A,
@@ -1030,19 +1245,23 @@ class CycleSolver:
             "T_D": self.sat.temperature(fin["p_D"]),
             "h_D": h_C.copy(),
             "mdot": mdot,
-            "Q_evap": -mdot * (evap["h_out_continued"] - h_C),
-            "Q_latent": evap["Q_latent"],
+            "mdot_evap": flows.get("evaporator", zero),
+            "mdot_chiller": flows.get("chiller", zero),
+            "Q_evap": heat.get("evaporator", zero),
+            "Q_latent": branches["evaporator"]["Q_latent"] if "evaporator" in branches else zero,
+            "Q_chiller": heat.get("chiller", zero),
             "Q_cond": mdot * (h_B - h_C),
             "W": comp["W"],
             "W_fluid": mdot * (h_B - comp["h_in"]),
             "h_A_evap": evap["h_out_continued"],
-            "dp_valve": dp_valve,
-            "valve_opening": opening,
+            "dp_valve": p_C - fin["p_D"],
+            "valve_opening": opening[names[0]],
+            "valve_opening_chiller": opening.get("chiller", np.full(p_A.size, np.nan)),
             "superheat_actual": ops["superheat"].copy(),
-            "frost_risk": evap.get("frost_risk", np.zeros(p_A.size)),
+            "frost_risk": branches["evaporator"].get("frost_risk", zero) if "evaporator" in branches else zero,
         }
         with np.errstate(invalid="ignore", divide="ignore"):
-            res["COP"] = -res["Q_evap"] / res["W"]
+            res["COP"] = -(res["Q_evap"] + res["Q_chiller"]) / res["W"]
         invalid = ~np.isin(status, VALID_CYCLE_FLAGS)
         for k, v in res.items():
             v = np.array(v, float)
