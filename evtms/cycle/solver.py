@@ -957,7 +957,8 @@ class CycleSolver:
             status[low[wet]] = STATUS_EVAPORATOR_WET
             reason[low[wet]] = (
                 "the evaporator outlet stays two-phase down to the lowest suction pressure searched "
-                "(evaporating 45 K below the secondary inlet): the evaporator floods and the compressor would draw liquid"
+                "(evaporating 45 K below the secondary inlet): the evaporator floods and the compressor "
+                "would draw liquid"
             )
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
