@@ -471,3 +471,98 @@ class SaturationCurve:
     def liquid_cp(self, p: np.ndarray) -> np.ndarray:
         """Saturated-liquid heat capacity [J/(kg K)] at ``p`` [Pa]."""
         return self._at(self.cp_l, p)
+
+
+#: Incompressible-fluid name and mass fraction of the default coolant: 50 % monoethylene glycol in water.
+COOLANT_NAME = "MEG"
+COOLANT_MASS_FRACTION = 0.5
+#: How far below its freezing point the coolant tables are continued [K].
+COOLANT_SUPERCOOLING = 30.0
+
+
+class Coolant:
+    """A water-glycol coolant (CoolProp incompressible, ``INCOMP::MEG`` by default), tabulated in temperature.
+
+    CoolProp's incompressibles are polynomial fits in temperature (Skovrup
+    2004, in Bell et al. 2014) valid from the mixture's freezing point up to
+    ``Tmax``; the installed CoolProp takes the concentration through
+    ``AbstractState("INCOMP", "MEG")`` and ``set_mass_fractions`` (the
+    ``"MEG-50%"`` and ``"MEG[0.5]"`` name forms are not in its library).
+    Enthalpy, heat capacity, density, viscosity and conductivity are
+    tabulated at the fixed pressure ``p`` every ``step`` K from the freezing
+    point to ``Tmax`` and interpolated linearly; :data:`COOLANT_SUPERCOOLING`
+    K below freezing the enthalpy is continued with the heat capacity at
+    freezing and the other properties held (CoolProp refuses those states),
+    so that a stream cooled below freezing stays finite for the caller to
+    flag against :attr:`T_freeze`. The table *is* the enthalpy function:
+    :meth:`enthalpy` and :meth:`temperature` are exact inverses (to round-off),
+    so a heat balance written in coolant enthalpies closes to round-off; the
+    table lies within about 1e-3 J/kg of CoolProp at the default step.
+
+    Parameters
+    ----------
+    name : str
+        CoolProp incompressible mixture name, ``"MEG"`` by default.
+    mass_fraction : float
+        Glycol mass fraction [1], 0.5 by default.
+    p : float
+        Coolant pressure [Pa] of the tables (incompressible: weak effect).
+    step : float
+        Temperature step of the tables [K].
+
+    Attributes
+    ----------
+    T_freeze : float
+        Freezing point of the mixture [K] (237.2 K for MEG 50 %).
+    T_min, T_max : float
+        Table range [K]: ``T_freeze - COOLANT_SUPERCOOLING`` to CoolProp's ``Tmax`` (373.15 K for MEG).
+    """
+
+    def __init__(
+        self, name: str = COOLANT_NAME, mass_fraction: float = COOLANT_MASS_FRACTION, p: float = 2e5, step: float = 0.02
+    ) -> None:
+        CP = _cp()
+        try:
+            st = CP.AbstractState("INCOMP", name)
+            st.set_mass_fractions([mass_fraction])
+        except ValueError as exc:
+            raise ValueError(f"CoolProp cannot load coolant {name!r} at mass fraction {mass_fraction}: {exc}") from exc
+        self.name, self.mass_fraction, self.p = name, mass_fraction, p
+        self.T_freeze = float(CP.PropsSI("T_freeze", "T", 300.0, "P", p, f"INCOMP::{name}-{100 * mass_fraction:g}%"))
+        self.T_max = float(st.Tmax())
+        n = int(np.ceil((self.T_max - self.T_freeze) / step)) + 1
+        T = np.linspace(self.T_freeze, self.T_max, n)
+        rows = np.empty((n, 5))
+        for i, t in enumerate(T):
+            st.update(CP.PT_INPUTS, p, float(t))
+            rows[i] = (st.hmass(), st.cpmass(), st.rhomass(), st.viscosity(), st.conductivity())
+        below = T[0] - np.arange(int(round(COOLANT_SUPERCOOLING / step)), 0, -1) * (T[1] - T[0])
+        ext = np.repeat(rows[:1], below.size, axis=0)
+        ext[:, 0] = rows[0, 0] + rows[0, 1] * (below - T[0])
+        self.T = np.concatenate([below, T])
+        self.T_min = float(self.T[0])
+        self.h, self._cp_tab, self._rho, self._mu, self._k = np.concatenate([ext, rows]).T
+
+    def __repr__(self) -> str:
+        return f"Coolant({self.name!r}, mass_fraction={self.mass_fraction})"
+
+    def enthalpy(self, T: np.ndarray | float) -> np.ndarray:
+        """Specific enthalpy [J/kg] at ``T`` [K] (NaN outside ``T_min..T_max``)."""
+        return np.interp(T, self.T, self.h, left=np.nan, right=np.nan)
+
+    def temperature(self, h: np.ndarray | float) -> np.ndarray:
+        """Temperature [K] at specific enthalpy ``h`` [J/kg], the inverse of :meth:`enthalpy`."""
+        return np.interp(h, self.h, self.T, left=np.nan, right=np.nan)
+
+    def properties(self, T: np.ndarray | float) -> dict[str, np.ndarray]:
+        """``CP`` [J/(kg K)], ``D`` [kg/m3], ``MU`` [Pa s] and ``K`` [W/(m K)] at ``T`` [K] (NaN outside)."""
+        return {
+            key: np.interp(T, self.T, table, left=np.nan, right=np.nan)
+            for key, table in (("CP", self._cp_tab), ("D", self._rho), ("MU", self._mu), ("K", self._k))
+        }
+
+
+@functools.lru_cache(maxsize=4)
+def coolant(name: str = COOLANT_NAME, mass_fraction: float = COOLANT_MASS_FRACTION) -> Coolant:
+    """The cached :class:`Coolant` of ``name`` at ``mass_fraction``."""
+    return Coolant(name, mass_fraction)

@@ -20,6 +20,7 @@ MODULES = (
     "evaporator",
     "expansion_valve",
     "compressor",
+    "chiller",
 )
 
 BENCHES: dict[str, Bench] = {

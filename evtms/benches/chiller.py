@@ -1,0 +1,440 @@
+"""Chiller bench: brazed-plate evaporator cooling the battery's water-glycol loop.
+
+The refrigerant enters at ``(p_in, h_in)`` with mass flow ``mdot`` and
+evaporates in a chevron-plate exchanger (:class:`evtms.params.PlateHXParams`);
+the coolant, monoethylene glycol 50 % by mass in water (CoolProp's
+incompressible ``MEG``, :class:`evtms.fluid.Coolant`), enters at
+``T_coolant_in`` with mass flow ``mdot_coolant`` and flows against it. The
+steady state comes from the counter-flow moving-boundary core
+(:func:`evtms.hx.counterflow.solve_counterflow_evaporator`): subcooled,
+two-phase and superheated refrigerant zones, each with its own
+refrigerant-side coefficient, the coolant passing all of them in series.
+
+Correlations (:mod:`evtms.hx.plate`): single-phase channels on both sides by
+Martin (1996), the generalised Leveque equation with his friction factor
+(viscosity ratio taken as 1, the wall state not being resolved);
+evaporation by Yan and Lin (1999), averaged over quality 0..1 at the mean
+heat flux of an all-two-phase exchanger (found by fixed-point iteration,
+as the coils do); two-phase friction by Yan and Lin, single-phase friction by
+Martin, and 1.4 velocity heads per port (Shah and Focke 1988). The coolant
+coefficient is evaluated at the coolant's mean temperature (two passes: at
+the inlet temperature, then at the mean of inlet and outlet). Heat transfer
+is evaluated at the inlet pressure; the pressure drop sets the outlet
+pressure at which the outlet state is reported.
+
+Validity: Martin compared his equations with data of Re 200 to 10,000;
+Yan and Lin state 2000 < Re_eq < 10,000 for R134a. The chiller's coolant
+flows give Re of about 20 to 500 and its refrigerant flows Re_eq of about 200
+to 8000, so many points use a correlation outside its range: they are valid
+with status 11 (``valid_correlation_outside_range``), the correlations
+evaluated as published.
+
+Energy: ``Q = mdot (h_in - h_out) = -mdot_coolant (h_c,in - h_c,out)`` (< 0,
+heat into the refrigerant), both to round-off, in the coolant's tabulated
+enthalpy (:meth:`evtms.fluid.Coolant.enthalpy`). Second law: the
+refrigerant never leaves warmer than the coolant enters, nor the coolant
+colder than the refrigerant enters (the core needs infinite area for
+either).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from evtms.benches import correlations as corr
+from evtms.benches.base import (
+    COMMON_FLAGS,
+    STATUS_OUTSIDE_FLUID_RANGE,
+    STATUS_PROPERTY_FAILED,
+    Bench,
+    finish_status,
+    first_code,
+    pressure_nodes,
+)
+from evtms.fluid import Fluid, coolant, quality
+from evtms.hx import plate
+from evtms.hx.counterflow import LIQUID, TWO_PHASE, VAPOUR, RefrigerantPath, solve_counterflow_evaporator
+from evtms.hx.sides import CoolantSide
+from evtms.luts.schema import MASS_FLOW_UNITS, TEMPERATURE_UNITS, AxisSpec
+from evtms.params import Parameters, PlateHXParams
+
+STATUS_NOT_COLDER_THAN_COOLANT = 3
+STATUS_DP_EXCEEDS_INLET = 4
+STATUS_COOLANT_FREEZES = 5
+STATUS_FLOW_NOT_POSITIVE = 6
+#: Valid point where a correlation (Martin, Yan and Lin) runs outside its data's range.
+STATUS_CORRELATION_OUTSIDE_RANGE = 11
+
+OUTPUTS = (
+    "status",
+    "Q",
+    "h_in",
+    "h_out",
+    "T_out",
+    "p_out",
+    "x_out",
+    "T_coolant_out",
+    "dp",
+    "capacity_ratio",
+    "h_out_continued",
+)
+
+#: Fixed-point steps for the mean two-phase heat flux (the coefficient goes with q^0.3).
+_FLUX_STEPS = 6
+
+
+def plate_geometry(hx: PlateHXParams) -> dict[str, float]:
+    """Derived geometry of the plate pack.
+
+    Returns
+    -------
+    dict of str to float
+        ``area`` heat-transfer area [m2], ``D_h`` hydraulic diameter [m],
+        ``flow_ref`` and ``flow_coolant`` flow cross-sections [m2],
+        ``port_area`` [m2], ``R_wall`` plate conduction resistance [K/W].
+    """
+    phi = hx.enlargement_factor
+    n_channels = hx.n_plates - 1
+    n_ref = n_channels // 2
+    gap = 2.0 * hx.corrugation_amplitude
+    area = phi * hx.plate_width * hx.plate_length * (hx.n_plates - 2)
+    return {
+        "area": area,
+        "D_h": 4.0 * hx.corrugation_amplitude / phi,
+        "flow_ref": n_ref * hx.plate_width * gap,
+        "flow_coolant": (n_channels - n_ref) * hx.plate_width * gap,
+        "port_area": np.pi * hx.port_diameter**2 / 4.0,
+        "R_wall": hx.plate_thickness / (hx.plate_conductivity * area),
+    }
+
+
+def _martin_htc(G, D_h, props, angle):
+    """Single-phase coefficient [W/(m2 K)] and Reynolds number of a plate channel (Martin 1996)."""
+    Re = G * D_h / props["MU"]
+    Pr = props["CP"] * props["MU"] / props["K"]
+    return plate.martin_nusselt(Re, Pr, angle) * props["K"] / D_h, Re
+
+
+def _yan_lin_mean(G, D_h, sat, q):
+    """Yan and Lin's coefficient [W/(m2 K)] averaged over quality 0..1 (Gauss-Legendre), and Re_eq at x = 1/2."""
+    x = corr.GAUSS_NODES[None, :]
+    col = {k: v[:, None] for k, v in sat.items()}
+    Pr_l = col["cp_l"] * col["mu_l"] / col["k_l"]
+    h = plate.yan_lin_boiling_htc(
+        x,
+        G[:, None],
+        D_h,
+        q[:, None],
+        col["h_v"] - col["h_l"],
+        col["mu_l"],
+        col["rho_l"],
+        col["rho_v"],
+        col["k_l"],
+        Pr_l,
+    )
+    Re_eq = plate.equivalent_mass_flux(G, 0.5, sat["rho_l"], sat["rho_v"]) * D_h / sat["mu_l"]
+    return np.sum(h * corr.GAUSS_WEIGHTS, axis=-1), Re_eq
+
+
+def _two_phase_gradient(G, D_h, sat, x0, x1):
+    """Mean two-phase frictional gradient [Pa/m] over quality x0..x1 (Yan and Lin 1999)."""
+    x = x0[:, None] + (x1 - x0)[:, None] * corr.GAUSS_NODES[None, :]
+    col = {k: v[:, None] for k, v in sat.items()}
+    G2 = G[:, None]
+    Re_eq = plate.equivalent_mass_flux(G2, x, col["rho_l"], col["rho_v"]) * D_h / col["mu_l"]
+    Re = G2 * D_h / col["mu_l"]
+    rho_m = 1.0 / (x / col["rho_v"] + (1.0 - x) / col["rho_l"])
+    grad = 2.0 * plate.yan_lin_friction_factor(Re_eq, Re) * G2**2 / (rho_m * D_h)
+    return np.sum(grad * corr.GAUSS_WEIGHTS, axis=-1)
+
+
+def _refrigerant_props(fluid, p, T, sat, phase):
+    """Single-phase refrigerant properties at (p, T), falling back to saturation where CoolProp fails."""
+    props = fluid.state("PT", p, T, ("D", "CP", "MU", "K"))
+    for key, sk in (("D", "rho"), ("CP", "cp"), ("MU", "mu"), ("K", "k")):
+        props[key] = np.where(np.isfinite(props[key]), props[key], sat[f"{sk}_{phase}"])
+    return props
+
+
+def solve_chiller(
+    fluid: Fluid,
+    hx: PlateHXParams,
+    p_in: np.ndarray,
+    h_in: np.ndarray,
+    mdot: np.ndarray,
+    mdot_coolant: np.ndarray,
+    T_coolant_in: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """Steady-state plate-chiller response at arrays of refrigerant and coolant inlet conditions.
+
+    Parameters
+    ----------
+    fluid : Fluid
+        Refrigerant properties.
+    hx : PlateHXParams
+        Plate geometry, walls, fouling and the coolant's glycol fraction.
+    p_in : numpy.ndarray
+        Refrigerant inlet pressure [Pa].
+    h_in : numpy.ndarray
+        Refrigerant inlet specific enthalpy [J/kg].
+    mdot : numpy.ndarray
+        Refrigerant mass flow [kg/s], > 0.
+    mdot_coolant : numpy.ndarray
+        Coolant mass flow [kg/s], > 0.
+    T_coolant_in : numpy.ndarray
+        Coolant inlet temperature [K].
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``Q`` heat from refrigerant to coolant [W] (< 0), ``h_out`` [J/kg],
+        ``p_out`` [Pa], ``dp`` [Pa], ``T_out`` [K], ``x_out`` [1],
+        ``T_coolant_out`` [K], ``h_coolant_in``, ``h_coolant_out`` coolant
+        enthalpies [J/kg], ``UA`` overall conductance [W/K] (``Q`` over the
+        zones' log-mean differences), ``fractions`` zone area fractions
+        (n, 3), ``capacity_ratio`` [1], ``h_out_continued`` [J/kg],
+        ``Re_coolant``, ``Re_eq`` [1], and the masks ``outside_range`` (a
+        correlation outside its data), ``bad_direction``, ``bad_dp``,
+        ``bad_flow``, ``coolant_freezes`` and ``bad_props``.
+    """
+    p_in, h_in, mdot, m_c, T_c_in = (
+        np.asarray(a, float).reshape(-1).copy() for a in (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
+    )
+    n = p_in.size
+    geo = plate_geometry(hx)
+    A, D_h = geo["area"], geo["D_h"]
+    cool = coolant(mass_fraction=hx.coolant_mass_fraction)
+    bad_flow = ~((mdot > 0) & (m_c > 0))
+    mdot = np.where(bad_flow, np.nan, mdot)
+    m_c = np.where(bad_flow, np.nan, m_c)
+    coolant_freezes = T_c_in < cool.T_freeze
+    T_c_in = np.where(coolant_freezes | ~(T_c_in <= cool.T_max), np.nan, T_c_in)
+
+    # --- refrigerant states --------------------------------------------------
+    sat = fluid.saturation(p_in)
+    T_sat, h_l, h_v = sat["T"], sat["h_l"], sat["h_v"]
+    inlet = fluid.state("PH", p_in, h_in, ("T", "D"))
+    T_in = inlet["T"]
+    h_at_c = fluid.state("PT", p_in, T_c_in, ("H",))["H"]
+    G = mdot / geo["flow_ref"]
+    G_c = m_c / geo["flow_coolant"]
+    bad_props = ~np.isfinite(T_in + T_sat + h_at_c)
+
+    reachable = T_c_in > T_sat
+    # Single-phase refrigerant coefficients at each zone's mean temperature (Martin 1996).
+    T_end_l = np.where(reachable, T_sat, T_c_in)
+    liq = _refrigerant_props(fluid, p_in, 0.5 * (np.minimum(T_in, T_sat) + T_end_l), sat, "l")
+    h_liq, Re_liq = _martin_htc(G, D_h, liq, hx.chevron_angle)
+    T0_v = np.where(h_in >= h_v, T_in, T_sat)
+    vap = _refrigerant_props(fluid, p_in, 0.5 * (T0_v + T_c_in), sat, "v")
+    h_vap, Re_vap = _martin_htc(G, D_h, vap, hx.chevron_angle)
+    R_fixed = geo["R_wall"] + hx.fouling_ref / A
+
+    T_c_mean = T_c_in
+    for _ in range(2):  # coolant properties at the inlet, then at the mean temperature
+        c_props = cool.properties(T_c_mean)
+        h_c, Re_c = _martin_htc(G_c, D_h, c_props, hx.chevron_angle)
+        R_c = 1.0 / (h_c * A) + hx.fouling_coolant / A
+        C_c = m_c * c_props["CP"]
+        # Mean heat flux of an all-two-phase exchanger, by fixed point (Yan and Lin's h ~ q^0.3).
+        q = np.full(n, 5000.0)
+        for _ in range(_FLUX_STEPS):
+            h_tp, Re_eq = _yan_lin_mean(G, D_h, sat, q)
+            UA = 1.0 / (R_c + R_fixed + 1.0 / (h_tp * A))
+            q = np.maximum(C_c * -np.expm1(-UA / C_c) * np.abs(T_c_in - T_sat) / A, 1.0)
+        R_ref = np.stack([R_fixed + 1.0 / (h * A) for h in (h_liq, h_tp, h_vap)], axis=1)
+        ref = RefrigerantPath(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, R_ref)
+        side = CoolantSide(cool, m_c, T_c_in, R_c)
+        res = solve_counterflow_evaporator(ref, side)
+        T_c_mean = np.where(np.isfinite(res.T_secondary_out), 0.5 * (T_c_in + res.T_secondary_out), T_c_in)
+
+    Q = res.Q
+    f = res.fractions
+    h_out = res.h_out
+
+    # --- pressure drop over the zone lengths, plus the ports -------------------
+    L = f * hx.plate_length
+    grad_l = plate.martin_friction_factor(Re_liq, hx.chevron_angle) * G**2 / (2.0 * liq["D"] * D_h)
+    grad_v = plate.martin_friction_factor(Re_vap, hx.chevron_angle) * G**2 / (2.0 * vap["D"] * D_h)
+    h_lv = h_v - h_l
+    x0 = np.clip((np.maximum(h_in, h_l) - h_l) / h_lv, 0.0, 1.0)
+    x1 = np.clip((np.minimum(h_out, h_v) - h_l) / h_lv, 0.0, 1.0)
+    grad_tp = _two_phase_gradient(G, D_h, sat, x0, x1)
+    dp = grad_l * L[:, LIQUID] + grad_tp * L[:, TWO_PHASE] + grad_v * L[:, VAPOUR]
+    x_hx = quality(h_out, h_l, h_v)
+    two_phase_out = (x_hx >= 0.0) & (x_hx <= 1.0)
+    rho_out = np.where(two_phase_out, 1.0 / (x_hx / sat["rho_v"] + (1.0 - x_hx) / sat["rho_l"]), np.nan)
+    single = ~two_phase_out & np.isfinite(h_out)
+    rho_out[single] = fluid.state("PH", p_in[single], h_out[single], ("D",))["D"]
+    G_port = mdot / geo["port_area"]
+    dp = dp + plate.PORT_VELOCITY_HEADS * G_port**2 / 2.0 * (1.0 / inlet["D"] + 1.0 / rho_out)
+
+    # --- outlet states ------------------------------------------------------------
+    p_out = p_in - dp
+    bad_dp = ~(p_out > fluid.p_triple)
+    p_ok = np.where(bad_dp, np.nan, p_out)
+    curve = fluid.saturation_curve()
+    x_out = quality(h_out, curve.liquid_enthalpy(p_ok), curve.vapour_enthalpy(p_ok))
+    T_out = curve.temperature(p_ok)
+    single = ~((x_out >= 0.0) & (x_out <= 1.0))
+    T_out[single] = fluid.state("PH", p_ok[single], h_out[single], ("T",))["T"]
+    T_c_out = res.T_secondary_out
+    coolant_freezes |= T_c_out < cool.T_freeze
+
+    used = f > 0
+    outside = plate.martin_outside_range(Re_c, hx.chevron_angle)
+    outside |= used[:, LIQUID] & plate.martin_outside_range(Re_liq, hx.chevron_angle)
+    outside |= used[:, VAPOUR] & plate.martin_outside_range(Re_vap, hx.chevron_angle)
+    outside |= used[:, TWO_PHASE] & plate.yan_lin_outside_range(Re_eq)
+    # Overall conductance the solution used: each zone's Q_z over its log-mean difference.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        UA_total = np.sum(f / (R_ref + R_c[:, None]), axis=1)
+    bad_props |= ~np.isfinite(T_out + x_out + T_c_out + dp)
+    return {
+        "Q": -Q,
+        "h_out": h_out,
+        "p_out": p_out,
+        "dp": dp,
+        "T_out": T_out,
+        "x_out": x_out,
+        "T_coolant_out": T_c_out,
+        "h_coolant_in": side.h_in,
+        "h_coolant_out": res.h_secondary_out,
+        "UA": UA_total,
+        "fractions": f,
+        "capacity_ratio": res.capacity_ratio,
+        "h_out_continued": res.h_out_continued,
+        "Re_coolant": Re_c,
+        "Re_eq": Re_eq,
+        "outside_range": outside,
+        "bad_direction": res.bad_direction,
+        "bad_dp": bad_dp,
+        "bad_flow": bad_flow,
+        "coolant_freezes": coolant_freezes,
+        "bad_props": bad_props,
+    }
+
+
+def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
+    """Steady-state chiller response over arrays of bench inputs.
+
+    Parameters
+    ----------
+    inputs : dict of str to numpy.ndarray
+        ``mdot`` [kg/s], ``p_in`` [Pa], ``h_in`` [J/kg] (or ``T_in`` [K]),
+        ``mdot_coolant`` [kg/s], ``T_coolant_in`` [K].
+    params : Parameters
+        Plate geometry (``params.chiller``).
+    fluid : Fluid
+        Refrigerant properties.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``Q`` [W] (< 0: heat into the refrigerant), ``h_in``, ``h_out``
+        [J/kg], ``T_out`` [K], ``p_out`` [Pa], ``x_out`` [1],
+        ``T_coolant_out`` [K], ``dp`` [Pa], ``capacity_ratio`` [1] (plate
+        area over the area needed to evaporate to saturated vapour),
+        ``h_out_continued`` [J/kg] (``h_out`` for a superheated outlet; for
+        a two-phase outlet the superheated zone's heat rate continued
+        linearly to the negative area ``1 - 1/capacity_ratio``, as the
+        evaporator's) and ``status`` (int8, see :data:`FLAGS`; 0 and 11 are
+        valid).
+    """
+    p_in = np.asarray(inputs["p_in"], float)
+    if "h_in" in inputs:
+        h_in = np.asarray(inputs["h_in"], float).copy()
+    else:
+        h_in = fluid.state("PT", p_in, inputs["T_in"], ("H",))["H"]
+    inlet_bad = ~np.isfinite(h_in)
+    res = solve_chiller(
+        fluid,
+        params.chiller,
+        p_in,
+        np.where(inlet_bad, np.nan, h_in),
+        inputs["mdot"],
+        inputs["mdot_coolant"],
+        inputs["T_coolant_in"],
+    )
+    status = first_code(
+        [
+            (inlet_bad, STATUS_OUTSIDE_FLUID_RANGE),
+            (res["bad_flow"], STATUS_FLOW_NOT_POSITIVE),
+            (res["coolant_freezes"], STATUS_COOLANT_FREEZES),
+            (res["bad_direction"], STATUS_NOT_COLDER_THAN_COOLANT),
+            (res["bad_dp"], STATUS_DP_EXCEEDS_INLET),
+            (res["bad_props"], STATUS_PROPERTY_FAILED),
+        ],
+        p_in.size,
+    )
+    status[(status == 0) & res["outside_range"]] = STATUS_CORRELATION_OUTSIDE_RANGE
+    out = {k: np.asarray(res[k], float).copy() for k in OUTPUTS if k not in ("status", "h_in")}
+    out["h_in"] = h_in
+    out = {k: out[k] for k in OUTPUTS if k != "status"}
+    finish_status(status, out, BENCH.valid_flags)
+    out["status"] = status
+    return out
+
+
+FLAGS = {
+    **COMMON_FLAGS,
+    STATUS_NOT_COLDER_THAN_COOLANT: "refrigerant_inlet_not_colder_than_coolant",
+    STATUS_DP_EXCEEDS_INLET: "pressure_drop_exceeds_inlet_pressure",
+    STATUS_COOLANT_FREEZES: "coolant_below_freezing_point",
+    STATUS_FLOW_NOT_POSITIVE: "mass_flow_not_positive",
+    STATUS_CORRELATION_OUTSIDE_RANGE: "valid_correlation_outside_range",
+}
+
+#: The chiller's own axes (the refrigerant's ``mdot``, ``p_in`` and ``h_in`` are shared).
+AXIS_SPECS = {
+    a.name: a
+    for a in (
+        AxisSpec("mdot_coolant", "kg s-1", "coolant (MEG 50 %) mass flow rate", 0.0, cli_units=MASS_FLOW_UNITS),
+        AxisSpec(
+            "T_coolant_in",
+            "K",
+            "coolant temperature entering the chiller",
+            238.15,
+            373.15,
+            lower_open=False,
+            upper_open=False,
+            cli_units=TEMPERATURE_UNITS,
+        ),
+    )
+}
+
+BENCH = Bench(
+    name="chiller",
+    title="evtms chiller bench: brazed-plate R134a evaporator cooling MEG 50 % coolant",
+    axes=("mdot", "p_in", "h_in", "mdot_coolant", "T_coolant_in"),
+    outputs=OUTPUTS,
+    flags=FLAGS,
+    evaluate=chiller_heat_rate,
+    valid_flags=(0, STATUS_CORRELATION_OUTSIDE_RANGE),
+    axis_specs=AXIS_SPECS,
+    variables={
+        "Q": ("W", "heat flow from refrigerant to coolant"),
+        "T_coolant_out": ("K", "coolant temperature leaving the chiller"),
+    },
+    optional_outputs=("capacity_ratio", "h_out_continued"),
+    surface_axes=(("p_in", "T_coolant_in"), ("mdot_coolant", "T_coolant_in")),
+    presets={
+        # A small grid about the sizing point (1 degC evaporating, coolant 30 degC).
+        "thesis": {
+            "mdot": (0.01, 0.02, 0.03, 0.04),
+            "p_in": pressure_nodes(np.array([-10.0, 0.0, 10.0])),
+            "h_in": (220e3, 250e3),
+            "mdot_coolant": (0.05, 0.1, 0.2),
+            "T_coolant_in": (293.15, 303.15, 313.15, 323.15),
+        },
+        # Cycle envelope: evaporating -35 to 29 degC every 2 K (as the evaporator's), coolant
+        # 0-50 degC every 5 K: the response hinges on T_coolant_in - T_sat.
+        "cycle": {
+            "mdot": tuple(np.geomspace(0.003, 0.15, 10)),
+            "p_in": pressure_nodes(np.arange(-35.0, 30.0, 2.0)),
+            "h_in": tuple(np.linspace(200e3, 350e3, 4)),
+            "mdot_coolant": tuple(np.geomspace(0.02, 0.5, 6)),
+            "T_coolant_in": tuple(np.arange(0.0, 50.1, 5.0) + 273.15),
+        },
+    },
+)

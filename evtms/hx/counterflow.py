@@ -1,0 +1,253 @@
+"""Counter-flow moving-boundary core: an evaporating refrigerant against a single-phase secondary stream.
+
+The refrigerant passes up to three zones in the order its enthalpy rises
+(subcooled liquid, two-phase, superheated vapour); the secondary stream
+(:class:`evtms.hx.sides.SecondaryStream`, e.g. the coolant of a chiller)
+flows the other way through the same channels, so it meets the refrigerant
+outlet first and every zone sees the whole secondary flow, in series. For a
+trial heat rate ``Q`` the zone boundaries, both streams' temperatures at
+every boundary and each zone's heat load follow from the energy balance;
+each zone then needs the conductance ``UA_z = Q_z / LMTD_z`` (counter flow,
+exact for streams of constant heat capacity), i.e. the area fraction ``f_z =
+UA_z R_z`` of an exchanger whose full-area resistance for that zone is
+``R_z``. The total fraction grows with ``Q`` and without bound as the
+temperature difference at a zone end closes; the heat rate is the one at
+which the fractions fill the exchanger, found by bisection. This is the
+moving-boundary method of Bell et al. (2015) for counter-flow exchangers.
+
+Single-phase refrigerant zones use a secant heat capacity between the zone's
+start and its end, the phase boundary or, where the secondary stream cannot
+bring the refrigerant there, the secondary inlet temperature (as the coil
+model, :mod:`evtms.benches.coil`, does): the refrigerant's temperature is
+linear in its enthalpy within a zone and can never pass the secondary inlet
+temperature. Any trial ``Q`` that would cross the two streams' temperatures
+at a zone end needs infinite area, so the solution obeys the second law by
+construction.
+
+References
+----------
+Bell, I. H., Quoilin, S., Georges, E., Braun, J. E., Groll, E. A., Horton,
+W. T., Lemort, V. (2015). A generalized moving-boundary algorithm to predict
+the heat transfer rate of counterflow heat exchangers for any phase
+configuration. Appl. Therm. Eng. 79, 192-201.
+Incropera, F. P. et al. (2007). Fundamentals of Heat and Mass Transfer, 6th
+ed., sec. 11.3 (log-mean temperature difference) and eq. 11.29b.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from evtms.hx.sides import SecondaryStream
+
+#: Bisection steps on the heat rate (each halves the bracket; 60 reach round-off).
+BISECTION_STEPS = 60
+#: Zones of the refrigerant, in the order an evaporating refrigerant meets them.
+LIQUID, TWO_PHASE, VAPOUR = 0, 1, 2
+#: Cap of the capacity ratio (exchanger area available over needed), for finite LUT values.
+CAPACITY_RATIO_MAX = 1e3
+
+
+@dataclass
+class RefrigerantPath:
+    """The evaporating refrigerant through the exchanger, per point.
+
+    Attributes
+    ----------
+    mdot : numpy.ndarray
+        Mass flow [kg/s], > 0.
+    h_in : numpy.ndarray
+        Inlet specific enthalpy [J/kg].
+    T_in : numpy.ndarray
+        Inlet temperature [K].
+    T_sat, h_l, h_v : numpy.ndarray
+        Saturation temperature [K] and saturated liquid and vapour enthalpies
+        [J/kg] at the (heat-transfer) pressure.
+    h_at_secondary : numpy.ndarray
+        Refrigerant enthalpy at the secondary inlet temperature [J/kg]: the
+        most the refrigerant can reach.
+    R : numpy.ndarray
+        Refrigerant-side plus wall resistance over the whole area [K/W] of
+        each zone, shape ``(n, 3)`` (liquid, two-phase, vapour); the
+        secondary stream's ``R`` adds to it.
+    """
+
+    mdot: np.ndarray
+    h_in: np.ndarray
+    T_in: np.ndarray
+    T_sat: np.ndarray
+    h_l: np.ndarray
+    h_v: np.ndarray
+    h_at_secondary: np.ndarray
+    R: np.ndarray
+
+
+@dataclass
+class CounterflowResult:
+    """Solution of :func:`solve_counterflow_evaporator`.
+
+    Attributes
+    ----------
+    Q : numpy.ndarray
+        Heat rate into the refrigerant [W] (>= 0).
+    h_out : numpy.ndarray
+        Refrigerant outlet enthalpy [J/kg], ``h_in + Q / mdot``.
+    h_secondary_out : numpy.ndarray
+        Secondary outlet enthalpy [J/kg], ``h_in - Q / mdot``.
+    T_secondary_out : numpy.ndarray
+        Secondary outlet temperature [K].
+    fractions : numpy.ndarray
+        Area fraction of each zone [1], shape ``(n, 3)``.
+    f_needed : numpy.ndarray
+        Area fraction needed to evaporate to saturated vapour [1] (0 for a
+        vapour inlet, inf where the secondary stream cannot do it).
+    capacity_ratio : numpy.ndarray
+        ``1 / f_needed``, capped at :data:`CAPACITY_RATIO_MAX` [1].
+    h_out_continued : numpy.ndarray
+        ``h_out`` where the outlet is superheated; for a two-phase outlet the
+        vapour zone's heat rate at zero length continued to the negative
+        length ``1 - f_needed`` [J/kg] (smooth across the phase boundary).
+    bad_direction : numpy.ndarray
+        The secondary inlet is not warmer than the refrigerant inlet.
+    """
+
+    Q: np.ndarray
+    h_out: np.ndarray
+    h_secondary_out: np.ndarray
+    T_secondary_out: np.ndarray
+    fractions: np.ndarray
+    f_needed: np.ndarray
+    capacity_ratio: np.ndarray
+    h_out_continued: np.ndarray
+    bad_direction: np.ndarray
+
+
+def _refrigerant_temperature(ref: RefrigerantPath, T_sec_in: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Refrigerant temperature [K] at enthalpy ``h``: linear (secant) in each zone."""
+    reachable = T_sec_in > ref.T_sat
+    liquid_in = ref.h_in < ref.h_l
+    # Liquid: from the inlet to saturation, or to the secondary inlet temperature.
+    h_end_l = np.where(reachable, ref.h_l, ref.h_at_secondary)
+    T_end_l = np.where(reachable, ref.T_sat, T_sec_in)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope_l = np.where(liquid_in, (T_end_l - ref.T_in) / (h_end_l - ref.h_in), 0.0)
+        # Vapour: from saturation (or a vapour inlet) to the secondary inlet temperature.
+        vapour_in = ref.h_in >= ref.h_v
+        h0_v = np.where(vapour_in, ref.h_in, ref.h_v)
+        T0_v = np.where(vapour_in, ref.T_in, ref.T_sat)
+        slope_v = (T_sec_in - T0_v) / (ref.h_at_secondary - h0_v)
+    T_liq = ref.T_in + (h - ref.h_in) * slope_l
+    T_vap = T0_v + (h - h0_v) * slope_v
+    return np.where(h < ref.h_l, T_liq, np.where(h <= ref.h_v, ref.T_sat, T_vap))
+
+
+def _log_mean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Log-mean of positive ``a`` and ``b`` (their mean where they nearly agree, to round-off)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = b / a
+        lm = (b - a) / np.log(r)
+    close = np.abs(r - 1.0) < 1e-6
+    # Series of (r - 1) / ln r about r = 1: 1 + (r-1)/2 - (r-1)^2/12.
+    e = r - 1.0
+    return np.where(close, a * (1.0 + e / 2.0 - e * e / 12.0), lm)
+
+
+def _fractions(ref: RefrigerantPath, sec: SecondaryStream, Q: np.ndarray) -> np.ndarray:
+    """Area fraction of each zone [1], shape ``(n, 3)``, for trial heat rates ``Q`` [W]; inf where infeasible.
+
+    The secondary stream's enthalpy at refrigerant enthalpy ``h`` follows from
+    the balance of the part of the exchanger between there and the refrigerant
+    inlet: ``h_s(h) = h_s,out + mdot (h - h_in) / mdot_s``.
+    """
+    h_out = ref.h_in + Q / ref.mdot
+    h_s_out = sec.h_in - Q / sec.mdot
+    ratio = ref.mdot / sec.mdot
+    bounds = [ref.h_in, np.clip(ref.h_l, ref.h_in, h_out), np.clip(ref.h_v, ref.h_in, h_out), h_out]
+    T_r = [_refrigerant_temperature(ref, sec.T_in, b) for b in bounds]
+    T_s = [sec.temperature(h_s_out + ratio * (b - ref.h_in)) for b in bounds]
+    T_s[-1] = sec.T_in  # the secondary inlet itself, exactly
+    f = np.zeros((Q.size, 3))
+    for z in range(3):
+        Q_z = ref.mdot * (bounds[z + 1] - bounds[z])
+        dT_a, dT_b = T_s[z] - T_r[z], T_s[z + 1] - T_r[z + 1]
+        feasible = (dT_a > 0) & (dT_b > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f_z = Q_z * (ref.R[:, z] + sec.R) / _log_mean(np.where(feasible, dT_a, 1.0), np.where(feasible, dT_b, 1.0))
+        f[:, z] = np.where(Q_z > 0, np.where(feasible, f_z, np.inf), 0.0)
+    return f
+
+
+def solve_counterflow_evaporator(ref: RefrigerantPath, sec: SecondaryStream) -> CounterflowResult:
+    """Heat rate of a counter-flow exchanger evaporating ``ref`` against the warmer stream ``sec``.
+
+    Parameters
+    ----------
+    ref : RefrigerantPath
+        The refrigerant, its saturation state and zone resistances.
+    sec : SecondaryStream
+        The secondary stream: mass flow, inlet state, enthalpy-temperature
+        relation and its resistance over the whole area.
+
+    Returns
+    -------
+    CounterflowResult
+        Heat rate, outlet states of both streams, zone fractions and the
+        smooth closure variables of the evaporator benches. Points whose
+        inputs are not finite, or whose secondary inlet is not warmer than the
+        refrigerant inlet (``bad_direction``), have ``Q = 0``.
+    """
+    n = ref.mdot.size
+    bad_direction = ~(sec.T_in - ref.T_in > 0)
+    ok = ~bad_direction & np.isfinite(ref.h_at_secondary + ref.R.sum(axis=1) + sec.R + sec.h_in)
+    # Upper bound: the refrigerant leaves at the secondary inlet temperature.
+    hi = np.where(ok, ref.mdot * (ref.h_at_secondary - ref.h_in), 0.0)
+    ok &= hi > 0
+    hi = np.where(ok, hi, 0.0)
+    lo = np.zeros(n)
+    for _ in range(BISECTION_STEPS):
+        mid = 0.5 * (lo + hi)
+        below = _fractions(ref, sec, mid).sum(axis=1) < 1.0
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+    Q = np.where(ok, 0.5 * (lo + hi), 0.0)
+    fractions = _fractions(ref, sec, Q)
+    h_out = ref.h_in + Q / ref.mdot
+    h_s_out = sec.h_in - Q / sec.mdot
+
+    # Area needed to finish the evaporation: the same balance at Q_v = mdot (h_v - h_in).
+    reachable = ok & (sec.T_in > ref.T_sat)
+    Q_v = ref.mdot * np.maximum(ref.h_v - ref.h_in, 0.0)
+    f_needed = np.where(reachable, _fractions(ref, sec, np.where(reachable, Q_v, 0.0)).sum(axis=1), np.inf)
+    f_needed = np.where(ok & (ref.h_in >= ref.h_v), 0.0, f_needed)
+    with np.errstate(divide="ignore"):
+        capacity_ratio = np.where(
+            f_needed > 1.0 / CAPACITY_RATIO_MAX, 1.0 / np.maximum(f_needed, 1e-300), CAPACITY_RATIO_MAX
+        )
+    # Where the outlet stops short of the vapour zone, continue its outlet enthalpy to the
+    # negative length 1 - f_needed with the vapour zone's heat rate per unit area fraction
+    # at zero length: there it meets the secondary inlet, (T_s,in - T_sat) / (R_vapour + R_s).
+    short = reachable & np.isfinite(f_needed) & (f_needed > 1.0)
+    slope = (sec.T_in - ref.T_sat) / (ref.R[:, VAPOUR] + sec.R)
+    h_continued = np.where(short, ref.h_v + (1.0 - f_needed) * slope / ref.mdot, h_out)
+    return CounterflowResult(
+        Q=Q,
+        h_out=h_out,
+        h_secondary_out=h_s_out,
+        T_secondary_out=sec.temperature(h_s_out),
+        fractions=fractions,
+        f_needed=f_needed,
+        capacity_ratio=capacity_ratio,
+        h_out_continued=h_continued,
+        bad_direction=bad_direction,
+    )
+
+
+def counterflow_effectiveness(NTU: np.ndarray, Cr: np.ndarray) -> np.ndarray:
+    """Effectiveness [1] of a counter-flow exchanger (Incropera et al. 2007, eq. 11.29b; ``Cr = 1``: NTU/(1+NTU))."""
+    NTU, Cr = np.broadcast_arrays(np.asarray(NTU, float), np.asarray(Cr, float))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        e = np.exp(-NTU * (1.0 - Cr))
+        general = (1.0 - e) / (1.0 - Cr * e)
+    return np.where(np.abs(1.0 - Cr) < 1e-9, NTU / (1.0 + NTU), general)
