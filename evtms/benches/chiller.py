@@ -336,17 +336,18 @@ def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: 
         ``T_coolant_out`` [K], ``dp`` [Pa], ``capacity_ratio`` [1] (plate
         area over the area needed to evaporate to saturated vapour),
         ``h_out_continued`` [J/kg] (``h_out`` for a superheated outlet; for
-        a two-phase outlet the superheated zone's heat rate continued
-        linearly to the negative area ``1 - 1/capacity_ratio``, as the
-        evaporator's) and ``status`` (int8, see :data:`FLAGS`; 0 and 11 are
-        valid).
+        a two-phase outlet the superheated side's heat rate per unit area at
+        the phase boundary continued linearly to the negative area ``1 -
+        1/capacity_ratio``: C1 across the boundary, as the evaporator's) and
+        ``status`` (int8, see :data:`FLAGS`; 0 and 11 are valid).
     """
     p_in = np.asarray(inputs["p_in"], float)
     if "h_in" in inputs:
         h_in = np.asarray(inputs["h_in"], float).copy()
     else:
         h_in = fluid.state("PT", p_in, inputs["T_in"], ("H",))["H"]
-    inlet_bad = ~np.isfinite(h_in)
+    # An evaporator needs a saturation state at its inlet pressure.
+    inlet_bad = ~np.isfinite(h_in) | ~((p_in > fluid.p_triple) & (p_in < fluid.p_crit))
     res = solve_chiller(
         fluid,
         params.chiller,

@@ -36,6 +36,7 @@ ed., sec. 11.3 (log-mean temperature difference) and eq. 11.29b.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,6 +49,8 @@ BISECTION_STEPS = 60
 LIQUID, TWO_PHASE, VAPOUR = 0, 1, 2
 #: Cap of the capacity ratio (exchanger area available over needed), for finite LUT values.
 CAPACITY_RATIO_MAX = 1e3
+#: Superheat enthalpy step [J/kg] of the one-sided derivative behind ``h_out_continued``.
+_CONTINUATION_STEP = 1.0
 
 
 @dataclass
@@ -107,8 +110,9 @@ class CounterflowResult:
         ``1 / f_needed``, capped at :data:`CAPACITY_RATIO_MAX` [1].
     h_out_continued : numpy.ndarray
         ``h_out`` where the outlet is superheated; for a two-phase outlet the
-        vapour zone's heat rate at zero length continued to the negative
-        length ``1 - f_needed`` [J/kg] (smooth across the phase boundary).
+        superheated side's heat rate per unit area at the boundary continued
+        to the negative area ``1 - f_needed`` [J/kg] (C1 across the phase
+        boundary).
     bad_direction : numpy.ndarray
         The secondary inlet is not warmer than the refrigerant inlet.
     """
@@ -122,6 +126,21 @@ class CounterflowResult:
     capacity_ratio: np.ndarray
     h_out_continued: np.ndarray
     bad_direction: np.ndarray
+
+
+def _subset(ref: RefrigerantPath, idx: np.ndarray) -> RefrigerantPath:
+    """The points ``idx`` of ``ref``."""
+    return RefrigerantPath(*(getattr(ref, f.name)[idx] for f in dataclasses.fields(ref)))
+
+
+def _subset_stream(sec: SecondaryStream, idx: np.ndarray) -> SecondaryStream:
+    """The points ``idx`` of a secondary stream (a dataclass of per-point arrays and shared tables)."""
+    changes = {
+        f.name: getattr(sec, f.name)[idx]
+        for f in dataclasses.fields(sec)
+        if isinstance(getattr(sec, f.name), np.ndarray) and getattr(sec, f.name).shape[:1] == sec.mdot.shape
+    }
+    return dataclasses.replace(sec, **changes)
 
 
 def _refrigerant_temperature(ref: RefrigerantPath, T_sec_in: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -226,11 +245,24 @@ def solve_counterflow_evaporator(ref: RefrigerantPath, sec: SecondaryStream) -> 
             f_needed > 1.0 / CAPACITY_RATIO_MAX, 1.0 / np.maximum(f_needed, 1e-300), CAPACITY_RATIO_MAX
         )
     # Where the outlet stops short of the vapour zone, continue its outlet enthalpy to the
-    # negative length 1 - f_needed with the vapour zone's heat rate per unit area fraction
-    # at zero length: there it meets the secondary inlet, (T_s,in - T_sat) / (R_vapour + R_s).
+    # negative area 1 - f_needed with the slope the superheated side has at the boundary:
+    # there a vapour zone of heat rate dQ needs the area df = dQ f'(Q_v+), f' the one-sided
+    # derivative of the fractions at Q_v (the vapour zone's own area and, counter flow, the
+    # extra area the two-phase zone needs with the coolant it has cooled). Equal to h_out at
+    # the boundary and C1-continuous there, as the coil's continuation is.
     short = reachable & np.isfinite(f_needed) & (f_needed > 1.0)
-    slope = (sec.T_in - ref.T_sat) / (ref.R[:, VAPOUR] + sec.R)
-    h_continued = np.where(short, ref.h_v + (1.0 - f_needed) * slope / ref.mdot, h_out)
+    h_continued = h_out.copy()
+    if short.any():
+        idx = np.nonzero(short)[0]
+        sub_ref, sub_sec = _subset(ref, idx), _subset_stream(sec, idx)
+        dQ = ref.mdot[idx] * _CONTINUATION_STEP
+        f_plus = _fractions(sub_ref, sub_sec, Q_v[idx] + dQ).sum(axis=1)
+        rate = dQ / (f_plus - f_needed[idx])  # heat rate per unit area fraction [W]
+        # Should the pinch lie within the step, fall back to the vapour zone alone.
+        rate = np.where(
+            np.isfinite(rate) & (rate > 0), rate, (sec.T_in - ref.T_sat)[idx] / (ref.R[idx, VAPOUR] + sec.R[idx])
+        )
+        h_continued[idx] = ref.h_v[idx] + (1.0 - f_needed[idx]) * rate / ref.mdot[idx]
     return CounterflowResult(
         Q=Q,
         h_out=h_out,

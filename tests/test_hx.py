@@ -1,0 +1,186 @@
+"""Heat-exchanger core (evtms.hx): plate correlations against published values, the counter-flow
+moving-boundary core against analytic effectiveness-NTU, and the coolant tables against CoolProp."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from evtms.fluid import coolant
+from evtms.hx import plate
+from evtms.hx.counterflow import (
+    RefrigerantPath,
+    counterflow_effectiveness,
+    solve_counterflow_evaporator,
+)
+from evtms.hx.sides import CoolantSide
+
+# --- correlations -------------------------------------------------------------------------
+
+
+def test_martin_matches_published_example():
+    # Martin (1996) as implemented in Caleb Bell's ht (Nu_plate_Martin, friction_plate_Martin_1999):
+    # Nu(Re 2000, Pr 0.7, 45 deg) = 30.4276, xi(Re 20000, 45 deg) = 0.781892; the small
+    # difference is ht's 1999 variant of the straight-channel factors.
+    assert plate.martin_nusselt(2000.0, 0.7, 45.0) == pytest.approx(30.4276, rel=1e-3)
+    assert plate.martin_friction_factor(20000.0, 45.0) == pytest.approx(0.781892, rel=1e-3)
+
+
+def test_martin_limits_of_the_chevron_angle():
+    # phi -> 0: straight channels along the flow, xi -> xi_0 (64/Re laminar);
+    # phi -> 90 deg: flow across the corrugations, xi -> 3.8 xi_1 (Martin 1996, eq. 22).
+    Re = np.array([100.0, 1000.0])
+    assert plate.martin_friction_factor(Re, 1e-7) == pytest.approx(64.0 / Re, rel=1e-6)
+    assert plate.martin_friction_factor(Re, 90.0 - 1e-7) == pytest.approx(3.8 * (597.0 / Re + 3.85), rel=1e-5)
+
+
+def test_martin_nusselt_grows_with_reynolds_and_angle():
+    Re = np.geomspace(50, 1e4, 30)
+    assert np.all(np.diff(plate.martin_nusselt(Re, 20.0, 60.0)) > 0)
+    assert plate.martin_nusselt(1000.0, 5.0, 60.0) > plate.martin_nusselt(1000.0, 5.0, 30.0)
+
+
+def test_yan_lin_matches_published_example_and_heat_flux_exponent():
+    # ht's h_boiling_Yan_Lin example (m 3e-5 kg/s through 3e-4 m2, x 0.4, ...) = 318.7228565961241.
+    args = dict(x=0.4, G=3e-5 / 3e-4, D_h=0.002, h_lv=9e5, mu_l=156e-6, rho_l=567.0, rho_v=18.09, k_l=0.086)
+    Pr_l = 2200.0 * 156e-6 / 0.086
+    h = plate.yan_lin_boiling_htc(q=1e5, Pr_l=Pr_l, **args)
+    assert h == pytest.approx(318.7228565961241, rel=1e-12)
+    assert plate.yan_lin_boiling_htc(q=2e5, Pr_l=Pr_l, **args) / h == pytest.approx(2.0**0.3, rel=1e-12)
+
+
+def test_correlation_range_flags():
+    assert plate.martin_outside_range(np.array([100.0, 500.0, 2e4]), 60.0).tolist() == [True, False, True]
+    assert plate.martin_outside_range(np.array([500.0]), 85.0).tolist() == [True]
+    assert plate.yan_lin_outside_range(np.array([1000.0, 5000.0, 2e4])).tolist() == [True, False, True]
+
+
+def test_yan_lin_friction_branches_meet_at_6000():
+    lo = plate.yan_lin_friction_factor(6000.0 - 1e-6, 1000.0)
+    hi = plate.yan_lin_friction_factor(6000.0, 1000.0)
+    assert lo == pytest.approx(hi, rel=0.05)  # the published fits meet within 5 %
+
+
+# --- the counter-flow core against analytic effectiveness-NTU ----------------------------------
+
+
+@dataclass
+class LinearStream:
+    """A secondary stream of constant heat capacity: h = cp (T - 273.15)."""
+
+    mdot: np.ndarray
+    T_in: np.ndarray
+    R: np.ndarray
+    cp: float = 3500.0
+
+    @property
+    def h_in(self) -> np.ndarray:
+        return self.cp * (self.T_in - 273.15)
+
+    def temperature(self, h):
+        return 273.15 + np.asarray(h) / self.cp
+
+    def capacity_rate(self):
+        return self.mdot * self.cp
+
+
+def _path(n, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, R):
+    full = lambda v: np.full(n, float(v))  # noqa: E731
+    return RefrigerantPath(
+        mdot=full(0.03),
+        h_in=full(h_in),
+        T_in=full(T_in),
+        T_sat=full(T_sat),
+        h_l=full(h_l),
+        h_v=full(h_v),
+        h_at_secondary=full(h_at_secondary),
+        R=np.tile(R, (n, 1)).astype(float),
+    )
+
+
+def test_two_phase_core_is_one_minus_exp_minus_ntu():
+    # A refrigerant that stays two-phase (C_r infinite): Q = C_s (1 - exp(-NTU)) (T_s,in - T_sat).
+    n = 5
+    R_total = np.array([1 / 50, 1 / 150, 1 / 300, 1 / 600, 1 / 1500])  # UA 50..1500 W/K
+    ref = _path(n, 250e3, 275.0, 275.0, 200e3, 5e6, 5.1e6, [1.0, 0.0, 1.0])
+    ref.R[:, 1] = R_total / 2
+    sec = LinearStream(mdot=np.full(n, 0.15), T_in=np.full(n, 303.15), R=R_total / 2)
+    res = solve_counterflow_evaporator(ref, sec)
+    C = 0.15 * 3500.0
+    expected = C * -np.expm1(-(1 / R_total) / C) * (303.15 - 275.0)
+    np.testing.assert_allclose(res.Q, expected, rtol=1e-10)
+    np.testing.assert_allclose(res.fractions[:, 1], 1.0, rtol=1e-10)
+
+
+@pytest.mark.parametrize("m_s", [0.006, 0.01, 0.02, 0.05])  # C_r = C_min/C_max from 0.86 through 1 to 0.34
+def test_single_phase_core_is_counterflow_effectiveness(m_s):
+    # Superheated vapour (cp 1000 J/(kg K), 0.03 kg/s: 30 W/K) against a stream of 3500 m_s W/K:
+    # Q = eps(NTU, C_r) C_min (T_s,in - T_in), Incropera eq. 11.29b.
+    cp_r, T_in, T_s = 1000.0, 280.0, 320.0
+    UA = np.array([5.0, 30.0, 100.0])
+    n = UA.size
+    ref = _path(n, 400e3, T_in, 270.0, 200e3, 390e3, 400e3 + cp_r * (T_s - T_in), [1.0, 1.0, 0.0])
+    ref.R[:, 2] = 0.5 / UA
+    sec = LinearStream(mdot=np.full(n, m_s), T_in=np.full(n, T_s), R=0.5 / UA)
+    res = solve_counterflow_evaporator(ref, sec)
+    C_r, C_s = 0.03 * cp_r, m_s * 3500.0
+    C_min, C_max = min(C_r, C_s), max(C_r, C_s)
+    expected = counterflow_effectiveness(UA / C_min, C_min / C_max) * C_min * (T_s - T_in)
+    np.testing.assert_allclose(res.Q, expected, rtol=1e-9)
+    # Energy balance of both streams to round-off, and the second law.
+    np.testing.assert_allclose(0.03 * (res.h_out - 400e3), m_s * (sec.h_in - res.h_secondary_out), rtol=1e-13)
+    assert np.all(res.T_secondary_out >= T_in) and np.all(ref.h_in + res.Q / 0.03 <= ref.h_at_secondary)
+
+
+def test_counterflow_effectiveness_limits():
+    assert counterflow_effectiveness(1e-9, 0.5) == pytest.approx(1e-9, rel=1e-6)
+    assert counterflow_effectiveness(50.0, 0.5) == pytest.approx(1.0, abs=1e-9)
+    assert counterflow_effectiveness(3.0, 1.0) == pytest.approx(0.75)  # NTU / (1 + NTU)
+    assert counterflow_effectiveness(3.0, 0.0) == pytest.approx(1 - np.exp(-3.0))
+    assert counterflow_effectiveness(3.0, 1.0 - 1e-6) == pytest.approx(0.75, rel=1e-5)  # continuous at C_r = 1
+
+
+def test_core_refuses_a_secondary_not_warmer_and_pinches_at_the_second_law():
+    ref = _path(3, 250e3, 275.0, 275.0, 200e3, 400e3, 410e3, [1e-3, 1e-3, 1e-3])
+    sec = LinearStream(mdot=np.array([0.15, 0.15, 1e-3]), T_in=np.array([270.0, 275.0, 300.0]), R=np.full(3, 1e-4))
+    res = solve_counterflow_evaporator(ref, sec)
+    assert res.bad_direction.tolist() == [True, True, False]
+    assert res.Q[:2].tolist() == [0.0, 0.0]
+    # A tiny coolant flow over a huge area: the coolant leaves at (just above) the refrigerant temperature.
+    assert res.T_secondary_out[2] == pytest.approx(275.0, abs=1e-3) and res.T_secondary_out[2] > 275.0
+
+
+def test_coolant_side_capacity_rate():
+    c = coolant()
+    side = CoolantSide(c, np.array([0.1]), np.array([303.15]), np.array([0.0]))
+    assert side.capacity_rate()[0] == pytest.approx(0.1 * c.properties(303.15)["CP"])
+    assert side.temperature(side.h_in)[0] == pytest.approx(303.15, abs=1e-9)
+
+
+# --- coolant properties ---------------------------------------------------------------------
+
+
+def test_coolant_tables_match_coolprop_and_invert_exactly():
+    import CoolProp.CoolProp as CP
+
+    c = coolant()
+    st = CP.AbstractState("INCOMP", "MEG")
+    st.set_mass_fractions([0.5])
+    T = np.array([240.0, 273.15, 303.157, 350.0])
+    ref = []
+    for t in T:
+        st.update(CP.PT_INPUTS, c.p, float(t))
+        ref.append((st.hmass(), st.cpmass(), st.viscosity()))
+    ref = np.array(ref)
+    np.testing.assert_allclose(c.enthalpy(T), ref[:, 0], atol=0.05)  # J/kg
+    props = c.properties(T)
+    np.testing.assert_allclose(props["CP"], ref[:, 1], rtol=1e-5)
+    np.testing.assert_allclose(props["MU"], ref[:, 2], rtol=1e-3)
+    np.testing.assert_allclose(c.temperature(c.enthalpy(T)), T, rtol=1e-14)
+    # MEG 50 % freezes at about -34 degC (CoolProp's fit: 237.16 K).
+    assert c.T_freeze == pytest.approx(237.16, abs=0.05)
+    # Below freezing the enthalpy is continued (finite, increasing) for the caller to flag.
+    below = c.enthalpy(np.array([220.0, 230.0]))
+    assert np.all(np.isfinite(below)) and below[0] < below[1] < c.enthalpy(c.T_freeze)
