@@ -209,6 +209,9 @@ class OperatingPoints:
         Air entering the evaporator [K], [1].
     mdot_coolant, T_coolant_in : array_like
         Coolant entering the chiller [kg/s], [K].
+
+    Inputs not given take the defaults of :data:`evtms.cycle.topology.INPUTS`;
+    a circuit ignores the inputs of branches it does not have.
     superheat : array_like
         Thermostatic-valve superheat setpoint at each evaporating branch's outlet [K].
     subcooling : array_like
@@ -216,9 +219,9 @@ class OperatingPoints:
     """
 
     speed: np.ndarray
-    fan: np.ndarray
-    blower: np.ndarray
-    T_amb: np.ndarray
+    fan: np.ndarray = field(default=0.5)
+    blower: np.ndarray = field(default=0.4)
+    T_amb: np.ndarray = field(default=303.15)
     RH_amb: np.ndarray = field(default=0.4)
     T_cabin: np.ndarray = field(default=300.15)
     RH_cabin: np.ndarray = field(default=0.5)
