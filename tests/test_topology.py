@@ -79,3 +79,71 @@ def test_cli_refuses_inputs_of_another_topology(args, message, tmp_path):
     assert res.stderr.strip().startswith(message), res.stderr
     assert len(res.stderr.strip().splitlines()) == 1
     assert res.stdout == ""
+
+
+# -- physics of the circuits (direct bench physics) ------------------------------------
+@pytest.fixture(scope="module")
+def circuits():
+    """Direct solutions of the same operating points in each circuit (coolant at 25 and 35 degC)."""
+    import numpy as np
+
+    from evtms.cycle import OperatingPoints, run_cycle
+
+    points = OperatingPoints(
+        speed=[0.5, 0.5, 0.8],
+        fan=0.6,
+        blower=0.4,
+        T_amb=303.15,
+        T_cabin=300.15,
+        mdot_coolant=[0.15, 0.15, 0.3],
+        T_coolant_in=[298.15, 308.15, 303.15],
+    )
+    return points, {name: run_cycle(points, circuit=name) for name in TOPOLOGIES}, np
+
+
+def test_every_circuit_closes_its_energy_balance(circuits):
+    _, results, np = circuits
+    for name, r in results.items():
+        assert (r["status"] == 0).all(), (name, r["reason"])
+        # Q_cond = |Q_evap| + |Q_chiller| + W_fluid, each term from its own component.
+        assert np.abs(r["balance_relative"]).max() < 1e-4, name
+        assert np.allclose(r["mdot_evap"] + r["mdot_chiller"], r["mdot"], rtol=1e-12), name
+
+
+def test_branch_heat_flows_belong_to_their_branches(circuits):
+    _, results, np = circuits
+    assert (results["cabin"]["Q_chiller"] == 0).all() and (results["cabin"]["Q_evap"] < 0).all()
+    assert (results["chiller"]["Q_evap"] == 0).all() and (results["chiller"]["Q_latent"] == 0).all()
+    assert (results["chiller"]["Q_chiller"] < 0).all()
+    both = results["cabin+chiller"]
+    assert (both["Q_evap"] < 0).all() and (both["Q_chiller"] < 0).all()
+    assert np.isnan(results["cabin"]["valve_opening_chiller"]).all()
+
+
+def test_both_branches_leave_at_the_setpoint_superheat(circuits):
+    """At the suction root each branch's outlet is the suction state (both valves hold 10 K)."""
+    _, results, np = circuits
+    both = results["cabin+chiller"]
+    assert np.allclose(both["h_A_evap"], both["h_A"], atol=0.5)  # J/kg: the mix of the two outlets
+
+
+def test_a_second_evaporating_branch_raises_suction_pressure_and_cooling(circuits):
+    """More evaporator surface for one compressor: it evaporates warmer and pumps more."""
+    _, results, np = circuits
+    cabin, both = results["cabin"], results["cabin+chiller"]
+    assert (both["p_A"] > cabin["p_A"]).all()
+    assert (both["mdot"] > cabin["mdot"]).all()
+    assert (-(both["Q_evap"] + both["Q_chiller"]) > -cabin["Q_evap"]).all()
+    # The cabin branch alone gets less flow than the whole circuit had: less cabin cooling.
+    assert (-both["Q_evap"] < -cabin["Q_evap"]).all()
+
+
+def test_warmer_coolant_takes_more_of_the_flow_and_the_heat(circuits):
+    _, results, np = circuits
+    chiller, both = results["chiller"], results["cabin+chiller"]
+    # Points 0 and 1: coolant 25 -> 35 degC at the same speed and coolant flow.
+    assert chiller["p_A"][1] > chiller["p_A"][0]
+    assert chiller["Q_chiller"][1] < chiller["Q_chiller"][0]  # more negative: more battery cooling
+    share = both["mdot_chiller"] / both["mdot"]
+    assert share[1] > share[0]
+    assert both["Q_evap"][1] > both["Q_evap"][0]  # the cabin gets less

@@ -505,6 +505,7 @@ class CycleSolver:
         reason[~ok & np.isfinite(mdot)] = "the flow cannot be split between the branches within their models' flows"
         latest: dict = {}
 
+        # ``i``: the points' positions in this call's arrays (``idx[i]`` in the whole batch).
         def evaluate(share: np.ndarray, i: np.ndarray) -> tuple[dict, dict]:
             o = {k: v[i] for k, v in ops.items()}
             m = mdot[i]
@@ -531,16 +532,16 @@ class CycleSolver:
                 k = np.nonzero(warm)[0]
                 a = np.maximum(prev[k] - 0.03, lo[k])
                 b = np.minimum(prev[k] + 0.03, hi[k])
-                fa, wa = residual(a, idx[todo[k]])
-                fb, wb = residual(b, idx[todo[k]])
+                fa, wa = residual(a, todo[k])
+                fb, wb = residual(b, todo[k])
                 good = np.isfinite(fa) & np.isfinite(fb) & (fa > 0) & (fb <= 0)
                 g = k[good]
                 lo[g], hi[g], f_lo[g], f_hi[g] = a[good], b[good], fa[good], fb[good]
                 warm[k[~good]] = False
             cold = np.nonzero(~warm)[0]
             if cold.size:
-                f_lo[cold], w_lo[cold] = residual(lo[cold], idx[todo[cold]])
-                f_hi[cold], w_hi[cold] = residual(hi[cold], idx[todo[cold]])
+                f_lo[cold], w_lo[cold] = residual(lo[cold], todo[cold])
+                f_hi[cold], w_hi[cold] = residual(hi[cold], todo[cold])
             no_root = ~((f_lo > 0) | ~np.isfinite(f_lo)) | ~((f_hi <= 0) | ~np.isfinite(f_hi))
             no_root |= ~np.isfinite(f_lo) & ~np.isfinite(f_hi)
             bad = todo[no_root]
@@ -553,7 +554,7 @@ class CycleSolver:
             share[todo] = np.nan
             if go.size:
                 x, state, why = bracketed_root(
-                    lambda v, i: residual(v, idx[i]),
+                    residual,
                     lo[go],
                     hi[go],
                     f_lo[go],
@@ -570,7 +571,7 @@ class CycleSolver:
                 reason[todo[go[~fine]]] = failed
             self._split[idx] = np.where(np.isfinite(share), share, self._split[idx])
         everyone = np.arange(n)
-        r1, r2 = evaluate(np.where(np.isfinite(share), share, np.nan), idx[everyone])
+        r1, r2 = evaluate(share, everyone)
         flows = {names[0]: mdot * (1.0 - share), names[1]: mdot * share}
         branches = {names[0]: r1, names[1]: r2}
         if not final:
