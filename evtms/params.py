@@ -219,7 +219,7 @@ class CoilParams:
     ``fin_spacing`` is the fin pitch: with the defaults the fin area
     ``n_tubes (core_length / fin_spacing) 2 (core_height / n_tubes - tube_thickness) tube_depth``
     is the Simscape block's 23.4 m2 (condenser) and 7.2 m2 (evaporator). The
-    louvred-fin air side (Chang and Wang 1997, :func:`evtms.benches.correlations.chang_wang_j`)
+    louvred-fin air side (Chang and Wang 1997, :func:`evtms.hx.fins.chang_wang_j`)
     takes the tube pitch ``core_height / n_tubes``, the fin length (tube pitch
     minus ``tube_thickness``) and the flow depth ``tube_depth`` from these
     parameters, and the louver geometry from the four above.

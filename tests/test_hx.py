@@ -10,11 +10,8 @@ import pytest
 
 from evtms.fluid import coolant
 from evtms.hx import plate
-from evtms.hx.counterflow import (
-    RefrigerantPath,
-    counterflow_effectiveness,
-    solve_counterflow_evaporator,
-)
+from evtms.hx.counterflow import RefrigerantPath, solve_counterflow_evaporator
+from evtms.hx.effectiveness import counterflow_effectiveness
 from evtms.hx.sides import CoolantSide
 
 # --- correlations -------------------------------------------------------------------------

@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from evtms.benches import correlations as corr
 from evtms.benches.base import (
     COMMON_FLAGS,
     STATUS_OUTSIDE_FLUID_RANGE,
@@ -52,7 +51,7 @@ from evtms.benches.base import (
     pressure_nodes,
 )
 from evtms.fluid import Fluid, coolant, quality
-from evtms.hx import plate
+from evtms.hx import plate, tube
 from evtms.hx.counterflow import LIQUID, TWO_PHASE, VAPOUR, RefrigerantPath, solve_counterflow_evaporator
 from evtms.hx.sides import CoolantSide
 from evtms.luts.schema import MASS_FLOW_UNITS, TEMPERATURE_UNITS, AxisSpec
@@ -117,7 +116,7 @@ def _martin_htc(G, D_h, props, angle):
 
 def _yan_lin_mean(G, D_h, sat, q):
     """Yan and Lin's coefficient [W/(m2 K)] averaged over quality 0..1 (Gauss-Legendre), and Re_eq at x = 1/2."""
-    x = corr.GAUSS_NODES[None, :]
+    x = tube.GAUSS_NODES[None, :]
     col = {k: v[:, None] for k, v in sat.items()}
     Pr_l = col["cp_l"] * col["mu_l"] / col["k_l"]
     h = plate.yan_lin_boiling_htc(
@@ -133,19 +132,19 @@ def _yan_lin_mean(G, D_h, sat, q):
         Pr_l,
     )
     Re_eq = plate.equivalent_mass_flux(G, 0.5, sat["rho_l"], sat["rho_v"]) * D_h / sat["mu_l"]
-    return np.sum(h * corr.GAUSS_WEIGHTS, axis=-1), Re_eq
+    return np.sum(h * tube.GAUSS_WEIGHTS, axis=-1), Re_eq
 
 
 def _two_phase_gradient(G, D_h, sat, x0, x1):
     """Mean two-phase frictional gradient [Pa/m] over quality x0..x1 (Yan and Lin 1999)."""
-    x = x0[:, None] + (x1 - x0)[:, None] * corr.GAUSS_NODES[None, :]
+    x = x0[:, None] + (x1 - x0)[:, None] * tube.GAUSS_NODES[None, :]
     col = {k: v[:, None] for k, v in sat.items()}
     G2 = G[:, None]
     Re_eq = plate.equivalent_mass_flux(G2, x, col["rho_l"], col["rho_v"]) * D_h / col["mu_l"]
     Re = G2 * D_h / col["mu_l"]
     rho_m = 1.0 / (x / col["rho_v"] + (1.0 - x) / col["rho_l"])
     grad = 2.0 * plate.yan_lin_friction_factor(Re_eq, Re) * G2**2 / (rho_m * D_h)
-    return np.sum(grad * corr.GAUSS_WEIGHTS, axis=-1)
+    return np.sum(grad * tube.GAUSS_WEIGHTS, axis=-1)
 
 
 def _refrigerant_props(fluid, p, T, sat, phase):

@@ -6,7 +6,7 @@ fan at fraction ``fan`` of its maximum flow. The steady-state response comes
 from the moving-boundary coil model of :mod:`evtms.benches.coil` (vapour,
 two-phase and liquid zones, effectiveness-NTU per zone, dry air).
 
-Correlations (see :mod:`evtms.benches.correlations`): Gnielinski single phase
+Correlations (see :mod:`evtms.hx.tube`, :mod:`evtms.hx.fins`): Gnielinski single phase
 (laminar Nu below Re 2300), Cavallini-Zecchin condensation with Chato's film
 condensation, Haaland friction and Mueller-Steinhagen-Heck two-phase pressure
 drop; on the air side the louvred-fin Colburn factor of Chang and Wang (1997),

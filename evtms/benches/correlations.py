@@ -1,409 +1,53 @@
-"""Heat-transfer, friction and effectiveness correlations (pure NumPy).
+"""Heat-transfer, friction and effectiveness correlations of the coils (moved to :mod:`evtms.hx`).
 
-Each function is element-wise over arrays and cites its source. The coil
-model (:mod:`evtms.benches.coil`) is the only caller; change a correlation
-here and both coils follow.
+The correlations live with the heat-exchanger core: tube-side refrigerant
+correlations in :mod:`evtms.hx.tube`, the louvred-fin air side in
+:mod:`evtms.hx.fins`, effectiveness-NTU relations in
+:mod:`evtms.hx.effectiveness` (and the chiller's plate correlations in
+:mod:`evtms.hx.plate`). This module keeps the old import path working.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-import numpy as np
-
-#: Reynolds numbers bounding the laminar-turbulent blend of single-phase flow.
-RE_LAMINAR = 2300.0
-RE_TURBULENT = 4000.0
-
-#: Gauss-Legendre nodes and weights on [0, 1], for averages over quality.
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
-GAUSS_NODES = 0.5 * (_GL_X + 1.0)
-GAUSS_WEIGHTS = 0.5 * _GL_W
-
-
-def _turbulent_weight(Re: np.ndarray) -> np.ndarray:
-    """0 below RE_LAMINAR, 1 above RE_TURBULENT, linear in between."""
-    return np.clip((Re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR), 0.0, 1.0)
-
-
-def haaland_friction_factor(Re: np.ndarray, relative_roughness: float | np.ndarray) -> np.ndarray:
-    """Darcy friction factor [1] for laminar, transitional and turbulent pipe flow.
-
-    Laminar ``f = 64 / Re`` below Re = 2300; Haaland's explicit turbulent
-    formula above Re = 4000,
-
-    .. math:: 1/\\sqrt{f} = -1.8 \\log_{10}[(\\epsilon/D/3.7)^{1.11} + 6.9/Re];
-
-    linear blend in between (as Simscape's pipe blocks do).
-
-    Parameters
-    ----------
-    Re : array_like
-        Reynolds number [1].
-    relative_roughness : float or array_like
-        Roughness over hydraulic diameter [1].
-
-    References
-    ----------
-    Haaland, S. E. (1983). Simple and explicit formulas for the friction factor
-    in turbulent pipe flow. J. Fluids Eng. 105(1), 89-90.
-    """
-    Re = np.maximum(np.asarray(Re, float), 1e-12)
-    laminar = 64.0 / Re
-    Re_t = np.maximum(Re, RE_TURBULENT)
-    turbulent = (-1.8 * np.log10((relative_roughness / 3.7) ** 1.11 + 6.9 / Re_t)) ** -2
-    w = _turbulent_weight(Re)
-    return (1.0 - w) * laminar + w * turbulent
-
-
-def single_phase_nusselt(Re: np.ndarray, Pr: np.ndarray, friction_factor: np.ndarray, nu_laminar: float) -> np.ndarray:
-    """Nusselt number [1] of single-phase flow in a channel.
-
-    Constant ``nu_laminar`` (fully developed laminar flow) below Re = 2300;
-    Gnielinski above Re = 4000,
-
-    .. math:: Nu = \\frac{(f/8)(Re - 1000) Pr}{1 + 12.7\\sqrt{f/8}(Pr^{2/3} - 1)};
-
-    linear blend in between.
-
-    Parameters
-    ----------
-    Re, Pr : array_like
-        Reynolds and Prandtl numbers [1].
-    friction_factor : array_like
-        Darcy friction factor [1] (from :func:`haaland_friction_factor`).
-    nu_laminar : float
-        Laminar Nusselt number [1], 3.66 for a round tube at constant wall
-        temperature.
-
-    References
-    ----------
-    Gnielinski, V. (1976). New equations for heat and mass transfer in
-    turbulent pipe and channel flow. Int. Chem. Eng. 16(2), 359-368.
-    """
-    Re = np.asarray(Re, float)
-    Re_t = np.maximum(Re, RE_TURBULENT)
-    f8 = np.asarray(friction_factor, float) / 8.0
-    turbulent = f8 * (Re_t - 1000.0) * Pr / (1.0 + 12.7 * np.sqrt(f8) * (Pr ** (2.0 / 3.0) - 1.0))
-    turbulent = np.maximum(turbulent, nu_laminar)
-    w = _turbulent_weight(Re)
-    return (1.0 - w) * nu_laminar + w * turbulent
-
-
-def cavallini_zecchin_nusselt(
-    x: np.ndarray,
-    G: np.ndarray,
-    D: float,
-    mu_l: np.ndarray,
-    mu_v: np.ndarray,
-    rho_l: np.ndarray,
-    rho_v: np.ndarray,
-    Pr_l: np.ndarray,
-    nu_laminar: float,
-) -> np.ndarray:
-    """Local Nusselt number [1] of in-tube condensation, based on the liquid conductivity.
-
-    .. math:: Nu = 0.05\\,Re_{eq}^{0.8} Pr_l^{0.33},\\quad
-              Re_{eq} = Re_v (\\mu_v/\\mu_l)(\\rho_l/\\rho_v)^{0.5} + Re_l
-
-    with ``Re_v = G x D / mu_v`` and ``Re_l = G (1 - x) D / mu_l``. At the low
-    mass fluxes of a parallel-tube automotive coil Re_eq can fall into the
-    laminar range, where the correlation would predict less than conduction
-    through a laminar film; there the laminar Nusselt number is the floor
-    (as Simscape's two-phase heat exchangers do).
-
-    References
-    ----------
-    Cavallini, A., Zecchin, R. (1974). A dimensionless correlation for heat
-    transfer in forced convection condensation. Proc. 5th Int. Heat Transfer
-    Conf., Tokyo, vol. 3, 309-313.
-    """
-    Re_v = G * x * D / mu_v
-    Re_l = G * (1.0 - x) * D / mu_l
-    Re_eq = Re_v * (mu_v / mu_l) * np.sqrt(rho_l / rho_v) + Re_l
-    return np.maximum(0.05 * Re_eq**0.8 * Pr_l**0.33, nu_laminar)
-
-
-def chato_film_condensation_htc(
-    q: np.ndarray,
-    D: float,
-    rho_l: np.ndarray,
-    rho_v: np.ndarray,
-    k_l: np.ndarray,
-    mu_l: np.ndarray,
-    cp_l: np.ndarray,
-    h_fg: np.ndarray,
-    g: float = 9.80665,
-) -> np.ndarray:
-    r"""Gravity-driven film condensation coefficient [W/(m2 K)] in a horizontal tube.
-
-    Chato's stratified-flow form of Nusselt's film theory,
-
-    .. math:: h = 0.555 \left[\frac{g \rho_l (\rho_l - \rho_v) k_l^3 h'_{fg}}
-              {\mu_l D \Delta T}\right]^{1/4},\quad
-              h'_{fg} = h_{fg} + 0.375\,c_{p,l} \Delta T,
-
-    written in terms of the wall heat flux ``q = h dT`` (eliminating the
-    wall superheat ``dT``): ``h = (0.555^4 B / q)^{1/3}`` with ``B`` the
-    bracket times ``dT``. The latent-heat correction is applied with ``dT``
-    from the uncorrected solution. At the low mass fluxes of parallel-tube
-    automotive coils condensation is stratified and this film term, not the
-    shear-driven Cavallini-Zecchin term, sets the coefficient.
-
-    Parameters
-    ----------
-    q : array_like
-        Wall heat flux [W/m2], > 0.
-
-    References
-    ----------
-    Chato, J. C. (1962). Laminar condensation inside horizontal and inclined
-    tubes. ASHRAE J. 4, 52-60.
-    Dobson, M. K., Chato, J. C. (1998). Condensation in smooth horizontal
-    tubes. J. Heat Transfer 120(1), 193-213.
-    """
-    q = np.maximum(np.asarray(q, float), 1e-6)
-    base = g * rho_l * (rho_l - rho_v) * k_l**3 / (mu_l * D)
-    h = (0.555**4 * base * h_fg / q) ** (1.0 / 3.0)
-    dT = q / h
-    return (0.555**4 * base * (h_fg + 0.375 * cp_l * dT) / q) ** (1.0 / 3.0)
-
-
-def gungor_winterton_htc(
-    x: np.ndarray,
-    G: np.ndarray,
-    D: float,
-    q: np.ndarray,
-    h_fg: np.ndarray,
-    mu_l: np.ndarray,
-    rho_l: np.ndarray,
-    rho_v: np.ndarray,
-    k_l: np.ndarray,
-    Pr_l: np.ndarray,
-    nu_laminar: float,
-) -> np.ndarray:
-    """Local flow-boiling heat-transfer coefficient [W/(m2 K)], simplified Gungor-Winterton.
-
-    .. math:: h = E\\,h_l,\\quad E = 1 + 3000 Bo^{0.86}
-              + 1.12 \\left(\\frac{x}{1-x}\\right)^{0.75}
-              \\left(\\frac{\\rho_l}{\\rho_v}\\right)^{0.41}
-
-    with boiling number ``Bo = q / (G h_fg)`` and the liquid-only
-    Dittus-Boelter coefficient ``h_l = 0.023 Re_l^0.8 Pr_l^0.4 k_l / D``,
-    ``Re_l = G (1 - x) D / mu_l``; ``h_l`` is floored at the laminar value
-    ``nu_laminar k_l / D`` for the laminar liquid films of low mass flux.
-
-    Parameters
-    ----------
-    q : array_like
-        Heat flux at the wall [W/m2].
-    h_fg : array_like
-        Latent heat [J/kg].
-
-    References
-    ----------
-    Gungor, K. E., Winterton, R. H. S. (1987). Simplified general correlation
-    for saturated flow boiling and comparisons of correlations with data.
-    Chem. Eng. Res. Des. 65, 148-156.
-    """
-    x = np.clip(x, 0.0, 0.999)
-    Re_l = G * (1.0 - x) * D / mu_l
-    h_l = np.maximum(0.023 * Re_l**0.8 * Pr_l**0.4, nu_laminar) * k_l / D
-    Bo = np.maximum(q, 0.0) / (G * h_fg)
-    E = 1.0 + 3000.0 * Bo**0.86 + 1.12 * (x / (1.0 - x)) ** 0.75 * (rho_l / rho_v) ** 0.41
-    return E * h_l
-
-
-def muller_steinhagen_heck_gradient(
-    x: np.ndarray,
-    G: np.ndarray,
-    D: float,
-    relative_roughness: float,
-    mu_l: np.ndarray,
-    mu_v: np.ndarray,
-    rho_l: np.ndarray,
-    rho_v: np.ndarray,
-) -> np.ndarray:
-    """Two-phase frictional pressure gradient [Pa/m], Mueller-Steinhagen and Heck.
-
-    .. math:: \\frac{dp}{dz} = \\Lambda (1 - x)^{1/3} + B x^3,\\quad
-              \\Lambda = A + 2 (B - A) x
-
-    where ``A`` and ``B`` are the gradients of the whole flow as liquid and as
-    vapour (Darcy factors from :func:`haaland_friction_factor`).
-
-    References
-    ----------
-    Mueller-Steinhagen, H., Heck, K. (1986). A simple friction pressure drop
-    correlation for two-phase flow in pipes. Chem. Eng. Process. 20, 297-308.
-    """
-    A = single_phase_gradient(G, D, relative_roughness, mu_l, rho_l)
-    B = single_phase_gradient(G, D, relative_roughness, mu_v, rho_v)
-    lam = A + 2.0 * (B - A) * x
-    return lam * (1.0 - x) ** (1.0 / 3.0) + B * x**3
-
-
-def single_phase_gradient(
-    G: np.ndarray, D: float, relative_roughness: float, mu: np.ndarray, rho: np.ndarray
-) -> np.ndarray:
-    """Darcy-Weisbach frictional pressure gradient [Pa/m] of single-phase flow.
-
-    .. math:: dp/dz = f(Re)\\, G^2 / (2 \\rho D),\\quad Re = G D / \\mu
-    """
-    Re = G * D / mu
-    return haaland_friction_factor(Re, relative_roughness) * G**2 / (2.0 * rho * D)
-
-
-#: Louver-pitch Reynolds numbers of the data behind :func:`chang_wang_j` (Chang and Wang 1997).
-CHANG_WANG_RE_RANGE = (100.0, 3000.0)
-
-
-@dataclass(frozen=True)
-class LouveredFin:
-    """Geometry of a flat-tube louvred-fin core, as Chang and Wang (1997) define it.
-
-    Attributes
-    ----------
-    louver_angle : float
-        Louver angle [rad].
-    louver_pitch : float
-        Louver pitch ``L_p`` [m].
-    louver_length : float
-        Louver length ``L_l`` [m].
-    fin_pitch : float
-        Fin pitch ``F_p`` [m].
-    fin_length : float
-        Fin length ``F_l``, tube pitch minus tube thickness [m].
-    flow_depth : float
-        Flow (fin) depth ``T_d`` [m].
-    tube_pitch : float
-        Tube pitch ``T_p`` [m].
-    fin_thickness : float
-        Fin thickness ``delta_f`` [m].
-    """
-
-    louver_angle: float
-    louver_pitch: float
-    louver_length: float
-    fin_pitch: float
-    fin_length: float
-    flow_depth: float
-    tube_pitch: float
-    fin_thickness: float
-
-    def geometry_factor(self) -> float:
-        """The geometric part of :func:`chang_wang_j`, ``j Re_Lp^0.49`` [1]."""
-        Lp = self.louver_pitch
-        return (
-            (np.degrees(self.louver_angle) / 90.0) ** 0.27
-            * (self.fin_pitch / Lp) ** -0.14
-            * (self.fin_length / Lp) ** -0.29
-            * (self.flow_depth / Lp) ** -0.23
-            * (self.louver_length / Lp) ** 0.68
-            * (self.tube_pitch / Lp) ** -0.28
-            * (self.fin_thickness / Lp) ** -0.05
-        )
-
-
-def chang_wang_j(Re_Lp: np.ndarray, fin: LouveredFin) -> np.ndarray:
-    r"""Colburn factor [1] of a louvred fin on flat tubes, Chang and Wang (1997), eq. (9).
-
-    .. math:: j = Re_{Lp}^{-0.49} \left(\frac{\theta}{90}\right)^{0.27}
-              \left(\frac{F_p}{L_p}\right)^{-0.14} \left(\frac{F_l}{L_p}\right)^{-0.29}
-              \left(\frac{T_d}{L_p}\right)^{-0.23} \left(\frac{L_l}{L_p}\right)^{0.68}
-              \left(\frac{T_p}{L_p}\right)^{-0.28} \left(\frac{\delta_f}{L_p}\right)^{-0.05}
-
-    with ``theta`` in degrees, ``Re_Lp = rho V_c L_p / mu`` on the louver
-    pitch and the velocity ``V_c`` in the minimum free-flow area, and
-    ``j = h Pr^(2/3) / (rho V_c c_p)``. Fitted to 91 dry louvred-fin samples
-    (89.3 % of the corrugated-fin data within 15 %) for
-    ``100 < Re_Lp < 3000`` (:data:`CHANG_WANG_RE_RANGE`); evaluated as
-    published outside it, where :func:`chang_wang_outside_range` flags it.
-
-    Parameters
-    ----------
-    Re_Lp : array_like
-        Louver-pitch Reynolds number [1], > 0.
-    fin : LouveredFin
-        Fin geometry.
-
-    References
-    ----------
-    Chang, Y.-J., Wang, C.-C. (1997). A generalized heat transfer correlation
-    for louver fin geometry. Int. J. Heat Mass Transfer 40(3), 533-544.
-    """
-    return np.asarray(Re_Lp, float) ** -0.49 * fin.geometry_factor()
-
-
-def chang_wang_outside_range(Re_Lp: np.ndarray) -> np.ndarray:
-    """Whether ``Re_Lp`` [1] lies outside the range of :func:`chang_wang_j` (bounds inside)."""
-    lo, hi = CHANG_WANG_RE_RANGE
-    Re_Lp = np.asarray(Re_Lp, float)
-    return (Re_Lp < lo) | (Re_Lp > hi)
-
-
-def louvered_fin_htc(
-    velocity: np.ndarray, rho: np.ndarray, mu: np.ndarray, k: np.ndarray, Pr: np.ndarray, fin: LouveredFin
-) -> tuple[np.ndarray, np.ndarray]:
-    r"""Air-side heat-transfer coefficient [W/(m2 K)] of a dry louvred fin, and its ``Re_Lp`` [1].
-
-    From the Colburn factor of :func:`chang_wang_j`,
-
-    .. math:: h = j\,\rho V_c c_p Pr^{-2/3}
-              = j\,Re_{Lp}\,\frac{\mu c_p}{L_p} Pr^{-2/3},\quad c_p = Pr\,k/\mu,
-
-    written in the second form so that ``h`` is 0, not NaN, at zero flow
-    (``j Re_Lp`` goes with ``Re_Lp^0.51``). The same coefficient serves a wet
-    evaporator surface (the enthalpy-potential method scales it by
-    ``c_p``); Chang and Wang's data are for dry fins.
-
-    Parameters
-    ----------
-    velocity : array_like
-        Air velocity in the minimum free-flow area ``V_c`` [m/s], >= 0.
-    rho : array_like
-        Air density [kg/m3].
-    mu : array_like
-        Air viscosity [Pa s].
-    k : array_like
-        Air conductivity [W/(m K)].
-    Pr : array_like
-        Air Prandtl number [1].
-    fin : LouveredFin
-        Fin geometry.
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``h`` [W/(m2 K)] and ``Re_Lp`` [1].
-
-    References
-    ----------
-    Chang, Y.-J., Wang, C.-C. (1997). A generalized heat transfer correlation
-    for louver fin geometry. Int. J. Heat Mass Transfer 40(3), 533-544.
-    """
-    Re_Lp = rho * np.asarray(velocity, float) * fin.louver_pitch / mu
-    cp = Pr * k / mu
-    h = fin.geometry_factor() * Re_Lp**0.51 * mu * cp / fin.louver_pitch * Pr ** (-2.0 / 3.0)
-    return h, Re_Lp
-
-
-def crossflow_effectiveness(NTU: np.ndarray, Cr: np.ndarray) -> np.ndarray:
-    """Effectiveness [1] of a cross-flow exchanger with both streams unmixed.
-
-    .. math:: \\varepsilon = 1 - \\exp\\left[\\frac{NTU^{0.22}}{C_r}
-              \\left(\\exp(-C_r NTU^{0.78}) - 1\\right)\\right]
-
-    tending to ``1 - exp(-NTU)`` as ``Cr -> 0`` (a phase-changing stream).
-
-    References
-    ----------
-    Incropera, F. P., DeWitt, D. P., Bergman, T. L., Lavine, A. S. (2007).
-    Fundamentals of Heat and Mass Transfer, 6th ed., Wiley, Table 11.3, eq. 11.32.
-    """
-    NTU = np.maximum(np.asarray(NTU, float), 0.0)
-    Cr = np.clip(np.asarray(Cr, float), 0.0, 1.0)
-    small = Cr < 1e-9
-    Cr_safe = np.where(small, 1.0, Cr)
-    eps = 1.0 - np.exp(NTU**0.22 / Cr_safe * np.expm1(-Cr_safe * NTU**0.78))
-    return np.where(small, -np.expm1(-NTU), eps)
+from evtms.hx.effectiveness import counterflow_effectiveness, crossflow_effectiveness
+from evtms.hx.fins import (
+    CHANG_WANG_RE_RANGE,
+    LouveredFin,
+    chang_wang_j,
+    chang_wang_outside_range,
+    louvered_fin_htc,
+)
+from evtms.hx.tube import (
+    GAUSS_NODES,
+    GAUSS_WEIGHTS,
+    RE_LAMINAR,
+    RE_TURBULENT,
+    cavallini_zecchin_nusselt,
+    chato_film_condensation_htc,
+    gungor_winterton_htc,
+    haaland_friction_factor,
+    muller_steinhagen_heck_gradient,
+    single_phase_gradient,
+    single_phase_nusselt,
+)
+
+__all__ = [
+    "CHANG_WANG_RE_RANGE",
+    "GAUSS_NODES",
+    "GAUSS_WEIGHTS",
+    "RE_LAMINAR",
+    "RE_TURBULENT",
+    "LouveredFin",
+    "cavallini_zecchin_nusselt",
+    "chang_wang_j",
+    "chang_wang_outside_range",
+    "chato_film_condensation_htc",
+    "counterflow_effectiveness",
+    "crossflow_effectiveness",
+    "gungor_winterton_htc",
+    "haaland_friction_factor",
+    "louvered_fin_htc",
+    "muller_steinhagen_heck_gradient",
+    "single_phase_gradient",
+    "single_phase_nusselt",
+]

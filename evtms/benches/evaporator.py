@@ -28,7 +28,7 @@ crossing a coil far below its dew point does so strongly: before this was
 handled, up to RH 1.033 on the thesis grid and up to 3.6 times the
 saturation humidity ratio at -35 degC evaporating in the cycle envelope),
 the excess water condenses and the air leaves saturated at the temperature
-that keeps the energy balance (:func:`evtms.benches.coil._condense_excess`),
+that keeps the energy balance (:func:`evtms.hx.sides.condense_excess`),
 never above saturation.
 
 Frost: where the coldest coil surface is below 0 degC, ``status`` is

@@ -1,13 +1,21 @@
 """Refrigerant heat exchangers: the refrigerant-side zone march and its secondary sides.
 
-- :mod:`evtms.hx.counterflow`: the counter-flow moving-boundary core, an
-  evaporating refrigerant (subcooled, two-phase, superheated zones) against
-  a single-phase secondary stream;
-- :mod:`evtms.hx.sides`: the secondary-stream protocol and the liquid
-  coolant side (water-glycol through CoolProp's incompressibles);
-- :mod:`evtms.hx.plate`: chevron-plate channel correlations (Martin 1996,
-  Yan and Lin 1999) with their validity ranges.
+The refrigerant passes up to three zones (subcooled, two-phase,
+superheated); a core marches it through them against a secondary stream
+given as an object with a small protocol, so one core serves several
+secondary sides:
 
-The air-to-refrigerant coils (cross flow, dry and moist air) keep their own
-zone march in :mod:`evtms.benches.coil`.
+- :mod:`evtms.hx.crossflow`: cross-flow core, the secondary stream across
+  the zones in parallel (the air coils: :mod:`evtms.benches.coil`), with the
+  flat-tube refrigerant side :class:`~evtms.hx.crossflow.TubeSide`;
+- :mod:`evtms.hx.counterflow`: counter-flow core, the secondary stream
+  through the zones in series (the plate chiller:
+  :mod:`evtms.benches.chiller`);
+- :mod:`evtms.hx.sides`: the secondary sides: dry air, moist air (wet-coil
+  enthalpy potential, condensate, outlet never supersaturated) and liquid
+  coolant (water-glycol through CoolProp's incompressibles);
+- correlations with their references and validity ranges:
+  :mod:`evtms.hx.tube` (flat-tube refrigerant side), :mod:`evtms.hx.fins`
+  (louvred fins), :mod:`evtms.hx.plate` (chevron plates, Martin 1996, Yan
+  and Lin 1999), :mod:`evtms.hx.effectiveness` (effectiveness-NTU).
 """

@@ -274,12 +274,3 @@ def solve_counterflow_evaporator(ref: RefrigerantPath, sec: SecondaryStream) -> 
         h_out_continued=h_continued,
         bad_direction=bad_direction,
     )
-
-
-def counterflow_effectiveness(NTU: np.ndarray, Cr: np.ndarray) -> np.ndarray:
-    """Effectiveness [1] of a counter-flow exchanger (Incropera et al. 2007, eq. 11.29b; ``Cr = 1``: NTU/(1+NTU))."""
-    NTU, Cr = np.broadcast_arrays(np.asarray(NTU, float), np.asarray(Cr, float))
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        e = np.exp(-NTU * (1.0 - Cr))
-        general = (1.0 - e) / (1.0 - Cr * e)
-    return np.where(np.abs(1.0 - Cr) < 1e-9, NTU / (1.0 + NTU), general)

@@ -1,10 +1,33 @@
-"""Secondary streams of a refrigerant heat exchanger.
+"""Secondary streams of a refrigerant heat exchanger: liquid coolant, dry air, moist air.
 
-The refrigerant-side zone march (:mod:`evtms.hx.counterflow`) sees the other
-stream only through a small protocol, :class:`SecondaryStream`: its mass
-flow, its inlet state, its enthalpy-temperature relation and its thermal
-resistance over the whole exchanger area. :class:`CoolantSide` is the liquid
-water-glycol of a chiller.
+The refrigerant-side zone marches see the other stream only through a small
+protocol. The counter-flow core (:mod:`evtms.hx.counterflow`) takes a
+:class:`SecondaryStream`: mass flow, inlet state, enthalpy-temperature
+relation and resistance over the whole area; :class:`CoolantSide` is the
+liquid water-glycol of a chiller. The cross-flow core
+(:mod:`evtms.hx.crossflow`) takes a :class:`evtms.hx.crossflow.CrossflowSide`:
+inlet temperature, capacity rate and resistance, the zone model it gives a
+zone and what it records of a solved one; :class:`AirSide` is dry air
+(sensible only: the condenser), :class:`MoistAirSide` air that may condense
+on the coil (the evaporator).
+
+Moist air: each zone is evaluated both dry (sensible) and wet with the
+enthalpy-potential method of Threlkeld (1970) in the effectiveness-NTU form
+of Braun, Klein and Mitchell (1989), and the air loses the larger heat rate,
+their recommended rule for partly wet coils. The moisture condensed follows
+from the effective surface state of the same method; the condensate drains
+off at that surface's temperature, so the refrigerant gains the air's loss
+less the condensate's enthalpy. The zones' outlet streams mix; where the
+mixture lies beyond saturation the excess water condenses and the air leaves
+saturated, the energy balance kept (:func:`condense_excess`).
+
+References
+----------
+ASHRAE (2017). Handbook - Fundamentals, ch. 1 (Psychrometrics).
+Braun, J. E., Klein, S. A., Mitchell, J. W. (1989). Effectiveness models for
+cooling towers and cooling coils. ASHRAE Trans. 95(2), 164-174.
+Threlkeld, J. L. (1970). Thermal Environmental Engineering, 2nd ed.,
+Prentice-Hall, ch. 13.
 """
 
 from __future__ import annotations
@@ -14,7 +37,13 @@ from typing import Protocol
 
 import numpy as np
 
-from evtms.fluid import Coolant
+from evtms.fluid import (
+    Coolant,
+    SaturatedAir,
+    humid_air_temperature,
+    water_liquid_enthalpy,
+)
+from evtms.hx.crossflow import ZoneHeatRate
 
 
 class SecondaryStream(Protocol):
@@ -80,3 +109,259 @@ class CoolantSide:
     def capacity_rate(self) -> np.ndarray:
         """``mdot c_p(T_in)`` [W/K]."""
         return self.mdot * self.coolant.properties(self.T_in)["CP"]
+
+
+def latent_heat_water(T: np.ndarray) -> np.ndarray:
+    """Latent heat of condensation of water [J/kg] at ``T`` [K] (ASHRAE Fundamentals' linear fit)."""
+    return 2.501e6 - 2369.0 * (T - 273.15)
+
+
+#: Highest outlet degree of saturation ``w / w_sat(T)`` [1] of the wet coil: saturation
+#: less a margin above the saturated-air tables' error (about 1e-6, ``evtms.fluid``), so
+#: no outlet reads supersaturated against ``HAPropsSI``.
+OUTLET_SATURATION_MAX = 1.0 - 1e-5
+#: Fixed-point steps for the outlet state after condensing; each gains a factor of about 100.
+_FOG_STEPS = 6
+
+
+def supersaturated(w: np.ndarray, T: np.ndarray, sat_air: SaturatedAir) -> np.ndarray:
+    """Points whose humidity ratio ``w`` [kg/kg] exceeds :data:`OUTLET_SATURATION_MAX` of saturation at ``T`` [K]."""
+    with np.errstate(invalid="ignore"):
+        return w > OUTLET_SATURATION_MAX * sat_air.humidity_ratio(T)
+
+
+def condense_excess(h: np.ndarray, w: np.ndarray, sat_air: SaturatedAir) -> tuple[np.ndarray, np.ndarray]:
+    r"""Water [kg/kg dry air] that condenses out of supersaturated air, and the temperature [K] it leaves at.
+
+    The air of enthalpy ``h`` [J/kg dry air] and humidity ratio ``w`` ends
+    on the outlet limit ``w_t(T) = s w_sat(T)`` (``s`` =
+    :data:`OUTLET_SATURATION_MAX`) at the temperature ``T`` where the energy
+    balance of the mixing closes with the condensate ``w - w_t(T)`` leaving
+    as liquid:
+
+    .. math:: h_t(T) + (w - w_t(T))\, h_{w}(T) = h,\quad
+              h_t(T) = h_{sat}(T) - (1 - s)\, w_{sat}(T)\, h_g(T),
+
+    ``h_g = 2.501e6 + 1860 (T - 273.15)`` J/kg the enthalpy of water vapour
+    (ASHRAE 2017, ch. 1: ``h = 1.006 t + W (2501 + 1.86 t)`` kJ/kg) and
+    ``h_w`` the condensate's (:func:`evtms.fluid.water_liquid_enthalpy`),
+    solved by fixed-point iteration on the tabulated saturation curve (the
+    condensate term changes by about 1 % of ``dh_sat/dT`` per kelvin, so
+    each step gains a factor of about 100). The caller sets the outlet
+    enthalpy to ``h - (w - w_t) h_w`` exactly, which keeps the energy balance
+    to round-off. Removing the liquid at ``T`` leaves the air's temperature
+    as it is: the air settles where adiabatic mixing with the liquid kept
+    would (between the mixed streams' temperatures).
+
+    Parameters
+    ----------
+    h : numpy.ndarray
+        Enthalpy of the mixed air [J/kg dry air].
+    w : numpy.ndarray
+        Its humidity ratio [kg/kg dry air], above the outlet limit.
+    sat_air : SaturatedAir
+        Saturated-air curve at the air pressure.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Water condensed [kg/kg dry air] (>= 0) and the temperature [K] the
+        air and the condensate leave at.
+    """
+    slack = 1.0 - OUTLET_SATURATION_MAX
+
+    def target(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        w_sat = sat_air.humidity_ratio(T)
+        return OUTLET_SATURATION_MAX * w_sat, slack * w_sat * (2.501e6 + 1860.0 * (T - 273.15))
+
+    T = sat_air.temperature(h)
+    for _ in range(_FOG_STEPS):
+        w_t, h_short = target(T)
+        T = sat_air.temperature(h - (w - w_t) * water_liquid_enthalpy(T) + h_short)
+    w_t, _ = target(T)
+    return np.maximum(w - w_t, 0.0), T
+
+
+@dataclass
+class Moisture:
+    """Moisture removed by one zone, from its effective surface state (Braun et al. 1989, eqs. 25-28).
+
+    Attributes
+    ----------
+    air_h, air_w : numpy.ndarray
+        Entering air's enthalpy [J/kg dry air] and humidity ratio [kg/kg dry air].
+    m_air : numpy.ndarray
+        Dry-air flow through the whole coil [kg/s].
+    decay : numpy.ndarray
+        ``exp(-NTU_o)`` [1], with the air-side number of transfer units
+        ``NTU_o = 1 / (R_air C_air)`` (the same for every zone).
+    sat_air : SaturatedAir
+        Saturated-air curve at the air pressure.
+    """
+
+    air_h: np.ndarray
+    air_w: np.ndarray
+    m_air: np.ndarray
+    decay: np.ndarray
+    sat_air: SaturatedAir
+
+    def subset(self, sub: np.ndarray) -> Moisture:
+        return Moisture(self.air_h[sub], self.air_w[sub], self.m_air[sub], self.decay[sub], self.sat_air)
+
+    def condensate(self, f: np.ndarray, q_air: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Condensate [kg/s], effective surface temperature [K] and condensate enthalpy flow [W].
+
+        For a zone of coil fraction ``f`` whose air loses ``q_air`` [W]: the
+        air leaves at ``h_a,out = h_a,in - q_air / (f m_a)``; the effective
+        surface lies at ``h_s,eff = h_a,in - (h_a,in - h_a,out) / (1 -
+        exp(-NTU_o))``, saturated at ``T_s,eff``; the air leaves at ``w_out =
+        w_s,eff + (w_in - w_s,eff) exp(-NTU_o)``; the zone is wet where
+        that lies below ``w_in`` (the effective surface below the entering
+        dew point) and the condensate leaves at ``T_s,eff``.
+        """
+        sat = self.sat_air
+        with np.errstate(divide="ignore", invalid="ignore"):
+            h_a_out = self.air_h - q_air / np.where(f > 0, f * self.m_air, 1.0)
+        h_s_eff = self.air_h - (self.air_h - h_a_out) / (1.0 - self.decay)
+        T_s_eff = sat.temperature(h_s_eff)
+        w_s_eff = sat.humidity_ratio(T_s_eff)
+        w_out = w_s_eff + (self.air_w - w_s_eff) * self.decay
+        m_w = np.where(f > 0, f * self.m_air * np.maximum(self.air_w - w_out, 0.0), 0.0)
+        H_w = np.where(m_w > 0, m_w * water_liquid_enthalpy(T_s_eff), 0.0)
+        return m_w, T_s_eff, H_w
+
+
+@dataclass
+class AirSide:
+    """Air crossing a coil without condensing (sensible heat only): the condenser's.
+
+    Attributes
+    ----------
+    T_in : numpy.ndarray
+        Entering-air temperature [K].
+    air : dict of str to numpy.ndarray
+        Entering moist-air state per point (:func:`evtms.fluid.humid_air_inlet`
+        keys: ``w``, ``h``, ``cp``, ...).
+    m_da : numpy.ndarray
+        Dry-air mass flow [kg/s].
+    C : numpy.ndarray
+        Capacity rate ``m_da cp`` [W/K].
+    R : numpy.ndarray
+        Air-side resistance (fins, convection, fouling) over the coil [K/W].
+    p : float
+        Air pressure [Pa].
+    """
+
+    T_in: np.ndarray
+    air: dict[str, np.ndarray]
+    m_da: np.ndarray
+    C: np.ndarray
+    R: np.ndarray
+    p: float
+
+    def __post_init__(self) -> None:
+        n = self.T_in.size
+        #: Condensate [kg/s], its enthalpy flow [W] and latent heat [W]; coldest effective surface [K].
+        self.m_cond = np.zeros(n)
+        self.cond_enthalpy = np.zeros(n)
+        self.latent = np.zeros(n)
+        self.T_surface_eff = np.full(n, np.inf)
+
+    def zone_model(self, idx: np.ndarray, C_ref: np.ndarray, R_ref: np.ndarray, Tr0: np.ndarray) -> ZoneHeatRate:
+        """Sensible cross-flow zone model of points ``idx``."""
+        return ZoneHeatRate(C_ref=C_ref, R_tot=self.R[idx] + R_ref, C_air=self.C[idx], dT=np.abs(self.T_in[idx] - Tr0))
+
+    def account(self, idx: np.ndarray, model: ZoneHeatRate, f: np.ndarray) -> None:
+        """Dry air keeps nothing of a zone."""
+
+    def outlet(self, Q_signed: np.ndarray) -> dict[str, np.ndarray]:
+        """Leaving air, given the heat ``Q_signed`` [W] from the refrigerant to the air.
+
+        Returns ``h_air_out`` [J/kg dry air], ``w_air_out`` [kg/kg dry air],
+        ``T_air_out`` [K] and ``m_condensate_outlet`` (condensed where the
+        zones' outlet streams mix, kg/s).
+        """
+        air, m_da = self.air, self.m_da
+        # Air leaving: refrigerant heat plus the enthalpy carried off by condensate.
+        h_air_out = air["h"] + (Q_signed - self.cond_enthalpy) / m_da
+        w_air_out = np.where(self.m_cond > 0, air["w"] - self.m_cond / m_da, air["w"])
+        T_air_out = humid_air_temperature(h_air_out, w_air_out, self.p, w_common=air["w"])
+        return {
+            "h_air_out": h_air_out,
+            "w_air_out": w_air_out,
+            "T_air_out": T_air_out,
+            "m_condensate_outlet": np.zeros(self.T_in.size),
+        }
+
+
+@dataclass
+class MoistAirSide(AirSide):
+    """Air that may condense on the coil: the evaporator's (wet-coil enthalpy potential, condensate).
+
+    Attributes
+    ----------
+    sat_air : SaturatedAir
+        Saturated-air curve at the air pressure (besides :class:`AirSide`'s).
+    """
+
+    sat_air: SaturatedAir | None = None
+
+    def zone_model(self, idx: np.ndarray, C_ref: np.ndarray, R_ref: np.ndarray, Tr0: np.ndarray) -> ZoneHeatRate:
+        """The dry model with its wet twin (Braun et al. 1989) and the zone's moisture bookkeeping."""
+        model = super().zone_model(idx, C_ref, R_ref, Tr0)
+        air, sat_air, Ta = self.air, self.sat_air, self.T_in[idx]
+        # Enthalpy potential (Braun et al. 1989): saturated-air enthalpy slope
+        # c_s as the secant between refrigerant and entering-air temperature.
+        h_s_r = sat_air.enthalpy(Tr0)
+        c_s = (sat_air.enthalpy(Ta) - h_s_r) / np.maximum(Ta - Tr0, 1e-9)
+        model.wet = ZoneHeatRate(
+            C_ref=C_ref / c_s,
+            R_tot=air["cp"][idx] * self.R[idx] + c_s * R_ref,  # (J/kg)/W
+            C_air=self.m_da[idx],
+            dT=np.maximum(air["h"][idx] - h_s_r, 0.0),
+        )
+        model.moisture = Moisture(
+            air_h=air["h"][idx],
+            air_w=air["w"][idx],
+            m_air=self.m_da[idx],
+            decay=np.exp(-1.0 / (self.R[idx] * self.C[idx])),
+            sat_air=sat_air,
+        )
+        return model
+
+    def account(self, idx: np.ndarray, model: ZoneHeatRate, f: np.ndarray) -> None:
+        """Moisture removed, from the effective surface state of the zone (Braun et al. 1989, eqs. 25-28).
+
+        For the air's heat rate at the zone's fraction: the refrigerant's
+        share plus the condensate's enthalpy (:meth:`ZoneHeatRate.rate`).
+        """
+        m_w, T_s_eff, H_w = model.moisture.condensate(f, model.air_rate(f))
+        condensing = m_w > 0
+        self.m_cond[idx] += m_w
+        self.cond_enthalpy[idx] += H_w
+        self.latent[idx] += np.where(condensing, m_w * latent_heat_water(T_s_eff), 0.0)
+        self.T_surface_eff[idx] = np.minimum(self.T_surface_eff[idx], np.where(f > 0, T_s_eff, np.inf))
+
+    def outlet(self, Q_signed: np.ndarray) -> dict[str, np.ndarray]:
+        """Leaving air as :meth:`AirSide.outlet`, never supersaturated.
+
+        The zones' outlet streams mix; a mixture of nearly saturated streams
+        can lie beyond saturation (the curve is convex). Its excess water
+        condenses (:func:`condense_excess`), and the condensate counters
+        (``m_cond``, ``cond_enthalpy``, ``latent``) include it.
+        """
+        out = super().outlet(Q_signed)
+        h_air_out, w_air_out, T_air_out = out["h_air_out"], out["w_air_out"], out["T_air_out"]
+        m_fog = out["m_condensate_outlet"]
+        sat_air, m_da = self.sat_air, self.m_da
+        fog = supersaturated(w_air_out, T_air_out, sat_air)
+        if fog.any():
+            dw, T_c = condense_excess(h_air_out[fog], w_air_out[fog], sat_air)
+            m_fog[fog] = m_da[fog] * dw
+            self.m_cond[fog] += m_fog[fog]
+            self.cond_enthalpy[fog] += m_fog[fog] * water_liquid_enthalpy(T_c)
+            self.latent[fog] += m_fog[fog] * latent_heat_water(T_c)
+            h_air_out[fog] -= dw * water_liquid_enthalpy(T_c)  # the condensate leaves with its enthalpy
+            w_air_out[fog] -= dw
+            T_air_out[fog] = humid_air_temperature(h_air_out[fog], w_air_out[fog], self.p)
+        return out
