@@ -181,3 +181,48 @@ def test_coolant_tables_match_coolprop_and_invert_exactly():
     # Below freezing the enthalpy is continued (finite, increasing) for the caller to flag.
     below = c.enthalpy(np.array([220.0, 230.0]))
     assert np.all(np.isfinite(below)) and below[0] < below[1] < c.enthalpy(c.T_freeze)
+
+
+# --- one coolant side, two cores -------------------------------------------------------------
+
+
+def test_coolant_side_on_both_cores_gives_the_two_phase_limit(fluid):
+    # Refrigerant that stays two-phase against MEG 50 %: in every flow arrangement
+    # Q = C_c (1 - exp(-UA/C_c)) (T_c,in - T_sat). The cross-flow core (constant heat
+    # capacity of the coolant at its inlet) meets it to round-off, and so does the
+    # counter-flow core on a stream of that constant heat capacity; on the coolant's
+    # tabulated enthalpy (its heat capacity falls by about 2 % over a 20 K span) within 1 %.
+    from evtms.hx.crossflow import TubeSide, march_crossflow
+
+    class ConstantBoiling(TubeSide):
+        def boiling_htc(self, G, sat, q):
+            return np.full(G.shape, 2000.0)
+
+    tubes = ConstantBoiling(D_h=1e-3, flow_area=1e-4, length=0.5, area=0.2, roughness=0.0, nu_laminar=3.66, R_wall=1e-4)
+    n = 3
+    p = np.full(n, float(fluid.saturation_pressure(274.15)))
+    h_in, mdot = np.full(n, 250e3), np.full(n, 0.1)
+    side = CoolantSide(coolant(), np.array([0.05, 0.1, 0.2]), np.full(n, 303.15), np.full(n, 2e-3))
+    res = march_crossflow(fluid, tubes, side, p, h_in, mdot, "evaporator")
+    sat = fluid.saturation(p)
+    R_tp = tubes.R_wall + 1.0 / (2000.0 * tubes.area)
+    UA = 1.0 / (side.R + R_tp)
+    expected = side.C * -np.expm1(-UA / side.C) * (303.15 - sat["T"])
+    np.testing.assert_allclose(res.Q, expected, rtol=1e-12)
+    assert np.all(res.h_out < sat["h_v"])  # still two-phase
+
+    path = RefrigerantPath(
+        mdot=mdot,
+        h_in=h_in,
+        T_in=sat["T"],
+        T_sat=sat["T"],
+        h_l=sat["h_l"],
+        h_v=sat["h_v"],
+        h_at_secondary=fluid.state("PT", p, side.T_in, ("H",))["H"],
+        R=np.stack([np.full(n, R_tp)] * 3, axis=1),
+    )
+    counter = solve_counterflow_evaporator(path, side)
+    np.testing.assert_allclose(counter.Q, expected, rtol=1e-2)
+    cp_in = side.C / side.mdot
+    constant = LinearStream(mdot=side.mdot, T_in=side.T_in, R=side.R, cp=cp_in)
+    np.testing.assert_allclose(solve_counterflow_evaporator(path, constant).Q, expected, rtol=1e-10)

@@ -80,6 +80,11 @@ class SecondaryStream(Protocol):
 class CoolantSide:
     """A liquid coolant stream (water-glycol) through the exchanger.
 
+    It serves both cores: the counter-flow one (:class:`SecondaryStream`:
+    ``mdot``, ``h_in``, :meth:`temperature`) and the cross-flow one
+    (:class:`evtms.hx.crossflow.CrossflowSide`: ``C``, :meth:`zone_model`,
+    :meth:`account`), with a constant heat capacity at the inlet there.
+
     Attributes
     ----------
     coolant : Coolant
@@ -102,6 +107,11 @@ class CoolantSide:
         """Inlet specific enthalpy [J/kg]."""
         return self.coolant.enthalpy(self.T_in)
 
+    @property
+    def C(self) -> np.ndarray:
+        """Capacity rate at the inlet, ``mdot c_p(T_in)`` [W/K]."""
+        return self.capacity_rate()
+
     def temperature(self, h: np.ndarray) -> np.ndarray:
         """Temperature [K] at specific enthalpy ``h`` [J/kg] (the coolant's table, exact inverse of its enthalpy)."""
         return self.coolant.temperature(h)
@@ -109,6 +119,13 @@ class CoolantSide:
     def capacity_rate(self) -> np.ndarray:
         """``mdot c_p(T_in)`` [W/K]."""
         return self.mdot * self.coolant.properties(self.T_in)["CP"]
+
+    def zone_model(self, idx: np.ndarray, C_ref: np.ndarray, R_ref: np.ndarray, Tr0: np.ndarray) -> ZoneHeatRate:
+        """Cross-flow zone model of points ``idx`` (sensible, constant heat capacity)."""
+        return ZoneHeatRate(C_ref=C_ref, R_tot=self.R[idx] + R_ref, C_air=self.C[idx], dT=np.abs(self.T_in[idx] - Tr0))
+
+    def account(self, idx: np.ndarray, model: ZoneHeatRate, f: np.ndarray) -> None:
+        """A liquid keeps nothing of a zone."""
 
 
 def latent_heat_water(T: np.ndarray) -> np.ndarray:
