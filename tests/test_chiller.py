@@ -156,11 +156,11 @@ def test_invalid_inputs_get_nan_and_their_status(fluid, params, nominal):
         fluid,
         params,
         nominal=nominal,
-        p_in=[p, p, p, p, p, 5e6, 0.07e6],
-        h_in=[h, h, h, h, h, h, 230e3],
-        T_coolant_in=[270.0, 230.0, T_COOLANT, T_COOLANT, T_COOLANT, T_COOLANT, T_COOLANT],
-        mdot_coolant=[M_COOLANT, M_COOLANT, 0.0, M_COOLANT, M_COOLANT, M_COOLANT, M_COOLANT],
-        mdot=[M_REF, M_REF, M_REF, -0.01, M_REF, M_REF, 0.15],
+        p_in=[p, p, p, p, p, 5e6, 0.07e6, p],
+        h_in=[h, h, h, h, h, h, 230e3, h],
+        T_coolant_in=[270.0, 230.0, T_COOLANT, T_COOLANT, T_COOLANT, T_COOLANT, T_COOLANT, 380.0],
+        mdot_coolant=[M_COOLANT, M_COOLANT, 0.0, M_COOLANT, M_COOLANT, M_COOLANT, M_COOLANT, M_COOLANT],
+        mdot=[M_REF, M_REF, M_REF, -0.01, M_REF, M_REF, 0.15, M_REF],
     )
     status = out["status"].tolist()
     assert status[:5] == [
@@ -172,6 +172,7 @@ def test_invalid_inputs_get_nan_and_their_status(fluid, params, nominal):
     ]
     assert status[5] == STATUS_OUTSIDE_FLUID_RANGE  # above the critical pressure: nothing evaporates
     assert status[6] in (STATUS_DP_EXCEEDS_INLET, STATUS_PROPERTY_FAILED)  # 0.15 kg/s at -35 degC
+    assert status[7] == STATUS_OUTSIDE_FLUID_RANGE  # coolant above its property range (373.15 K)
     invalid = ~np.isin(out["status"], VALID)
     for name, value in out.items():
         if name != "status":

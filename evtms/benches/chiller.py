@@ -194,7 +194,8 @@ def solve_chiller(
         (n, 3), ``capacity_ratio`` [1], ``h_out_continued`` [J/kg],
         ``Re_coolant``, ``Re_eq`` [1], and the masks ``outside_range`` (a
         correlation outside its data), ``bad_direction``, ``bad_dp``,
-        ``bad_flow``, ``coolant_freezes`` and ``bad_props``.
+        ``bad_flow``, ``coolant_freezes``, ``coolant_outside`` (inlet above
+        the coolant's property range) and ``bad_props``.
     """
     p_in, h_in, mdot, m_c, T_c_in = (
         np.asarray(a, float).reshape(-1).copy() for a in (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
@@ -207,7 +208,8 @@ def solve_chiller(
     mdot = np.where(bad_flow, np.nan, mdot)
     m_c = np.where(bad_flow, np.nan, m_c)
     coolant_freezes = T_c_in < cool.T_freeze
-    T_c_in = np.where(coolant_freezes | ~(T_c_in <= cool.T_max), np.nan, T_c_in)
+    coolant_outside = ~coolant_freezes & ~(T_c_in <= cool.T_max)  # above the fit's range, or not a number
+    T_c_in = np.where(coolant_freezes | coolant_outside, np.nan, T_c_in)
 
     # --- refrigerant states --------------------------------------------------
     sat = fluid.saturation(p_in)
@@ -310,6 +312,7 @@ def solve_chiller(
         "bad_dp": bad_dp,
         "bad_flow": bad_flow,
         "coolant_freezes": coolant_freezes,
+        "coolant_outside": coolant_outside,
         "bad_props": bad_props,
     }
 
@@ -358,7 +361,7 @@ def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: 
     )
     status = first_code(
         [
-            (inlet_bad, STATUS_OUTSIDE_FLUID_RANGE),
+            (inlet_bad | res["coolant_outside"], STATUS_OUTSIDE_FLUID_RANGE),
             (res["bad_flow"], STATUS_FLOW_NOT_POSITIVE),
             (res["coolant_freezes"], STATUS_COOLANT_FREEZES),
             (res["bad_direction"], STATUS_NOT_COLDER_THAN_COOLANT),
