@@ -418,6 +418,7 @@ BENCH = Bench(
     variables={
         "Q": ("W", "heat flow from refrigerant to coolant"),
         "T_coolant_out": ("K", "coolant temperature leaving the chiller"),
+        "capacity_ratio": ("1", "plate area over the area needed to evaporate to saturated vapour"),
     },
     optional_outputs=("capacity_ratio", "h_out_continued"),
     surface_axes=(("p_in", "T_coolant_in"), ("mdot_coolant", "T_coolant_in")),
