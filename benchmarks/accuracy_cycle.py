@@ -9,7 +9,7 @@ blower 0.1-1, ambient 15-45 degC, cabin 15-35 degC at RH 0.2-0.8, superheat
 the suction and discharge pressures, Q_evap, COP and valve opening, the
 floating superheat where the valve is saturated in both, the statuses of both
 solutions and the worst energy-balance residuals, for each circuit topology
-(the chiller's coolant 0.05-0.4 kg/s at 15-40 degC; with two branches also the
+(the chiller's coolant 0.12-0.45 kg/s, the battery pump at 0.3-1 of 4e-4 m3/s, at 15-40 degC; with two branches also the
 chiller's heat flow and share of the refrigerant flow). The direct reference takes
 about 0.25 s a point (a point with the valve saturated several times that).
 """
@@ -35,7 +35,7 @@ def envelope(n: int, seed: int = 11) -> OperatingPoints:
         RH_amb=0.4,
         T_cabin=rng.uniform(288.15, 308.15, n),
         RH_cabin=rng.uniform(0.2, 0.8, n),
-        mdot_coolant=rng.uniform(0.05, 0.4, n),
+        mdot_coolant=rng.uniform(0.12, 0.45, n),
         T_coolant_in=rng.uniform(288.15, 313.15, n),
         superheat=rng.uniform(5.0, 10.0, n),
     )

@@ -90,7 +90,7 @@ def test_unknown_bench(tmp_path):
     res = run("bench", "heater", "-o", str(tmp_path / "h.nc"))
     assert res.exit_code == 2
     assert res.stderr.strip() == (
-        "error: No such command 'heater' (allowed: condenser, evaporator, expansion-valve, compressor, all) "
+        "error: No such command 'heater' (allowed: condenser, evaporator, expansion-valve, compressor, chiller, all) "
         "(see 'evtms bench --help')"
     )
 
@@ -163,11 +163,12 @@ def test_help_and_version_are_fast_and_lazy():
     assert "evtms bench condenser --grid thesis" in h.stdout
 
 
-def test_bench_all_writes_four_files(tmp_path):
+def test_bench_all_writes_one_file_per_registered_bench(tmp_path):
     out = tmp_path / "luts"
     res = run("bench", "all", "--grid", "thesis", "-o", str(out))
     assert res.exit_code == 0, res.output
     assert sorted(p.name for p in out.iterdir()) == [
+        "chiller.nc",
         "compressor.nc",
         "condenser.nc",
         "evaporator.nc",

@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from evtms.cli import app
-from evtms.demo import COMPONENTS
+from evtms.benches import BENCHES
 from evtms.luts import open_lut
 from evtms.reports.bench_plots import MAIN, base_point, line_data, surface_data
 from evtms.reports.html import referenced_files
@@ -20,11 +20,11 @@ runner = CliRunner()
 
 def test_demo_produces_every_artefact(demo_run):
     out, result, _ = demo_run
-    assert sorted(result.computed) == sorted(f"{g}/{c}" for g in ("thesis", "cycle") for c in COMPONENTS)
+    assert sorted(result.computed) == sorted(f"{g}/{c}" for g in ("thesis", "cycle") for c in BENCHES)
     for grid in ("thesis", "cycle"):
-        for c in COMPONENTS:
+        for c in BENCHES:
             assert open_lut(out / "luts" / grid / f"{c}.nc").attrs["grid"] == grid
-    for c in COMPONENTS:
+    for c in BENCHES:
         figures = list((out / "reports" / c).glob("*.png"))
         assert len(figures) >= 4 and all(f.stat().st_size > 5000 for f in figures)
         assert (out / "reports" / c / "index.html").exists()
@@ -43,7 +43,7 @@ def test_demo_produces_every_artefact(demo_run):
 
 def test_html_pages_reference_only_existing_files(demo_run):
     out = demo_run[0]
-    pages = [out / "index.html"] + [out / "reports" / c / "index.html" for c in COMPONENTS]
+    pages = [out / "index.html"] + [out / "reports" / c / "index.html" for c in BENCHES]
     for page in pages:
         refs = referenced_files(page)
         assert refs, page
@@ -57,7 +57,7 @@ def test_second_demo_run_skips_the_benches(demo_run, tmp_path):
     out = demo_run[0]
     res = runner.invoke(app, ["demo", "-o", str(out)])
     assert res.exit_code == 0, res.output
-    assert "0 LUTs computed, 8 reused" in res.stdout
+    assert f"0 LUTs computed, {2 * len(BENCHES)} reused" in res.stdout
 
 
 def test_plotted_data_equal_the_lut(thesis):

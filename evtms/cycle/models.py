@@ -146,8 +146,9 @@ class DirectModels:
         )
 
     def flow_range(self, component: str) -> tuple[float, float]:
-        """Refrigerant flows [kg/s] a branch model covers: any positive flow."""
-        return 1e-6, np.inf
+        """Refrigerant flows [kg/s] a branch's flow split may give it: from 0.1 g/s (a valve
+        nearly closed; the cycle LUTs start at 1-3 g/s)."""
+        return 1e-4, np.inf
 
     def detailed(self, on: bool) -> None:
         """The bench functions always return every variable."""

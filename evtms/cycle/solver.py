@@ -157,8 +157,13 @@ _XTOL = 1e-8
 #: Residual tolerances: condenser closure [1] and suction superheat [K].
 _INNER_FTOL = 1e-6
 _OUTER_FTOL = 1e-4
-#: Fixed-point passes for the evaporator-inlet pressure per suction iterate (warm-started).
-_DP_PASSES = 1
+#: Fixed-point passes for an evaporating branch's inlet pressure per suction iterate (warm-started
+#: from the previous iterate's drop), until the drop moves less than _DP_TOL [Pa]. The residual must
+#: be a function of the suction pressure alone: a drop left from a far iterate (the chiller's is
+#: 10-40 kPa and moves kilopascals between iterates) shifted the outlet enthalpy by up to 0.3 K of
+#: superheat and made a false bracket. One pass suffices at most cabin-evaporator points.
+_DP_PASSES = 6
+_DP_TOL = 2.0
 #: Typical slopes of the closures in saturation temperature [1/K]: condenser, suction superheat.
 _INNER_SLOPE = -0.075
 _OUTER_SLOPE = -4.0
@@ -463,6 +468,25 @@ class CycleSolver:
             r["reason"] = np.where(none, "", r["reason"])
         return r
 
+    def _converged_drop(self, component: str, ops: dict, mdot, p_out, h_in, drop: np.ndarray) -> np.ndarray:
+        """A branch's pressure drop [Pa] at outlet pressure ``p_out``: the fixed point of
+        ``drop = p_in - p_out(p_in)`` from ``drop``, to :data:`_DP_TOL` in at most
+        :data:`_DP_PASSES` passes (each on the points still moving; where the model
+        returns NaN the drop is kept)."""
+        drop = np.asarray(drop, float).copy()
+        todo = np.arange(drop.size)
+        for _ in range(_DP_PASSES):
+            p_in = p_out[todo] + drop[todo]
+            sub = {k: v[todo] for k, v in ops.items()}
+            out = self._branch(component, sub, mdot[todo], p_in, h_in[todo])["p_out"]
+            new = np.where(np.isfinite(out), p_in - out, drop[todo])
+            moving = np.abs(new - drop[todo]) > _DP_TOL
+            drop[todo] = new
+            todo = todo[moving]
+            if todo.size == 0:
+                break
+        return drop
+
     def _secondary_temperature(self, ops: dict) -> np.ndarray:
         """The coldest secondary inlet of the branches: every branch must evaporate below it [K]."""
         return np.minimum.reduce([np.asarray(ops[b.secondary_temperature], float) for b in self.circuit.branches])
@@ -520,8 +544,10 @@ class CycleSolver:
             return f, why
 
         share = np.where(ok, self._split[idx], np.nan)
-        if not final:
-            todo = np.nonzero(ok)[0]
+        clamped = np.zeros(n, bool)
+
+        def solve_split(todo: np.ndarray) -> None:
+            """The split of the points ``todo`` at the present branch inlets, into ``share``."""
             lo, hi = s_lo[todo].copy(), s_hi[todo].copy()
             f_lo, f_hi = np.full(todo.size, np.nan), np.full(todo.size, np.nan)
             w_lo, w_hi = np.full(todo.size, "", dtype=object), np.full(todo.size, "", dtype=object)
@@ -532,8 +558,8 @@ class CycleSolver:
                 k = np.nonzero(warm)[0]
                 a = np.maximum(prev[k] - 0.03, lo[k])
                 b = np.minimum(prev[k] + 0.03, hi[k])
-                fa, wa = residual(a, todo[k])
-                fb, wb = residual(b, todo[k])
+                fa, _ = residual(a, todo[k])
+                fb, _ = residual(b, todo[k])
                 good = np.isfinite(fa) & np.isfinite(fb) & (fa > 0) & (fb <= 0)
                 g = k[good]
                 lo[g], hi[g], f_lo[g], f_hi[g] = a[good], b[good], fa[good], fb[good]
@@ -544,42 +570,66 @@ class CycleSolver:
                 f_hi[cold], w_hi[cold] = residual(hi[cold], todo[cold])
             no_root = ~((f_lo > 0) | ~np.isfinite(f_lo)) | ~((f_hi <= 0) | ~np.isfinite(f_hi))
             no_root |= ~np.isfinite(f_lo) & ~np.isfinite(f_hi)
-            bad = todo[no_root]
-            reason[bad] = np.where(
-                ~np.isfinite(f_lo[no_root]) & ~np.isfinite(f_hi[no_root]),
-                w_lo[no_root],
-                "no split of the flow brings both branch outlets to one state within their models' flows",
-            )
-            go = np.nonzero(~no_root)[0]
             share[todo] = np.nan
+            # One sign over the whole range of flows the models cover: one branch takes the least
+            # flow its model covers (its valve nearly closed). The outlets then differ, and the
+            # mixture still tells the suction closure which way to go; a root found so is not a
+            # state with both valves holding their setpoint and fails in the final evaluation.
+            finite = np.isfinite(f_lo) & np.isfinite(f_hi)
+            low = no_root & finite & (f_lo <= 0)
+            high = no_root & finite & (f_hi > 0)
+            share[todo[low]], share[todo[high]] = lo[low], hi[high]
+            clamped[todo] = low | high
+            nan = no_root & ~low & ~high
+            reason[todo[nan]] = np.where(~np.isfinite(f_lo[nan]), w_lo[nan], w_hi[nan])
+            go = np.nonzero(~no_root)[0]
             if go.size:
                 x, state, why = bracketed_root(
-                    residual,
-                    lo[go],
-                    hi[go],
-                    f_lo[go],
-                    f_hi[go],
-                    todo[go],
-                    _XTOL,
-                    _INNER_FTOL,
-                    why_lo=w_lo[go],
-                    why_hi=w_hi[go],
+                    residual, lo[go], hi[go], f_lo[go], f_hi[go], todo[go], _XTOL, _INNER_FTOL, why_lo=w_lo[go]
                 )
                 fine = state == 1
                 share[todo[go[fine]]] = x[fine]
                 failed = np.where(state[~fine] == 3, "flow-split iteration did not converge", why[~fine])
                 reason[todo[go[~fine]]] = failed
+
+        if not final:
+            # The split at the present drops, then each branch's drop at that split, until the
+            # drops stop moving (see _DP_TOL): the outlets then meet at p_A.
+            todo = np.nonzero(ok)[0]
+            for _ in range(_DP_PASSES):
+                solve_split(todo)
+                todo = todo[np.isfinite(share[todo])]
+                if todo.size == 0:
+                    break
+                r1, r2 = evaluate(share[todo], todo)
+                moving = np.zeros(todo.size, bool)
+                for c, r in zip(names, (r1, r2), strict=True):
+                    p_in = inlets[c][todo]
+                    new = np.where(np.isfinite(r["p_out"]), p_in - r["p_out"], p_in - p_A[todo])
+                    moving |= np.abs(new - (p_in - p_A[todo])) > _DP_TOL
+                    inlets[c][todo] = p_A[todo] + new
+                todo = todo[moving]
+                if todo.size == 0:
+                    break
+            for c in names:
+                drop = inlets[c] - p_A
+                self._dp_branch[c][idx] = np.where(np.isfinite(drop), drop, self._dp_branch[c][idx])
             self._split[idx] = np.where(np.isfinite(share), share, self._split[idx])
+            self._clamped[idx] = clamped
+        else:
+            clamped = self._clamped[idx]
         everyone = np.arange(n)
         r1, r2 = evaluate(share, everyone)
         flows = {names[0]: mdot * (1.0 - share), names[1]: mdot * share}
         branches = {names[0]: r1, names[1]: r2}
-        if not final:
-            for c in names:
-                out = branches[c]["p_out"]
-                self._dp_branch[c][idx] = np.where(np.isfinite(out), inlets[c] - out, self._dp_branch[c][idx])
         with np.errstate(invalid="ignore"):
             h_mix = (flows[names[0]] * r1["h_out_continued"] + flows[names[1]] * r2["h_out_continued"]) / mdot
+        if final:
+            h_mix[clamped] = np.nan
+            reason[clamped] = (
+                "no split of the flow brings both branch outlets to the setpoint within the flows "
+                "their models cover (one branch would need less)"
+            )
         for r in (r1, r2):
             reason = np.where(reason != "", reason, r["reason"])
         latest.update(
@@ -799,13 +849,9 @@ class CycleSolver:
             p_D = evap["p_D"]
         else:
             branch = self.circuit.branches[0].component
-            p_D = p_A + self._dp_guess[idx]
             if not final:
-                for _ in range(_DP_PASSES):
-                    evap = self._branch(branch, ops, comp["mdot"], p_D, h_D)
-                    drop = np.where(np.isfinite(evap["p_out"]), p_D - evap["p_out"], self._dp_guess[idx])
-                    p_D = p_A + drop
-                self._dp_guess[idx] = drop
+                self._dp_guess[idx] = self._converged_drop(branch, ops, comp["mdot"], p_A, h_D, self._dp_guess[idx])
+            p_D = p_A + self._dp_guess[idx]
             evap = self._branch(branch, ops, comp["mdot"], p_D, h_D)
         # The valve holds the outlet at the superheat setpoint, i.e. at the compressor's
         # suction state A. The residual compares enthalpies (scaled to about kelvin):
@@ -923,6 +969,7 @@ class CycleSolver:
         self._dp_guess = np.zeros(n) if dp_guess is None else np.nan_to_num(np.asarray(dp_guess, float))
         self._dp_branch = {b.component: np.zeros(n) for b in self.circuit.branches}
         self._split = np.full(n, np.nan)
+        self._clamped = np.zeros(n, bool)
         self._slope = np.full(n, np.nan)
         self.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
 
