@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from evtms.cli import app
 from evtms.benches import BENCHES
+from evtms.cli import app
 from evtms.luts import open_lut
 from evtms.reports.bench_plots import MAIN, base_point, line_data, surface_data
 from evtms.reports.html import referenced_files

@@ -35,3 +35,45 @@ def test_library_never_prints_or_exits():
         for word in ("print(", "sys.exit(", "typer.Exit"):
             assert word not in text, f"{path.relative_to(ROOT)} uses {word}"
     assert sys.version_info >= (3, 10)
+
+
+#: Package -> packages it must not import (at module level or inside functions): lower layers
+#: never import upper ones (README, Layout). fluid <- hx <- benches <- cycle; luts knows no physics.
+FORBIDDEN_IMPORTS = {
+    "fluid": ("hx", "benches", "luts", "cycle", "reports", "cli", "demo", "params"),
+    "params": ("hx", "benches", "luts", "cycle", "reports", "cli", "demo"),
+    "hx": ("benches", "luts", "cycle", "reports", "cli", "demo"),
+    "luts": ("fluid", "hx", "benches", "cycle", "reports", "cli", "demo", "params"),
+    "benches": ("cycle", "reports", "cli", "demo"),
+    "cycle": ("reports", "cli", "demo"),
+    "reports": ("cli", "demo"),
+}
+
+
+def _evtms_imports(path: Path) -> set[str]:
+    """First-level evtms subpackages/modules that ``path`` imports anywhere in its code."""
+    import ast
+
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        names = []
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [node.module]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        for name in names:
+            parts = name.split(".")
+            if parts[0] == "evtms" and len(parts) > 1:
+                found.add(parts[1])
+    return found
+
+
+def test_lower_layers_never_import_upper_ones():
+    evtms = ROOT / "evtms"
+    for layer, forbidden in FORBIDDEN_IMPORTS.items():
+        target = evtms / layer
+        files = list(target.rglob("*.py")) if target.is_dir() else [evtms / f"{layer}.py"]
+        assert files, layer
+        for path in files:
+            bad = _evtms_imports(path) & set(forbidden)
+            assert not bad, f"{path.relative_to(ROOT)} imports evtms.{', evtms.'.join(sorted(bad))}"

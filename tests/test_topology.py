@@ -147,3 +147,19 @@ def test_warmer_coolant_takes_more_of_the_flow_and_the_heat(circuits):
     share = both["mdot_chiller"] / both["mdot"]
     assert share[1] > share[0]
     assert both["Q_evap"][1] > both["Q_evap"][0]  # the cabin gets less
+
+
+def test_cycle_format_doc_lists_every_input_variable_and_status():
+    """docs/cycle-format.md is the contract of the sweep file: nothing the code writes is missing."""
+    from pathlib import Path
+
+    from evtms.cycle.api import RESULT_VARIABLES
+    from evtms.cycle.solver import CYCLE_FLAGS
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "cycle-format.md").read_text(encoding="utf-8")
+    for name in [*INPUTS, *RESULT_VARIABLES, "status", "reason"]:
+        assert f"| `{name}` |" in doc, name
+    for meaning in CYCLE_FLAGS.values():
+        assert f"`{meaning}`" in doc, meaning
+    for name in TOPOLOGIES:
+        assert f"`{name}`" in doc, name
