@@ -14,6 +14,10 @@ UA_z R_z`` of an exchanger whose full-area resistance for that zone is
 temperature difference at a zone end closes; the heat rate is the one at
 which the fractions fill the exchanger, found by bisection. This is the
 moving-boundary method of Bell et al. (2015) for counter-flow exchangers.
+Where the exchanger is so large for the flows that the solution lies within
+round-off of a pinch (a small refrigerant flow), the area the last
+representable heat rate leaves over goes to the zones at the pinch, so the
+fractions always sum to 1 (the zone lengths carry the pressure drop).
 
 Single-phase refrigerant zones use a secant heat capacity between the zone's
 start and its end, the phase boundary or, where the secondary stream cannot
@@ -49,6 +53,8 @@ BISECTION_STEPS = 60
 LIQUID, TWO_PHASE, VAPOUR = 0, 1, 2
 #: Cap of the capacity ratio (exchanger area available over needed), for finite LUT values.
 CAPACITY_RATIO_MAX = 1e3
+#: Relative heat-rate step [1] below a pinched solution over which the zones' area growth is measured.
+_PINCH_STEP = 1e-6
 #: Superheat enthalpy step [J/kg] of the one-sided derivative behind ``h_out_continued``.
 _CONTINUATION_STEP = 1.0
 
@@ -102,7 +108,7 @@ class CounterflowResult:
     T_secondary_out : numpy.ndarray
         Secondary outlet temperature [K].
     fractions : numpy.ndarray
-        Area fraction of each zone [1], shape ``(n, 3)``.
+        Area fraction of each zone [1], shape ``(n, 3)``; they sum to 1.
     f_needed : numpy.ndarray
         Area fraction needed to evaporate to saturated vapour [1] (0 for a
         vapour inlet, inf where the secondary stream cannot do it).
@@ -198,6 +204,41 @@ def _fractions(ref: RefrigerantPath, sec: SecondaryStream, Q: np.ndarray) -> np.
     return f
 
 
+def _fill_pinch(ref: RefrigerantPath, sec: SecondaryStream, Q: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Zone fractions [1], shape ``(n, 3)``, that fill the exchanger at the solved heat rate ``Q`` [W].
+
+    Where the exchanger is large for the flows (a small refrigerant flow), the
+    solution lies within round-off of a pinch: a zone end whose temperature
+    difference closes (the refrigerant reaching the secondary inlet
+    temperature, or the secondary reaching the refrigerant inlet temperature).
+    The fractions grow only logarithmically there, so at the last
+    representable heat rate they may sum to far less than 1 (a few per cent
+    at 1 mg/s), and one step further they are infinite. Physically the
+    streams run the rest of the exchanger at a vanishing temperature
+    difference, in the zones adjacent to the pinch; near a pinch of
+    difference ``e`` each zone's fraction goes as ``a_z ln(1/e) + b_z``, so
+    the remaining area goes to the zones in proportion to ``a_z``, i.e. to
+    their growth ``df_z/dQ`` just below ``Q`` (measured over a step of
+    :data:`_PINCH_STEP` of ``Q``, which widens the pinch by orders of
+    magnitude while changing the non-divergent parts ``b_z`` negligibly).
+    Without this the zone lengths, and with them the pressure drop, are those
+    of an arbitrary fraction of the exchanger, or infinite.
+    """
+    missing = 1.0 - f.sum(axis=1)
+    gap = (Q > 0) & (missing > 0) & np.isfinite(missing)
+    if not gap.any():
+        return f
+    idx = np.nonzero(gap)[0]
+    growth = f[idx] - _fractions(_subset(ref, idx), _subset_stream(sec, idx), Q[idx] * (1.0 - _PINCH_STEP))
+    growth = np.where(np.isfinite(growth), np.maximum(growth, 0.0), 0.0)
+    total = growth.sum(axis=1)
+    # The fractions grow with Q wherever Q > 0; should none grow, leave them rather than divide by zero.
+    share = np.divide(growth, total[:, None], out=np.zeros_like(growth), where=total[:, None] > 0)
+    f = f.copy()
+    f[idx] += missing[idx, None] * share
+    return f
+
+
 def solve_counterflow_evaporator(ref: RefrigerantPath, sec: SecondaryStream) -> CounterflowResult:
     """Heat rate of a counter-flow exchanger evaporating ``ref`` against the warmer stream ``sec``.
 
@@ -230,8 +271,10 @@ def solve_counterflow_evaporator(ref: RefrigerantPath, sec: SecondaryStream) -> 
         below = _fractions(ref, sec, mid).sum(axis=1) < 1.0
         lo = np.where(below, mid, lo)
         hi = np.where(below, hi, mid)
-    Q = np.where(ok, 0.5 * (lo + hi), 0.0)
-    fractions = _fractions(ref, sec, Q)
+    # ``lo`` is the largest heat rate found to fit; ``hi`` may be the bound itself, where a
+    # zone end closes and the fractions are infinite.
+    Q = np.where(ok, lo, 0.0)
+    fractions = _fill_pinch(ref, sec, Q, _fractions(ref, sec, Q))
     h_out = ref.h_in + Q / ref.mdot
     h_s_out = sec.h_in - Q / sec.mdot
 
