@@ -2,8 +2,8 @@
 
 ``run_demo(out)`` writes into ``out``::
 
-    luts/thesis/<component>.nc     the four benches on the thesis grids
-    luts/cycle/<component>.nc      the four benches on the cycle grids
+    luts/thesis/<component>.nc     every registered bench on its thesis grid
+    luts/cycle/<component>.nc      every registered bench on its cycle grid
     cycle/speed_sweep.nc           cycle on the LUTs over compressor speed
     reports/<component>/index.html bench figures (thesis LUTs) with provenance
     reports/cycle/*.png|svg|csv    p-h, p-T and energy-balance figures
@@ -115,6 +115,49 @@ def _compute_lut(component: str, grid: str, params: Parameters, path: str) -> tu
     return f"{grid}/{component}", time.perf_counter() - t0
 
 
+def ensure_luts(
+    folder: Path,
+    grid: str,
+    params: Parameters,
+    force: bool = False,
+    workers: int = 2,
+    notify: Notify | None = None,
+    result: DemoResult | None = None,
+) -> DemoResult:
+    """Every registered bench's LUT on preset ``grid`` in ``folder``, computed unless up to date.
+
+    The LUTs are swept in ``workers`` processes, largest grids first; a LUT
+    made with these parameters and versions on this preset is reused (unless
+    ``force``). Names go to ``result.computed`` / ``result.reused`` as
+    ``grid/component``.
+    """
+    notify = notify or (lambda message: None)
+    result = result or DemoResult(index=folder / "index.html")
+    folder.mkdir(parents=True, exist_ok=True)
+    jobs, reused = [], []
+    for c in _components():
+        path = folder / f"{c}.nc"
+        if not force and lut_is_current(path, c, grid, params):
+            reused.append(f"{grid}/{c}")
+        else:
+            jobs.append((c, grid, path))
+    result.reused += reused
+    if reused:
+        notify(f"reusing up-to-date LUTs: {', '.join(reused)}")
+    if jobs:
+        # Largest grids first, so that the workers finish together.
+        jobs.sort(key=lambda j: -_grid_points(j[0], j[1]))
+        notify(f"computing {len(jobs)} {grid} LUTs in {workers} processes")
+        with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+            futures = [pool.submit(_compute_lut, c, g, params, str(p)) for c, g, p in jobs]
+            for fut in as_completed(futures):
+                name, seconds = fut.result()
+                result.computed.append(name)
+                result.timings[name] = seconds
+                notify(f"wrote LUT {name} ({seconds:.1f} s)")
+    return result
+
+
 def run_demo(
     out: str | Path,
     params: Parameters | None = None,
@@ -131,28 +174,7 @@ def run_demo(
     out = Path(out)
     result = DemoResult(index=out / "index.html")
     for grid in GRIDS:
-        (out / "luts" / grid).mkdir(parents=True, exist_ok=True)
-    jobs = []
-    for grid in GRIDS:
-        for c in _components():
-            path = out / "luts" / grid / f"{c}.nc"
-            if not force and lut_is_current(path, c, grid, params):
-                result.reused.append(f"{grid}/{c}")
-            else:
-                jobs.append((c, grid, path))
-    if result.reused:
-        notify(f"reusing up-to-date LUTs: {', '.join(result.reused)}")
-    if jobs:
-        # Largest grids first, so that the workers finish together.
-        jobs.sort(key=lambda j: -_grid_points(j[0], j[1]))
-        notify(f"computing {len(jobs)} LUTs in {workers} processes")
-        with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
-            futures = [pool.submit(_compute_lut, c, g, params, str(p)) for c, g, p in jobs]
-            for fut in as_completed(futures):
-                name, seconds = fut.result()
-                result.computed.append(name)
-                result.timings[name] = seconds
-                notify(f"wrote LUT {name} ({seconds:.1f} s)")
+        ensure_luts(out / "luts" / grid, grid, params, force, workers, notify, result)
     t0 = time.perf_counter()
     _cycle_and_reports(out, params, result, notify)
     result.timings["cycle and reports"] = time.perf_counter() - t0

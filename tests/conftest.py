@@ -52,20 +52,28 @@ def thesis(fluid, params):
 
 
 @pytest.fixture(scope="session")
-def demo_run(tmp_path_factory):
-    """One full 'evtms demo' into a fresh folder (about a minute on two cores), shared by the tests."""
-    from evtms.demo import run_demo
+def cycle_luts_dir(tmp_path_factory, params):
+    """Every bench's LUT on the 'cycle' grid preset, as 'evtms bench all --grid cycle' writes them."""
+    from evtms.demo import ensure_luts
 
-    out = tmp_path_factory.mktemp("demo")
-    messages = []
-    result = run_demo(out, workers=2, notify=messages.append)
-    return out, result, messages
+    folder = tmp_path_factory.mktemp("cycle_luts")
+    ensure_luts(folder, "cycle", params, workers=2)
+    return folder
 
 
 @pytest.fixture(scope="session")
-def cycle_luts_dir(demo_run):
-    """The four LUTs on the 'cycle' grid preset (written by the demo run)."""
-    return demo_run[0] / "luts" / "cycle"
+def demo_run(tmp_path_factory, cycle_luts_dir):
+    """One full 'evtms demo' into a fresh folder that already holds the cycle LUTs (the demo reuses
+    up-to-date LUTs: it computes the thesis ones, solves, draws), shared by the tests."""
+    import shutil
+
+    from evtms.demo import run_demo
+
+    out = tmp_path_factory.mktemp("demo")
+    shutil.copytree(cycle_luts_dir, out / "luts" / "cycle")
+    messages = []
+    result = run_demo(out, workers=2, notify=messages.append)
+    return out, result, messages
 
 
 @pytest.fixture(scope="session")
