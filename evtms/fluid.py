@@ -436,14 +436,32 @@ class SaturationCurve:
         Lowest pressure of the table [Pa].
     """
 
+    #: The tabulated columns (:meth:`tables`, :meth:`from_tables`).
+    COLUMNS = ("p", "T", "h_l", "h_v", "cp_l", "rho_l")
+
     def __init__(self, fluid: Fluid, p_min: float = 2e4, n: int = 2000) -> None:
-        self.p = np.geomspace(p_min, 0.995 * fluid.p_crit, n)
+        p = np.geomspace(p_min, 0.995 * fluid.p_crit, n)
+        sat = fluid.saturation(p)
+        self._set(
+            {"p": p, "T": sat["T"], "h_l": sat["h_l"], "h_v": sat["h_v"], "cp_l": sat["cp_l"], "rho_l": sat["rho_l"]}
+        )
+
+    def _set(self, tables: dict[str, np.ndarray]) -> None:
+        self.p, self.T = tables["p"], tables["T"]
+        self.h_l, self.h_v = tables["h_l"], tables["h_v"]
+        self.cp_l, self.rho_l = tables["cp_l"], tables["rho_l"]
         self._log_p = np.log(self.p)
-        sat = fluid.saturation(self.p)
-        self.T = sat["T"]
-        self.h_l, self.h_v = sat["h_l"], sat["h_v"]
-        self.cp_l = sat["cp_l"]
-        self.rho_l = sat["rho_l"]
+
+    def tables(self) -> dict[str, np.ndarray]:
+        """The tabulated columns by name (pressures [Pa] and their saturation properties, SI)."""
+        return {name: getattr(self, name) for name in self.COLUMNS}
+
+    @classmethod
+    def from_tables(cls, tables: dict[str, np.ndarray]) -> SaturationCurve:
+        """A curve from :meth:`tables` (e.g. cached): no CoolProp needed."""
+        curve = cls.__new__(cls)
+        curve._set({name: np.asarray(tables[name], float) for name in cls.COLUMNS})
+        return curve
 
     def _at(self, table: np.ndarray, p: np.ndarray) -> np.ndarray:
         return np.interp(np.log(np.asarray(p, float)), self._log_p, table, left=np.nan, right=np.nan)
