@@ -4,19 +4,32 @@ The cycle model calls this in its inner loop, so the batched path avoids
 per-point Python work: per axis, the cell index comes from arithmetic on a
 uniform axis or ``searchsorted`` on a non-uniform one; the ``2^d`` corner
 values are gathered from the flattened table and reduced axis by axis with
-linear blends (``v0 + t (v1 - v0)``). Queries run in blocks of 16,384 points
-so that the temporaries stay in the CPU cache. A pure-Python path serves
-single points (:meth:`Interpolator.point`) at a few microseconds a call.
+linear blends (``v0 + t (v1 - v0)``). The NumPy path runs queries in blocks
+of 16,384 points so that the temporaries stay in the CPU cache. A pure-Python
+path serves single points (:meth:`Interpolator.point`) without arrays.
 
 Invalid table entries are NaN: a NaN corner that carries weight makes the
 result NaN (never a silently wrong number); a corner with zero weight (a query
 exactly on a node or cell face) does not.
+
+Calls go through a compiled kernel (numba, :mod:`evtms.luts._kernels`) when
+numba is importable: the cycle solver calls the interpolator about ninety
+times per operating point on batches of a few points, where NumPy's per-call
+overhead costs far more than the arithmetic. The kernel does the NumPy path's
+arithmetic in the same order (the two agree to rounding, in practice to the
+bit); the NumPy path stays as the reference and the fallback. Set the
+environment variable ``EVTMS_NO_NUMBA=1`` to use the NumPy path (it is read
+when an interpolator is built). A process pays for numba once: about 0.2 s to
+import it when the first interpolator is built, about 0.3 s on the first call
+to load the kernel's cached machine code (numba imports ``scipy.linalg`` then,
+if nothing has yet), several seconds to compile it if there is no cache.
 """
 
 from __future__ import annotations
 
 import bisect
 import math
+import os
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -25,6 +38,27 @@ from evtms.errors import EvtmsInputError
 
 POLICIES = ("error", "clip", "nan")
 _BLOCK = 16384
+_kernel_module = None  # evtms.luts._kernels once imported, False if numba is not importable
+_NO_POINTS = np.zeros(0, bool)  # the kernel's "no point is outside already"
+_FLOAT64 = np.dtype(np.float64)
+
+
+def compiled_kernel():
+    """The compiled interpolation kernel, or None (numba not importable, or ``EVTMS_NO_NUMBA`` set).
+
+    Imports numba on first use only (about 0.2 s), so that importing evtms stays light.
+    """
+    global _kernel_module
+    if os.environ.get("EVTMS_NO_NUMBA", "") not in ("", "0"):
+        return None
+    if _kernel_module is None:
+        try:
+            from evtms.luts import _kernels
+        except ImportError:  # numba missing or broken: the NumPy path does the same work
+            _kernel_module = False
+        else:
+            _kernel_module = _kernels
+    return _kernel_module.interpolate if _kernel_module else None
 
 
 class Interpolator:
@@ -104,6 +138,13 @@ class Interpolator:
             uniform = len(a) > 1 and np.allclose(np.diff(a), step, rtol=1e-12, atol=0.0)
             self._uniform.append((float(a[0]), float(step)) if uniform else None)
             self._buckets.append(None if uniform or len(a) == 1 else _bucket_index(a))
+        self._name_set = set(self.names)
+        #: True when calls go through the compiled kernel (set it False to use the NumPy path).
+        self.compiled = compiled_kernel() is not None
+        if self.compiled:  # the grid as the kernel's two packed arrays, so that a call only stacks the query
+            self._floats, self._ints = _kernel_module.pack(
+                self.axes, self._strides, self._uniform, self._buckets, self._curved_axes, self._curved_vars
+            )
         # Pure-Python copies for the single-point path, made on its first use.
         self._axes_list: list[list[float]] | None = None
         self._values_list: list[list[float]] | None = None
@@ -161,16 +202,9 @@ class Interpolator:
             else:  # every input fixed: one value per query point (one point if none is given)
                 pts = np.zeros((len(cols[0]) if cols else 1, 0))
             for n, col in zip(given, cols[len(self.names) :], strict=True):
-                v = self.fixed[n]
-                bad = ~(np.abs(col - v) <= 1e-9 * max(abs(v), 1.0))  # NaN queries count as off
-                if not bad.any() or policy == "clip":
-                    continue
-                if policy == "error":
-                    raise EvtmsInputError(
-                        f"{n} = {col[np.argmax(bad)]:g} differs from the LUT's fixed input {n} = {v:g} "
-                        "(it is not an axis); the out-of-range policy is 'error' (use 'clip' or 'nan' to allow it)"
-                    )
-                outside = bad if outside is None else outside | bad
+                bad = self._fixed_off(n, col, policy)
+                if bad is not None:
+                    outside = bad if outside is None else outside | bad
         else:
             pts = np.asarray(query, np.float64)
             if pts.ndim == 1:
@@ -211,6 +245,12 @@ class Interpolator:
         """
         policy = self.out_of_range if out_of_range is None else out_of_range
         _check_policy(policy)
+        if self.compiled:
+            return self._call_compiled(query, policy)
+        return self._call_numpy(query, policy)
+
+    def _call_numpy(self, query, policy: str) -> dict[str, np.ndarray]:
+        """The NumPy path: the reference for the compiled one, and its fallback."""
         pts, outside = self._prepare(query, policy)
         n = len(pts)
         result = np.empty((n, len(self.variables)))
@@ -219,6 +259,85 @@ class Interpolator:
             result[start:stop] = self._block(pts[start:stop])
         result[outside] = np.nan
         return {v: result[:, k] for k, v in enumerate(self.variables)}
+
+    def _call_compiled(self, query, policy: str) -> dict[str, np.ndarray]:
+        """The compiled path: the query as contiguous (d, n) rows, then one kernel call.
+
+        Written for the cycle solver's many small calls: a query naming exactly the
+        axes, with equal-length float arrays, costs a few microseconds on top of the
+        kernel; anything else takes the general (slower) checks.
+        """
+        outside = _NO_POINTS
+        if isinstance(query, Mapping):
+            names = self.names
+            given: list[str] = []
+            if query.keys() != self._name_set:
+                unknown = set(query) - set(self.inputs)
+                missing = [n for n in names if n not in query]
+                if unknown:
+                    raise EvtmsInputError(
+                        f"unknown axis {sorted(unknown)[0]!r} in query; allowed: {', '.join(self.inputs)}"
+                    )
+                if missing:
+                    raise EvtmsInputError(f"query has no value for axis {missing[0]!r}; give all of {', '.join(names)}")
+                given = [n for n in self.fixed if n in query]
+            cols = []
+            for name in names:
+                c = query[name]
+                if not (type(c) is np.ndarray and c.dtype is _FLOAT64 and c.ndim == 1):
+                    c = np.asarray(c, np.float64).reshape(-1)
+                cols.append(c)
+            for name in given:
+                cols.append(np.asarray(query[name], np.float64).reshape(-1))
+            n = cols[0].size if cols else 1  # every input fixed and none given: one point
+            same = True
+            for c in cols:
+                if c.size != n:  # broadcast: every size 1 or n (else NumPy raises the NumPy path's error)
+                    n = np.broadcast_arrays(*cols)[0].size
+                    same = False
+                    break
+            if not names:
+                pts = np.empty((0, n))
+            elif same:
+                pts = np.array(cols[: len(names)])
+            else:
+                pts = np.empty((len(names), n))
+                for j in range(len(names)):
+                    pts[j] = cols[j]
+            for name, col in zip(given, cols[len(names) :], strict=True):
+                bad = self._fixed_off(name, np.broadcast_to(col, (n,)), policy)
+                if bad is not None:
+                    outside = bad if outside is _NO_POINTS else outside | bad
+        else:
+            rows = np.asarray(query, np.float64)
+            if rows.ndim == 1:
+                rows = rows[None, :]
+            if rows.ndim != 2 or rows.shape[1] != len(self.names):
+                return self._call_numpy(query, policy)  # the NumPy path words the error
+            pts = np.ascontiguousarray(rows.T)
+            n = rows.shape[0]
+        out = np.empty((len(self.variables), n))
+        code = _kernel_module.interpolate(
+            pts, _kernel_module.POLICY_CODES[policy], outside, self._floats, self._ints, self._values, out
+        )
+        if code >= 0:  # the 'error' policy: the first axis with a point outside, and its first such point
+            j, p = divmod(code, n)
+            a = self.axes[j]
+            raise EvtmsInputError(_outside_message(self.names[j], pts[j, p], a[0], a[-1]))
+        return {v: out[k] for k, v in enumerate(self.variables)}
+
+    def _fixed_off(self, name: str, col: np.ndarray, policy: str) -> np.ndarray | None:
+        """Points where fixed input ``name`` is off its value (None if none, or the policy is 'clip')."""
+        v = self.fixed[name]
+        bad = ~(np.abs(col - v) <= 1e-9 * max(abs(v), 1.0))  # NaN queries count as off
+        if not bad.any() or policy == "clip":
+            return None
+        if policy == "error":
+            raise EvtmsInputError(
+                f"{name} = {col[np.argmax(bad)]:g} differs from the LUT's fixed input {name} = {v:g} "
+                "(it is not an axis); the out-of-range policy is 'error' (use 'clip' or 'nan' to allow it)"
+            )
+        return bad
 
     def _block(self, pts: np.ndarray) -> np.ndarray:
         # NaN queries (the 'nan' policy) get NaN results later; keep their index arithmetic finite.
@@ -274,7 +393,8 @@ class Interpolator:
     def point(self, *values: float, out_of_range: str | None = None) -> tuple[float, ...]:
         """Interpolate all variables at one point given as floats in axis order.
 
-        The scalar fast path for solvers: pure Python, no array allocation.
+        Pure Python, no array allocation (about 20 us a call; with numba, a
+        one-point batch through :meth:`__call__` takes about 5 us).
         Returns one float per variable, in :attr:`variables` order. With
         ``curvature`` it goes through the batched path (same numbers).
         """
