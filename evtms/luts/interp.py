@@ -138,16 +138,27 @@ class Interpolator:
             uniform = len(a) > 1 and np.allclose(np.diff(a), step, rtol=1e-12, atol=0.0)
             self._uniform.append((float(a[0]), float(step)) if uniform else None)
             self._buckets.append(None if uniform or len(a) == 1 else _bucket_index(a))
-        self._name_set = set(self.names)
-        #: True when calls go through the compiled kernel (set it False to use the NumPy path).
-        self.compiled = compiled_kernel() is not None
-        if self.compiled:  # the grid as the kernel's two packed arrays, so that a call only stacks the query
-            self._floats, self._ints = _kernel_module.pack(
-                self.axes, self._strides, self._uniform, self._buckets, self._curved_axes, self._curved_vars
-            )
+        self._prepare_kernel()
         # Pure-Python copies for the single-point path, made on its first use.
         self._axes_list: list[list[float]] | None = None
         self._values_list: list[list[float]] | None = None
+
+    def _prepare_kernel(self) -> None:
+        """Set up the compiled path from the grid attributes (call it too where an instance skips __init__)."""
+        self._name_set = set(self.names)
+        #: True when calls go through the compiled kernel (set it False to use the NumPy path).
+        self.compiled = compiled_kernel() is not None
+        if not self.compiled:
+            return
+        # The grid as the kernel's two packed arrays, so that a call only stacks the query.
+        self._floats, self._ints = _kernel_module.pack(
+            self.axes, self._strides, self._uniform, self._buckets, self._curved_axes, self._curved_vars
+        )
+        # The table as a plain read-only array whatever it came as (a memory-mapped file is
+        # read-only): numba compiles one kernel per argument type, so keep it to one.
+        values = np.ascontiguousarray(self._values).view(np.ndarray)
+        values.flags.writeable = False
+        self._kernel_values = values
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -318,7 +329,7 @@ class Interpolator:
             n = rows.shape[0]
         out = np.empty((len(self.variables), n))
         code = _kernel_module.interpolate(
-            pts, _kernel_module.POLICY_CODES[policy], outside, self._floats, self._ints, self._values, out
+            pts, _kernel_module.POLICY_CODES[policy], outside, self._floats, self._ints, self._kernel_values, out
         )
         if code >= 0:  # the 'error' policy: the first axis with a point outside, and its first such point
             j, p = divmod(code, n)
