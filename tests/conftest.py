@@ -11,6 +11,22 @@ from evtms.fluid import Fluid
 from evtms.params import Parameters
 
 
+@pytest.fixture(scope="session", autouse=True)
+def private_cache(tmp_path_factory):
+    """The session's own cache of derived LUT tables (subprocesses inherit it), never the user's."""
+    import os
+
+    from evtms.luts.cache import CACHE_DIR_ENV
+
+    old = os.environ.get(CACHE_DIR_ENV)
+    os.environ[CACHE_DIR_ENV] = str(tmp_path_factory.mktemp("evtms-cache"))
+    yield
+    if old is None:
+        os.environ.pop(CACHE_DIR_ENV, None)
+    else:
+        os.environ[CACHE_DIR_ENV] = old
+
+
 @pytest.fixture(scope="session")
 def fluid() -> Fluid:
     return Fluid()

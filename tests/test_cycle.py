@@ -120,7 +120,7 @@ def test_a_root_beyond_a_lut_pressure_axis_is_outside_the_envelope_not_its_end(c
     )
     direct = run_cycle(point)
     assert np.isin(direct["status"], VALID_CYCLE_FLAGS).all()
-    assert direct["p_B"][0] > float(cycle_luts["condenser"]["p_in"].max())
+    assert direct["p_B"][0] > float(cycle_luts["condenser"].axes["p_in"].max())
     lut = run_cycle(point, cycle_luts)
     assert lut["status"][0] == STATUS_OUTSIDE_ENVELOPE
     assert "condenser LUT axis p_in" in lut["reason"][0]

@@ -11,13 +11,19 @@ import numpy as np
 from evtms import __version__
 from evtms.cycle.models import DirectModels, LutModels
 from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
+from evtms.cycle.tables import CycleLut
 from evtms.cycle.topology import INPUTS, TOPOLOGIES, Topology, topology
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid, SaturationCurve
+from evtms.luts.cache import cached_arrays
 from evtms.params import Parameters
 
 if TYPE_CHECKING:
     import xarray as xr
+
+#: Batches from this many points interpolate through the compiled kernel: below, numba's
+#: import and load (0.3-0.5 s) cost more than it saves (about 20 ms a point).
+COMPILED_FROM_POINTS = 20
 
 #: Components of the cabin loop (every topology's are ``Topology.components``).
 COMPONENTS = TOPOLOGIES["cabin"].components
@@ -56,11 +62,13 @@ def cycle_variables(component: str) -> list[str]:
     return list(dict.fromkeys(names))
 
 
-def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> dict[str, xr.Dataset]:
-    """Open and validate the component LUTs ``<folder>/<component>.nc`` the circuit needs.
+def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> dict[str, CycleLut]:
+    """The component LUTs ``<folder>/<component>.nc`` the circuit needs, headers checked.
 
-    Only the variables the cycle interpolates are loaded (the evaporator's
-    cycle LUT holds 2.4 million points per variable).
+    Each file's header is read and checked against the LUT format (and its
+    component); the tables the cycle interpolates are built from the data on
+    first use and cached (:class:`evtms.cycle.tables.CycleLut`),
+    so a second run neither decompresses nor holds the whole tables.
 
     Raises
     ------
@@ -68,7 +76,6 @@ def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> di
         The folder or a file is missing, a file is not a valid LUT, or it holds
         another component's table (one line naming the file).
     """
-    from evtms.luts import open_lut
     from evtms.paths import input_file
 
     folder = Path(folder)
@@ -81,10 +88,33 @@ def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> di
         path = folder / f"{c}.nc"
         if not path.exists():
             raise EvtmsInputError(f"{path}: no such file; write the cycle LUTs with 'evtms bench all --grid cycle'")
-        ds = open_lut(input_file(path, "LUT file"), component=c, variables=cycle_variables(c))
-        ds.encoding["source"] = str(path)
-        luts[c] = ds
+        luts[c] = CycleLut(input_file(path, "LUT file"), c)
     return luts
+
+
+def saturation_curve(luts: dict, fluid: Fluid | None = None) -> SaturationCurve:
+    """The refrigerant's saturation curve for a LUT cycle; cached (:mod:`evtms.luts.cache`) for LUT files.
+
+    The curve is CoolProp's (:class:`SaturationCurve`) for the LUTs' fluid
+    and backend, tabulated once per CoolProp version: a cached one spares a
+    LUT run the import of CoolProp (about 2 s). ``fluid`` is used if given
+    and nothing is cached.
+    """
+    any_lut = next(iter(luts.values()))
+    name = any_lut.attrs.get("fluid", "R134a")
+    backend = json.loads(any_lut.attrs.get("parameters", "{}")).get("backend", "HEOS")
+
+    def build():
+        return SaturationCurve(fluid or Fluid(name, backend)).tables(), {}
+
+    lut = next((v for v in luts.values() if isinstance(v, CycleLut)), None)
+    if lut is None:
+        return SaturationCurve.from_tables(build()[0])
+    from importlib.metadata import version
+
+    recipe = {"fluid": name, "backend": backend, "coolprop": version("CoolProp")}
+    arrays, _ = cached_arrays("saturation", [], recipe, build)
+    return SaturationCurve.from_tables(arrays)
 
 
 def parameter_conflicts(luts: dict[str, xr.Dataset], params: Parameters) -> list[str]:
@@ -149,10 +179,14 @@ def run_cycle(
     ``balance_residual`` and ``balance_relative``.
     """
     params = params or Parameters()
-    fluid = fluid or Fluid(params.fluid, params.backend)
     circuit = topology(circuit)
-    models = LutModels(luts, circuit.components) if luts is not None else DirectModels(params, fluid)
-    solver = CycleSolver(models, SaturationCurve(fluid), circuit)
+    if luts is None:
+        fluid = fluid or Fluid(params.fluid, params.backend)
+        models, saturation = DirectModels(params, fluid), SaturationCurve(fluid)
+    else:  # no CoolProp needed where the cache has the saturation curve
+        compiled = len(points) >= COMPILED_FROM_POINTS
+        models, saturation = LutModels(luts, circuit.components, compiled), saturation_curve(luts, fluid)
+    solver = CycleSolver(models, saturation, circuit)
     result = solver.solve(points)
     bal = energy_balance(result)
     result["balance_residual"], result["balance_relative"] = bal["residual"], bal["relative"]

@@ -17,6 +17,7 @@ import numpy as np
 
 from evtms.benches import evaporator as evaporator_bench
 from evtms.benches.expansion_valve import nominal_opening
+from evtms.cycle.tables import cycle_lut
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
 from evtms.luts.validate import fixed_inputs
@@ -178,23 +179,18 @@ class DirectModels:
 
 
 class _LutComponent:
-    """One component's LUT: interpolator, axes, and the fixed values of absent axes."""
+    """One component's LUT: interpolators, axes, and the fixed values of absent axes."""
 
-    def __init__(self, component: str, ds: xr.Dataset, curvature: tuple[str, ...]) -> None:
-        from evtms.luts import Interpolator
-
+    def __init__(self, component: str, lut, curvature: tuple[str, ...], compiled: bool = True) -> None:
+        lut = cycle_lut(lut, component)
         self.component = component
-        self.source = ds.encoding.get("source", component)
-        self.dims = list(ds["status"].dims)
+        self.source = lut.encoding["source"]
+        self.dims = list(lut.dims)
         # The coils' responses curve strongly between nodes (they saturate towards
         # the air temperature); the quadratic correction cuts that error several-fold.
-        self.fast = Interpolator.from_dataset(
-            ds, list(ITERATION_OUTPUTS[component]), out_of_range="nan", curvature=curvature
-        )
+        self.fast = lut.interpolator(list(ITERATION_OUTPUTS[component]), curvature, compiled)
         self.subcooled = (
-            Interpolator.from_dataset(
-                ds, list(ITERATION_OUTPUTS["condenser_subcooled"]), out_of_range="nan", curvature=curvature
-            )
+            lut.interpolator(list(ITERATION_OUTPUTS["condenser_subcooled"]), curvature, compiled)
             if component == "condenser"
             else self.fast
         )
@@ -203,25 +199,19 @@ class _LutComponent:
         # the widest iteration table's (the tables hold each variable with its curvature
         # columns, so a table of every variable would repeat the largest ones).
         extra = [v for v in COMPONENT_OUTPUTS[component] if v not in self.subcooled.variables]
-        self.extra = Interpolator.from_dataset(ds, extra, out_of_range="nan", curvature=curvature) if extra else None
+        self.extra = lut.interpolator(extra, curvature, compiled) if extra else None
         # The evaporator's frost risk (its bench status ``valid_frost_risk_surface_below_0C``):
         # the LUTs hold no surface temperature, so the final states interpolate the
         # indicator of that status (1 at frost-risk nodes, 0 at other valid nodes).
-        self.frost = None
-        if component == "evaporator":
-            status = ds["status"].values
-            risk = np.where(
-                np.isin(status, evaporator_bench.BENCH.valid_flags), np.isin(status, EVAPORATOR_FROST_FLAGS), np.nan
-            )
-            self.frost = Interpolator(
-                [(d, ds[d].values) for d in self.dims], {"frost_risk": risk}, "nan", fixed=fixed_inputs(ds)
-            )
+        self.frost = (
+            lut.indicator("frost_risk", EVAPORATOR_FROST_FLAGS, compiled) if component == "evaporator" else None
+        )
         self.detailed = False
-        self.ranges = {d: (float(ds[d].values[0]), float(ds[d].values[-1])) for d in self.dims}
-        env = json.loads(ds.attrs.get("environment", "{}"))
+        self.ranges = {d: (float(lut.axes[d][0]), float(lut.axes[d][-1])) for d in self.dims}
+        env = json.loads(lut.attrs.get("environment", "{}"))
         # Inputs a LUT was computed at one value of: its fixed inputs, and for air axes
         # it does not have at all, the air boundary of its environment.
-        self.fixed = {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")} | fixed_inputs(ds)
+        self.fixed = {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")} | fixed_inputs(lut.attrs)
 
     def __call__(self, query: dict[str, np.ndarray]) -> Result:
         n = len(next(iter(query.values())))
@@ -264,17 +254,25 @@ class LutModels:
 
     Parameters
     ----------
-    luts : mapping of str to xarray.Dataset
+    luts : mapping of str to CycleLut or xarray.Dataset
         ``condenser``, ``evaporator``, ``expansion_valve`` and ``compressor``
-        LUTs. The coils must have ``h_in`` inlet axes (a two-phase inlet has
+        LUTs (and ``chiller``, as ``components`` needs). The coils must have ``h_in`` inlet axes (a two-phase inlet has
         no (p, T)) and the compressor a ``p_in`` axis, as the ``cycle`` grid
         preset writes them. Of the valve's LUT the cycle uses its parameters
         (see :meth:`valve`).
+    components : tuple of str, optional
+        The components the circuit needs (``Topology.components``); default
+        the cabin loop's.
+    compiled : bool
+        Interpolate through the compiled kernel (numba); False keeps to the
+        NumPy path, which a job of a few points finishes before numba loads.
     """
 
     name = "lut"
 
-    def __init__(self, luts: dict[str, xr.Dataset], components: tuple[str, ...] | None = None) -> None:
+    def __init__(
+        self, luts: dict[str, xr.Dataset], components: tuple[str, ...] | None = None, compiled: bool = True
+    ) -> None:
         # Axes the solver searches along (an input it only sets may be a fixed input of the LUT).
         searched = {
             "condenser": ("p_in", "h_in"),
@@ -289,18 +287,19 @@ class LutModels:
         for component, axes in need.items():
             if component not in luts:
                 raise EvtmsInputError(f"the cycle needs a {component} LUT; none was given")
-            ds = luts[component]
+            lut = cycle_lut(luts[component], component)
             if not axes:
                 continue
-            dims = list(ds["status"].dims)
+            dims = list(lut.dims)
             for axis in axes:
                 if axis not in dims:
                     raise EvtmsInputError(
                         f"the {component} LUT has axes {', '.join(dims)}; cycle work needs {axis!r} as an axis "
                         "(write it with --grid cycle)"
                     )
-            self.luts[component] = _LutComponent(component, ds, CURVED.get(component, ()))
-        self.valve_attrs = dict(luts["expansion_valve"].attrs)
+            self.luts[component] = _LutComponent(component, lut, CURVED.get(component, ()), compiled)
+        self.valve_lut = cycle_lut(luts["expansion_valve"], "expansion_valve")
+        self.valve_attrs = dict(self.valve_lut.attrs)
         self._valve: tuple[ExpansionValveParams, float] | None = None
 
     def detailed(self, on: bool) -> None:
@@ -345,9 +344,16 @@ class LutModels:
         """
         if self._valve is None:
             attrs = self.valve_attrs
-            valve = ExpansionValveParams(**json.loads(attrs["parameters"])["expansion_valve"])
-            fluid = Fluid(attrs.get("fluid", "R134a"), json.loads(attrs["parameters"]).get("backend", "HEOS"))
-            self._valve = (valve, nominal_opening(valve, fluid))
+            made_with = json.loads(attrs["parameters"])
+            valve = ExpansionValveParams(**made_with["expansion_valve"])
+
+            def area():  # CoolProp's densities at the nominal conditions; cached
+                fluid = Fluid(attrs.get("fluid", "R134a"), made_with.get("backend", "HEOS"))
+                return {"area": np.array([nominal_opening(valve, fluid)])}, {}
+
+            recipe = {"parameters": made_with, "fluid": attrs.get("fluid", "R134a")}
+            arrays, _ = self.valve_lut.derived("area", recipe, area)
+            self._valve = (valve, float(arrays["area"][0]))
         return self._valve
 
     def limits(self) -> dict[str, tuple[float, float]]:

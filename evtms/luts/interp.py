@@ -126,9 +126,14 @@ class Interpolator:
         self._curved_axes = [j for j, a in enumerate(self.axes) if len(a) >= 3] if curved else []
         for j in self._curved_axes:  # second derivatives along each axis, one column per (axis, curved variable)
             columns += [_second_derivative(np.asarray(tables[v], np.float64), self.axes[j], j) for v in curved]
-        self._values = np.stack([c.reshape(-1) for c in columns], axis=1)
+        self._finish(np.stack([c.reshape(-1) for c in columns], axis=1), out_of_range)
+
+    def _finish(self, values: np.ndarray, out_of_range: str, compiled: bool = True) -> None:
+        """Everything a call needs besides the table ``values`` (rows: grid points; columns:
+        the variables, then the curvature columns)."""
+        self._values = values
         self.out_of_range = out_of_range
-        self.shape = shape
+        self.shape = shape = tuple(len(a) for a in self.axes)
         strides = np.cumprod((1,) + shape[::-1])[:-1][::-1]
         self._strides = [int(s) for s in strides]
         self._uniform = []
@@ -138,16 +143,20 @@ class Interpolator:
             uniform = len(a) > 1 and np.allclose(np.diff(a), step, rtol=1e-12, atol=0.0)
             self._uniform.append((float(a[0]), float(step)) if uniform else None)
             self._buckets.append(None if uniform or len(a) == 1 else _bucket_index(a))
-        self._prepare_kernel()
+        self._prepare_kernel(compiled)
         # Pure-Python copies for the single-point path, made on its first use.
         self._axes_list: list[list[float]] | None = None
         self._values_list: list[list[float]] | None = None
 
-    def _prepare_kernel(self) -> None:
-        """Set up the compiled path from the grid attributes (call it too where an instance skips __init__)."""
+    def _prepare_kernel(self, compiled: bool = True) -> None:
+        """Set up the compiled path from the grid attributes (call it too where an instance skips __init__).
+
+        ``compiled=False`` keeps this instance on the NumPy path without importing
+        numba (a one-shot job of a few calls, where numba's import costs more).
+        """
         self._name_set = set(self.names)
         #: True when calls go through the compiled kernel (set it False to use the NumPy path).
-        self.compiled = compiled_kernel() is not None
+        self.compiled = compiled and compiled_kernel() is not None
         if not self.compiled:
             return
         # The grid as the kernel's two packed arrays, so that a call only stacks the query.
@@ -159,6 +168,39 @@ class Interpolator:
         values = np.ascontiguousarray(self._values).view(np.ndarray)
         values.flags.writeable = False
         self._kernel_values = values
+
+    def to_arrays(self) -> tuple[dict[str, np.ndarray], dict]:
+        """The interpolator as named arrays and a JSON-serialisable dict (for a cache; see :meth:`from_arrays`)."""
+        arrays = {"values": self._values, **{f"axis_{j}": a for j, a in enumerate(self.axes)}}
+        info = {
+            "names": list(self.names),
+            "variables": list(self.variables),
+            "curved": [self.variables[k] for k in self._curved_vars],
+            "curved_axes": list(self._curved_axes),
+            "fixed": self.fixed,
+            "out_of_range": self.out_of_range,
+        }
+        return arrays, info
+
+    @classmethod
+    def from_arrays(cls, arrays: Mapping[str, np.ndarray], info: Mapping, compiled: bool = True) -> Interpolator:
+        """The interpolator :meth:`to_arrays` described, without recomputing its table (which may
+        be a read-only memory map: a query touches only the rows of its cells). ``compiled``:
+        as :meth:`_prepare_kernel`."""
+        itp = cls.__new__(cls)
+        itp.names = tuple(info["names"])
+        itp.fixed = {k: float(v) for k, v in info["fixed"].items()}
+        itp.axes = [np.asarray(arrays[f"axis_{j}"], np.float64) for j in range(len(itp.names))]
+        itp.variables = tuple(info["variables"])
+        itp._curved_vars = [itp.variables.index(v) for v in info["curved"]]
+        itp.curvature = bool(itp._curved_vars)
+        itp._curved_axes = [int(j) for j in info["curved_axes"]]
+        values = arrays["values"]
+        ncols = len(itp.variables) + len(itp._curved_vars) * len(itp._curved_axes)
+        if values.ndim != 2 or values.shape[1] != ncols or values.shape[0] != math.prod(len(a) for a in itp.axes):
+            raise ValueError(f"table of shape {values.shape} does not fit the described grid")
+        itp._finish(values, info["out_of_range"], compiled)
+        return itp
 
     @property
     def inputs(self) -> tuple[str, ...]:

@@ -1,0 +1,137 @@
+"""The cycle's view of a component LUT: its checked header and interpolators built once, cached.
+
+:func:`evtms.cycle.api.load_cycle_luts` returns one :class:`CycleLut` per
+component. It reads and checks the file's header only; an interpolator the
+solver asks for is built from the file's data the first time and kept in the
+user's cache (:mod:`evtms.luts.cache`, memory-mapped), so a later run
+neither decompresses the table nor computes its curvature columns again, and
+a single operating point touches only the pages of the cells it lands in.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from evtms.luts.cache import cached_arrays
+from evtms.luts.validate import read_lut_metadata
+
+if TYPE_CHECKING:
+    from evtms.luts import Interpolator
+
+
+def _short(recipe: dict) -> str:
+    return hashlib.sha256(json.dumps(recipe, sort_keys=True).encode()).hexdigest()[:8]
+
+
+class CycleLut:
+    """One component's LUT file as the cycle uses it.
+
+    Parameters
+    ----------
+    path : Path
+        The LUT file (checked against the format, header only).
+    component : str
+        The component it must hold.
+
+    Attributes
+    ----------
+    attrs : dict
+        Global attributes (``fixed_inputs`` in SI units).
+    dims : tuple of str
+        Axes in table order.
+    axes : dict of str to numpy.ndarray
+        Axis values [SI].
+    encoding : dict
+        ``source``: the file's path (named in reasons).
+    """
+
+    def __init__(self, path: str | Path, component: str) -> None:
+        self.path = Path(path)
+        self.component = component
+        self.meta = read_lut_metadata(self.path, component)
+        self.attrs = self.meta.attrs
+        self.dims = tuple(self.meta.dims)
+        self.axes = self.meta.axes
+        self.encoding = {"source": str(self.path)}
+
+    def _cached(self, kind: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
+        recipe = {"kind": kind, "component": self.component, **recipe}
+        return cached_arrays(f"{self.component}-{kind}-{_short(recipe)}", [self.path], recipe, build)
+
+    def interpolator(self, variables: list[str], curvature: tuple[str, ...], compiled: bool = True) -> Interpolator:
+        """Interpolator of ``variables`` (NaN outside the axes), the ``curvature`` ones corrected;
+        ``compiled=False``: on the NumPy path (see :meth:`Interpolator.from_arrays`)."""
+        from evtms.luts import Interpolator
+
+        curved = [v for v in curvature if v in variables]
+
+        def build():
+            from evtms.luts import open_lut
+
+            ds = open_lut(self.path, self.component, variables)
+            return Interpolator.from_dataset(ds, variables, "nan", curved).to_arrays()
+
+        arrays, info = self._cached("itp", {"variables": variables, "curved": curved}, build)
+        return Interpolator.from_arrays(arrays, info, compiled)
+
+    def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
+        """Interpolator of ``name``: 1 at nodes whose status is in ``codes``, 0 at other valid nodes, NaN at invalid."""
+        from evtms.luts import Interpolator
+
+        def build():
+            from evtms.luts import open_lut
+
+            ds = open_lut(self.path, self.component, [])
+            status = ds["status"].values
+            valid = np.isin(status, np.asarray(ds["status"].attrs["valid_flag_values"]))
+            table = np.where(valid, np.isin(status, codes), np.nan)
+            axes = [(d, ds[d].values) for d in self.dims]
+            return Interpolator(axes, {name: table}, "nan", fixed=self.meta.fixed).to_arrays()
+
+        arrays, info = self._cached("flag", {"name": name, "codes": list(codes)}, build)
+        return Interpolator.from_arrays(arrays, info, compiled)
+
+    def derived(self, name: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
+        """Any arrays derived from this file (e.g. the valve's flow area), cached like the tables."""
+        return self._cached(name, recipe, build)
+
+
+class DatasetLut:
+    """An in-memory LUT dataset with :class:`CycleLut`'s interface (nothing cached)."""
+
+    def __init__(self, ds, component: str) -> None:
+        from evtms.luts.validate import fixed_inputs
+
+        self.ds = ds
+        self.component = component
+        self.attrs = dict(ds.attrs)
+        self.dims = tuple(ds["status"].dims)
+        self.axes = {d: np.asarray(ds[d].values, float) for d in self.dims}
+        self.encoding = {"source": ds.encoding.get("source", component)}
+        self.fixed = fixed_inputs(ds)
+
+    def interpolator(self, variables: list[str], curvature: tuple[str, ...], compiled: bool = True) -> Interpolator:
+        from evtms.luts import Interpolator
+
+        return Interpolator.from_dataset(self.ds, variables, out_of_range="nan", curvature=curvature)
+
+    def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
+        from evtms.luts import Interpolator
+
+        status = self.ds["status"].values
+        valid = np.isin(status, np.asarray(self.ds["status"].attrs["valid_flag_values"]))
+        table = np.where(valid, np.isin(status, codes), np.nan)
+        return Interpolator([(d, self.axes[d]) for d in self.dims], {name: table}, "nan", fixed=self.fixed)
+
+    def derived(self, name: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
+        return build()
+
+
+def cycle_lut(lut, component: str) -> CycleLut | DatasetLut:
+    """``lut`` as the cycle's view: a :class:`CycleLut` as it is, an xarray dataset wrapped."""
+    return lut if isinstance(lut, CycleLut | DatasetLut) else DatasetLut(lut, component)

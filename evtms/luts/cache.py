@@ -1,0 +1,138 @@
+"""Arrays derived from LUT files, cached beside them and rebuilt when a file changes.
+
+A cold ``evtms cycle run`` used to spend most of its time and memory turning
+the LUTs into interpolation tables (decompressing the evaporator's 2.4 million
+points, computing the curvature columns) and importing CoolProp for the
+saturation curve. What it derives depends only on the source files and on a
+recipe (evtms version, variables, options), so it is cached:
+
+- in the user's cache folder (``$EVTMS_CACHE_DIR``, else
+  ``$XDG_CACHE_HOME/evtms``, else ``~/.cache/evtms``), never beside the LUTs:
+  a LUT folder may be read-only or shared, and a command's inputs stay
+  untouched; one folder per entry, ``<name>-<source>-<key>/``, with one
+  ``.npy`` file per array and a ``meta.json``; ``source`` hashes the source
+  files' resolved paths and ``key`` the recipe, evtms's version and each
+  source file's size and modification time, so rewriting a LUT (or upgrading
+  evtms) makes a new key and the stale entry of that file is removed;
+- read back memory-mapped: a query touches only the pages of the cells it
+  lands in, so a single operating point neither reads nor holds whole tables;
+- written to a temporary folder and renamed into place, so concurrent runs
+  never see half an entry (the first complete one wins, the others use it);
+- skipped silently where the cache folder cannot be written: the arrays are
+  then built in memory, as without a cache (``EVTMS_NO_CACHE=1`` forces that).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from evtms import __version__
+
+#: Environment variable naming the cache folder.
+CACHE_DIR_ENV = "EVTMS_CACHE_DIR"
+#: Set to 1 to neither read nor write the cache (always build in memory).
+DISABLE_ENV = "EVTMS_NO_CACHE"
+
+
+def cache_root() -> Path:
+    """The cache folder: ``$EVTMS_CACHE_DIR``, ``$XDG_CACHE_HOME/evtms`` or ``~/.cache/evtms``."""
+    if os.environ.get(CACHE_DIR_ENV):
+        return Path(os.environ[CACHE_DIR_ENV])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "evtms"
+
+
+def cache_key(sources: Sequence[str | Path], recipe: Mapping) -> str:
+    """SHA-256 (hex) of the recipe, evtms's version and each source file's identity."""
+    ident = []
+    for src in sources:
+        st = os.stat(src)
+        ident.append([str(Path(src).resolve()), st.st_size, st.st_mtime_ns])
+    text = json.dumps({"evtms": __version__, "recipe": recipe, "sources": ident}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _load(entry: Path) -> tuple[dict[str, np.ndarray], dict] | None:
+    try:
+        meta = json.loads((entry / "meta.json").read_text(encoding="utf-8"))
+        arrays = {name: np.load(entry / f"{name}.npy", mmap_mode="r") for name in meta["arrays"]}
+    except (OSError, ValueError, KeyError):
+        return None  # damaged or removed by a concurrent cleaner: build again
+    return arrays, meta.get("info", {})
+
+
+def cached_arrays(
+    name: str,
+    sources: Sequence[str | Path],
+    recipe: Mapping,
+    build: Callable[[], tuple[dict[str, np.ndarray], dict]],
+) -> tuple[dict[str, np.ndarray], dict]:
+    """The arrays ``build()`` makes from ``sources``, from the cache when it has them.
+
+    Parameters
+    ----------
+    name : str
+        Entry name (letters, digits, ``_``, ``-``), e.g. ``evaporator-itp``.
+    sources : sequence of path
+        Files the arrays derive from.
+    recipe : mapping
+        Everything else they depend on (JSON-serialisable).
+    build : callable
+        Returns ``(arrays, info)``: named arrays and a JSON-serialisable dict.
+
+    Returns
+    -------
+    (dict of str to numpy.ndarray, dict)
+        The arrays (memory-mapped, read-only, when from the cache) and info.
+    """
+    if os.environ.get(DISABLE_ENV) == "1":
+        return build()
+    key = cache_key(sources, recipe)
+    where = hashlib.sha256("\n".join(str(Path(p).resolve()) for p in sources).encode()).hexdigest()[:12]
+    prefix = f"{name}-{where}"
+    root = cache_root()
+    entry = root / f"{prefix}-{key[:32]}"
+    if entry.is_dir():
+        got = _load(entry)
+        if got is not None:
+            return got
+    arrays, info = build()
+    with contextlib.suppress(OSError):
+        _store(root, entry, prefix, arrays, info)
+        got = _load(entry)
+        if got is not None:
+            return got
+    return arrays, info
+
+
+def _store(root: Path, entry: Path, name: str, arrays: Mapping[str, np.ndarray], info: dict) -> None:
+    """Write an entry atomically (temporary folder, then rename) and drop stale ones of ``name``."""
+    root.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=root))
+    try:
+        for key, value in arrays.items():
+            np.save(tmp / f"{key}.npy", np.ascontiguousarray(value), allow_pickle=False)
+        meta = {"arrays": list(arrays), "info": info, "evtms": __version__}
+        (tmp / "meta.json").write_text(json.dumps(meta), encoding="utf-8")
+        try:
+            os.rename(tmp, entry)
+        except OSError:
+            if not entry.is_dir():  # not a concurrent writer's finished entry: a real failure
+                raise
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    stale = re.compile(rf"{re.escape(name)}-[0-9a-f]{{32}}")
+    for old in root.iterdir():
+        if old != entry and stale.fullmatch(old.name) and old.is_dir():
+            shutil.rmtree(old, ignore_errors=True)

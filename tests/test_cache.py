@@ -1,0 +1,136 @@
+"""The cache of arrays derived from LUT files (evtms/luts/cache.py) and the cycle's use of it."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from evtms.luts.cache import CACHE_DIR_ENV, cached_arrays
+
+
+@pytest.fixture(autouse=True)
+def cache_dir(tmp_path, monkeypatch):
+    folder = tmp_path / "cache"
+    monkeypatch.setenv(CACHE_DIR_ENV, str(folder))
+    return folder
+
+
+def _entries(folder):
+    return sorted(p.name for p in folder.iterdir()) if folder.exists() else []
+
+
+def test_second_call_reads_the_cache_memory_mapped(tmp_path):
+    src = tmp_path / "a.nc"
+    src.write_bytes(b"one")
+    calls = []
+
+    def build():
+        calls.append(1)
+        return {"x": np.arange(5.0)}, {"note": "built"}
+
+    a, info_a = cached_arrays("thing", [src], {"v": 1}, build)
+    b, info_b = cached_arrays("thing", [src], {"v": 1}, build)
+    assert len(calls) == 1
+    assert isinstance(b["x"], np.memmap) and not b["x"].flags.writeable
+    assert np.array_equal(a["x"], b["x"]) and info_a == info_b == {"note": "built"}
+
+
+def test_a_changed_source_or_recipe_rebuilds_and_drops_the_stale_entry(tmp_path, cache_dir):
+    src = tmp_path / "a.nc"
+    src.write_bytes(b"one")
+    values = iter([1.0, 2.0, 3.0])
+
+    def build():
+        return {"x": np.array([next(values)])}, {}
+
+    assert cached_arrays("thing", [src], {"v": 1}, build)[0]["x"][0] == 1.0
+    time.sleep(0.01)
+    src.write_bytes(b"two!")  # rewritten: new size and modification time
+    assert cached_arrays("thing", [src], {"v": 1}, build)[0]["x"][0] == 2.0
+    assert len(_entries(cache_dir)) == 1
+    assert cached_arrays("thing", [src], {"v": 2}, build)[0]["x"][0] == 3.0
+    assert len(_entries(cache_dir)) == 1
+
+
+def test_an_unwritable_cache_folder_builds_in_memory(tmp_path, monkeypatch):
+    """Where the cache cannot be written (here its parent is a file; a read-only folder fails
+    alike, also for root), the arrays are built and returned, nothing raised."""
+    src = tmp_path / "a.nc"
+    src.write_bytes(b"one")
+    (tmp_path / "taken").write_text("a file")
+    monkeypatch.setenv(CACHE_DIR_ENV, str(tmp_path / "taken" / "cache"))
+    arrays, _ = cached_arrays("thing", [src], {}, lambda: ({"x": np.ones(3)}, {}))
+    assert np.array_equal(arrays["x"], np.ones(3))
+
+
+def test_disabled_cache_writes_nothing(tmp_path, monkeypatch, cache_dir):
+    monkeypatch.setenv("EVTMS_NO_CACHE", "1")
+    src = tmp_path / "a.nc"
+    src.write_bytes(b"one")
+    cached_arrays("thing", [src], {}, lambda: ({"x": np.ones(3)}, {}))
+    assert not cache_dir.exists()
+
+
+def test_concurrent_builders_all_get_whole_arrays_and_one_entry_stays(tmp_path, cache_dir):
+    src = tmp_path / "a.nc"
+    src.write_bytes(b"one")
+    start = threading.Barrier(6)
+    results, errors = [], []
+
+    def build():
+        time.sleep(0.05)
+        return {"x": np.arange(100_000.0)}, {}
+
+    def worker():
+        try:
+            start.wait()
+            results.append(cached_arrays("thing", [src], {}, build)[0]["x"])
+        except Exception as exc:  # noqa: BLE001 - the test reports any failure
+            errors.append(exc)
+
+    threads = [threading.Thread(target=worker) for _ in range(6)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert len(results) == 6 and all(np.array_equal(r, np.arange(100_000.0)) for r in results)
+    assert len(_entries(cache_dir)) == 1  # no temporary folder left behind
+
+
+def test_cycle_on_cached_tables_is_identical_and_needs_no_coolprop(cycle_luts_dir, tmp_path, cache_dir):
+    """A second LUT cycle run reads the cache: the same numbers, and CoolProp is never imported;
+    the LUT folder is left as it was."""
+    import shutil
+
+    folder = tmp_path / "luts"
+    folder.mkdir()
+    for name in ("condenser", "evaporator", "compressor", "expansion_valve"):
+        shutil.copy(cycle_luts_dir / f"{name}.nc", folder / f"{name}.nc")
+    code = (
+        "import sys, json; from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle;"
+        f"r = run_cycle(OperatingPoints(speed=[0.4, 0.8]), load_cycle_luts({str(folder)!r}));"
+        "print(json.dumps({'p_A': r['p_A'].tolist(), 'COP': r['COP'].tolist(),"
+        " 'coolprop': 'CoolProp' in sys.modules}))"
+    )
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True) for _ in range(2)]
+    for r in runs:
+        assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in folder.iterdir()) == [
+        "compressor.nc",
+        "condenser.nc",
+        "evaporator.nc",
+        "expansion_valve.nc",
+    ]
+    assert _entries(cache_dir)
+    import json
+
+    first, second = (json.loads(r.stdout) for r in runs)
+    assert first["coolprop"] is True  # the first run built the saturation curve and the valve area
+    assert second["coolprop"] is False
+    assert first["p_A"] == second["p_A"] and first["COP"] == second["COP"]
