@@ -432,17 +432,22 @@ BENCH = Bench(
             "T_coolant_in": (293.15, 303.15, 313.15, 323.15),
         },
         # Cycle envelope: evaporating -35 to 29 degC every 2 K (as the evaporator's), coolant
-        # 0-50 degC every 2.5 K at 0.05-0.5 kg/s (the battery pump gives 0.13-0.43 kg/s), and
+        # 0-50 degC every 2 K at 0.05-0.5 kg/s (the battery pump gives 0.13-0.43 kg/s), and
         # refrigerant flows from 1 g/s (a branch of two in parallel may take little). With the
         # coolant every 5 K, 6 coolant flows and 10 refrigerant flows from 3 g/s, the LUT cycle's
         # suction pressure was up to 5 % off the direct physics (the response hinges on
-        # T_coolant_in - T_sat and pinches where the coolant's capacity rate limits).
+        # T_coolant_in - T_sat and pinches where the coolant's capacity rate limits). At the
+        # branch states of a cabin+chiller cycle (outlet 5-10 K superheated) h_out_continued
+        # curves most along h_in (a slightly colder inlet already leaves two-phase) and along
+        # T_coolant_in; 7 enthalpies (not 5) and the coolant every 2 K (not 2.5 K), paid for
+        # with 6 coolant flows (not 7, the flattest axis), cut its rms error there from 1.1 to
+        # 0.7 kJ/kg and the worst error in Q_chiller of a 60-point cycle check from 9 to 5 %.
         "cycle": {
             "mdot": tuple(np.geomspace(0.001, 0.15, 16)),
             "p_in": pressure_nodes(np.arange(-35.0, 30.0, 2.0)),
-            "h_in": tuple(np.linspace(200e3, 350e3, 5)),
-            "mdot_coolant": tuple(np.geomspace(0.05, 0.5, 7)),
-            "T_coolant_in": tuple(np.arange(0.0, 50.1, 2.5) + 273.15),
+            "h_in": tuple(np.linspace(200e3, 350e3, 7)),
+            "mdot_coolant": tuple(np.geomspace(0.05, 0.5, 6)),
+            "T_coolant_in": tuple(np.arange(0.0, 50.1, 2.0) + 273.15),
         },
     },
 )
