@@ -214,37 +214,60 @@ class _LutComponent:
         self.fixed = {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")} | fixed_inputs(lut.attrs)
 
     def __call__(self, query: dict[str, np.ndarray]) -> Result:
+        # The solver calls this some ninety times per operating point and iteration, mostly
+        # with every value inside the axes: the reasons are worked out only where one is not.
         n = len(next(iter(query.values())))
-        reasons = _reasons(n)
         cols = {}
+        outside = []  # (mask, message per point) in the order of the axes: the first one wins
         for d in self.dims:
+            lo, hi = self.ranges[d]
             if d == "T_res" and d not in query:
-                lo, _ = self.ranges[d]
                 cols[d] = np.full(n, lo)  # no effect in steady state; any grid value will do
                 continue
-            x = np.broadcast_to(np.asarray(query[d], float), (n,))
-            lo, hi = self.ranges[d]
-            outside = ~((x >= lo) & (x <= hi)) & (reasons == "")
-            for i in np.nonzero(outside)[0]:
-                reasons[i] = f"{self.component} LUT axis {d} = {x[i]:.6g} outside [{lo:.6g}, {hi:.6g}]"
+            x = query[d]
+            if not (type(x) is np.ndarray and x.ndim == 1 and x.size == n and x.dtype == np.float64):
+                x = np.broadcast_to(np.asarray(x, float), (n,))
+            off = ~((x >= lo) & (x <= hi))
+            if off.any():
+                outside.append(
+                    (
+                        off,
+                        lambda i, d=d, x=x, lo=lo, hi=hi: (
+                            f"{self.component} LUT axis {d} = {x[i]:.6g} outside [{lo:.6g}, {hi:.6g}]"
+                        ),
+                    )
+                )
             cols[d] = x
         for axis, fixed in self.fixed.items():
             if axis in query and axis not in self.dims and fixed is not None:
                 x = np.broadcast_to(np.asarray(query[axis], float), (n,))
-                off = ~(np.abs(x - fixed) <= 1e-9 * max(abs(fixed), 1.0)) & (reasons == "")
-                for i in np.nonzero(off)[0]:
-                    reasons[i] = f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
+                off = ~(np.abs(x - fixed) <= 1e-9 * max(abs(fixed), 1.0))
+                if off.any():
+                    outside.append(
+                        (
+                            off,
+                            lambda i, axis=axis, x=x, fixed=fixed: (
+                                f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
+                            ),
+                        )
+                    )
         itp = self.subcooled if (self.needs_subcooled or self.detailed) else self.fast
         out = itp(cols)
         if self.detailed and self.extra is not None:
             out.update(self.extra(cols))
         if self.detailed and self.frost is not None:
             out.update(self.frost(cols))
+        reasons = _reasons(n)
+        for off, message in outside:
+            for i in np.nonzero(off & (reasons == ""))[0]:
+                reasons[i] = message(i)
         bad = reasons != ""
-        for v in out.values():
-            v[bad] = np.nan
+        if outside:
+            for v in out.values():
+                v[bad] = np.nan
         nan = ~bad & ~np.isfinite(out[itp.variables[0]])
-        reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
+        if nan.any():
+            reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
         out["reason"] = reasons
         return out
 
