@@ -631,6 +631,13 @@ app.add_typer(cycle_app, name="cycle")
 DEFAULT_MAX_CYCLE_POINTS = 2_000_000
 
 
+def _texts(*values: str | None) -> dict[str, str | None]:
+    """The cycle commands' input options by input name (their order: ``evtms.cycle.topology.INPUTS``)."""
+    from evtms.cycle.topology import INPUTS
+
+    return dict(zip(INPUTS, values, strict=True))
+
+
 def _cycle_inputs(topology: str, texts: dict[str, str | None], max_points: int = DEFAULT_MAX_CYCLE_POINTS):
     """(circuit, grid of its inputs) from the command line's texts; the library checks every value."""
     from evtms.cycle.topology import parse_inputs
@@ -751,19 +758,7 @@ def cycle_run(
 
     circuit, grid = _cycle_inputs(
         topology,
-        {
-            "speed": speed,
-            "fan": fan,
-            "blower": blower,
-            "T_amb": t_amb,
-            "RH_amb": rh_amb,
-            "T_cabin": t_cabin,
-            "RH_cabin": rh_cabin,
-            "mdot_coolant": coolant_flow,
-            "T_coolant_in": t_coolant,
-            "superheat": superheat,
-            "subcooling": subcooling,
-        },
+        _texts(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, coolant_flow, t_coolant, superheat, subcooling),
     )
     several = [f"{INPUTS[k].option} ({len(v)} values)" for k, v in grid.items() if len(v) != 1]
     if several:
@@ -838,19 +833,7 @@ def cycle_sweep(
     folder = luts or Path("luts")
     circuit, grid = _cycle_inputs(
         topology,
-        {
-            "speed": speed,
-            "fan": fan,
-            "blower": blower,
-            "T_amb": t_amb,
-            "RH_amb": rh_amb,
-            "T_cabin": t_cabin,
-            "RH_cabin": rh_cabin,
-            "mdot_coolant": coolant_flow,
-            "T_coolant_in": t_coolant,
-            "superheat": superheat,
-            "subcooling": subcooling,
-        },
+        _texts(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, coolant_flow, t_coolant, superheat, subcooling),
         max_points,
     )
     inputs = [params] + ([] if direct else [folder / f"{c}.nc" for c in circuit.components])
