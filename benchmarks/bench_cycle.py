@@ -2,7 +2,7 @@
 
 Run:  python benchmarks/bench_cycle.py LUT_FOLDER [--direct 20]
 
-LUT_FOLDER holds the four LUTs written by ``evtms bench all --grid cycle``.
+LUT_FOLDER holds the cabin loop's LUTs written by ``evtms bench all --grid cycle``.
 Reports the batched LUT solve (best of 3, after the LUTs are loaded and the
 interpolators built) and the median time per point of the direct-physics
 reference solved one point at a time.
