@@ -44,8 +44,9 @@ FORBIDDEN_IMPORTS = {
     "params": ("hx", "benches", "luts", "cycle", "reports", "cli", "demo"),
     "hx": ("benches", "luts", "cycle", "reports", "cli", "demo"),
     "luts": ("fluid", "hx", "benches", "cycle", "reports", "cli", "demo", "params"),
-    "benches": ("cycle", "reports", "cli", "demo"),
-    "cycle": ("reports", "cli", "demo"),
+    "benches": ("cycle", "system", "reports", "cli", "demo"),
+    "cycle": ("system", "reports", "cli", "demo"),
+    "system": ("reports", "cli", "demo"),
     "reports": ("cli", "demo"),
 }
 
