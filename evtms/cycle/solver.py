@@ -527,7 +527,6 @@ class CycleSolver:
         ok = np.isfinite(mdot) & np.isfinite(p_A) & np.isfinite(h_D) & (s_lo < s_hi)
         reason = np.full(n, "", dtype=object)
         reason[~ok & np.isfinite(mdot)] = "the flow cannot be split between the branches within their models' flows"
-        latest: dict = {}
 
         # ``i``: the points' positions in this call's arrays (``idx[i]`` in the whole batch).
         def evaluate(share: np.ndarray, i: np.ndarray) -> tuple[dict, dict]:
@@ -632,16 +631,15 @@ class CycleSolver:
             )
         for r in (r1, r2):
             reason = np.where(reason != "", reason, r["reason"])
-        latest.update(
-            h_out_continued=h_mix,
-            p_out=p_A.copy(),
-            reason=reason,
-            p_D=inlets[names[0]],
-            branches=branches,
-            flows=flows,
-            inlets=inlets,
-        )
-        return latest
+        return {
+            "h_out_continued": h_mix,
+            "p_out": p_A.copy(),
+            "reason": reason,
+            "p_D": inlets[names[0]],
+            "branches": branches,
+            "flows": flows,
+            "inlets": inlets,
+        }
 
     # -- the two residuals ---------------------------------------------------
     def _discharge_side(self, ops: dict, p_A: np.ndarray, p_B: np.ndarray) -> dict:
