@@ -154,6 +154,8 @@ def energy_balance_data(ds: xr.Dataset, x: str) -> dict[str, np.ndarray]:
         "x": line[x].values,
         "Q_cond": v("Q_cond"),
         "Q_evap": -v("Q_evap"),
+        # A sweep of a circuit with a chiller (older sweeps have none: 0).
+        "Q_chiller": -v("Q_chiller") if "Q_chiller" in line else np.zeros(line[x].size),
         "W_fluid": v("W_fluid"),
         "residual": v("balance_residual"),
         "relative": v("balance_relative"),
@@ -161,7 +163,8 @@ def energy_balance_data(ds: xr.Dataset, x: str) -> dict[str, np.ndarray]:
 
 
 def energy_balance_figure(ds: xr.Dataset, x: str, path: str | Path) -> Path:
-    """Draw Q_cond, |Q_evap|, W_fluid and the residual against input ``x``; write a CSV table beside."""
+    """Draw Q_cond, |Q_evap|, |Q_chiller| (where the circuit has a chiller), W_fluid and the residual
+    against input ``x``; write a CSV table beside."""
     d = energy_balance_data(ds, x)
     units = ds[x].attrs.get("units", "")
     xs = d["x"] - 273.15 if units == "K" and x.startswith("T") else d["x"]
@@ -169,9 +172,15 @@ def energy_balance_figure(ds: xr.Dataset, x: str, path: str | Path) -> Path:
     fig = _figure(figsize=(7.0, 6.0))
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
     top.plot(xs, d["Q_cond"] / 1e3, "o-", label="Q_cond (condenser LUT)")
-    top.plot(xs, d["Q_evap"] / 1e3, "s-", label="|Q_evap| (evaporator LUT)")
-    top.plot(xs, d["W_fluid"] / 1e3, "^-", label="W_fluid (compressor LUT)")
-    top.plot(xs, (d["Q_evap"] + d["W_fluid"]) / 1e3, "k--", lw=1, label="|Q_evap| + W_fluid")
+    chiller = bool(np.nan_to_num(d["Q_chiller"]).any())
+    evaporator = bool(np.nan_to_num(d["Q_evap"]).any())
+    if evaporator:
+        top.plot(xs, d["Q_evap"] / 1e3, "s-", label="|Q_evap| (evaporator)")
+    if chiller:
+        top.plot(xs, d["Q_chiller"] / 1e3, "D-", label="|Q_chiller| (chiller)")
+    top.plot(xs, d["W_fluid"] / 1e3, "^-", label="W_fluid (compressor)")
+    taken = " + ".join([*(["|Q_evap|"] if evaporator else []), *(["|Q_chiller|"] if chiller else []), "W_fluid"])
+    top.plot(xs, (d["Q_evap"] + d["Q_chiller"] + d["W_fluid"]) / 1e3, "k--", lw=1, label=taken)
     top.set_ylabel("heat flow, power [kW]")
     top.legend()
     top.grid(alpha=0.3)
@@ -180,11 +189,12 @@ def energy_balance_figure(ds: xr.Dataset, x: str, path: str | Path) -> Path:
     bottom.set_ylabel("residual [% of W_fluid]")
     bottom.set_xlabel(xlabel)
     bottom.grid(alpha=0.3)
-    top.set_title("Cycle energy balance: Q_cond - |Q_evap| - W_fluid")
+    top.set_title(f"Cycle energy balance: Q_cond - ({taken})")
     out = _save(fig, path)
     table = Path(path).with_suffix(".csv")
-    header = f"{x} [{units}],Q_cond [W],Q_evap_abs [W],W_fluid [W],residual [W],residual_relative [1]"
-    rows = np.column_stack([d["x"], d["Q_cond"], d["Q_evap"], d["W_fluid"], d["residual"], d["relative"]])
+    header = f"{x} [{units}],Q_cond [W],Q_evap_abs [W],Q_chiller_abs [W],W_fluid [W],residual [W],residual_relative [1]"
+    columns = ("x", "Q_cond", "Q_evap", "Q_chiller", "W_fluid", "residual", "relative")
+    rows = np.column_stack([d[c] for c in columns])
     with atomic_output(table) as tmp:
         np.savetxt(tmp, rows, delimiter=",", header=header, comments="", fmt="%.10g")
     return out
