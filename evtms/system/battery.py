@@ -1,0 +1,147 @@
+"""Battery pack: equivalent circuit after Gao et al. (2002), the electrical side.
+
+A pack of ``Ns`` cells in series and ``Np`` in parallel: EMF ``E = Ns
+OCV(SOC)`` [V] (the Simscape example's OCV has no temperature dependence),
+ohmic resistance ``R1 = R0(SOC, T_battery) Ns / Np`` [ohm] (bilinear and
+clamped in the cell table, :func:`evtms.system.tables.battery_cell_tables`),
+and an optional RC branch (``v_rc`` [V]; off by default, no source gives its
+values). For a terminal power ``P`` [W] (> 0 discharging) the current is the
+smaller root of ``R1 i^2 - (E - v_rc) i + P = 0``:
+
+.. math:: i = \\frac{(E - v_{rc}) - \\sqrt{(E - v_{rc})^2 - 4 R_1 P}}{2 R_1}
+
+so that ``v i = P`` exactly with ``v = E - v_rc - R1 i``. The terminal voltage
+binds first: the power is capped at the one that brings ``v`` to ``Ns
+v_min``, ``P_cap = Ns v_min (E - v_rc - Ns v_min) / R1``; a point above it
+gets the cap and is flagged. Heat ``Q_gen = R1 i^2`` (+ ``v_rc^2 / R2`` with
+the RC branch), so ``E i = v i + Q_gen`` (+ the RC branch's stored energy) to
+round-off. SOC falls as ``dSOC/dt = -i / (3600 Q_Ah)`` with ``Q_Ah = Np
+Q_cell``.
+
+References
+----------
+Gao, L., Liu, S., Dougal, R. A. (2002). Dynamic lithium-ion battery model for
+system simulation. IEEE Transactions on Components and Packaging
+Technologies 25(3), 495-505.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from evtms.system.tables import BatteryCellTables, battery_cell_tables, bilinear_clamped
+
+
+@dataclass(frozen=True)
+class BatteryParams:
+    """Pack parameters (defaults: the Simscape BEV example, MW P; FASTSim for the SOC window).
+
+    Attributes
+    ----------
+    n_series, n_parallel : int
+        Cells in series and in parallel [1] (96, 32).
+    cell_capacity : float
+        Cell capacity [Ah] (4.5: pack 144 Ah).
+    cell_voltage_min : float
+        Lowest cell terminal voltage [V] (2.25).
+    r2, c2 : float
+        RC branch [ohm], [F]; 0 = off (default).
+    soc_min, soc_max : float
+        Usable SOC window [1] (0.05, 0.98).
+    """
+
+    n_series: int = 96
+    n_parallel: int = 32
+    cell_capacity: float = 4.5
+    cell_voltage_min: float = 2.25
+    r2: float = 0.0
+    c2: float = 0.0
+    soc_min: float = 0.05
+    soc_max: float = 0.98
+
+    @property
+    def capacity_As(self) -> float:
+        """Pack charge capacity [A s]."""
+        return 3600.0 * self.n_parallel * self.cell_capacity
+
+
+@dataclass(frozen=True)
+class BatteryState:
+    """The pack's electrical response to a power demand (arrays, SI).
+
+    Attributes
+    ----------
+    current : numpy.ndarray
+        Current [A] (> 0 discharging).
+    voltage : numpy.ndarray
+        Terminal voltage [V].
+    emf : numpy.ndarray
+        EMF ``E`` [V].
+    resistance : numpy.ndarray
+        Ohmic resistance ``R1`` [ohm].
+    power : numpy.ndarray
+        Power delivered [W]: the demand, or the cap where it binds.
+    heat : numpy.ndarray
+        Heat generated in the pack [W] (>= 0).
+    limited : numpy.ndarray
+        The demand was above the power cap.
+    """
+
+    current: np.ndarray
+    voltage: np.ndarray
+    emf: np.ndarray
+    resistance: np.ndarray
+    power: np.ndarray
+    heat: np.ndarray
+    limited: np.ndarray
+
+
+class Battery:
+    """The pack's equivalent circuit on the cell tables.
+
+    Parameters
+    ----------
+    params : BatteryParams, optional
+        Pack parameters.
+    tables : BatteryCellTables, optional
+        Cell OCV and R0 tables (default: the Simscape example's).
+    """
+
+    def __init__(self, params: BatteryParams | None = None, tables: BatteryCellTables | None = None) -> None:
+        self.params = params or BatteryParams()
+        self.tables = tables or battery_cell_tables()
+
+    def emf(self, soc: np.ndarray) -> np.ndarray:
+        """Pack EMF [V] at state of charge ``soc`` [1]."""
+        t = self.tables
+        return self.params.n_series * bilinear_clamped(t.soc, t.temperature_K, t.ocv_V, soc, t.temperature_K[0])
+
+    def resistance(self, soc: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """Pack ohmic resistance [ohm] at ``soc`` [1] and cell temperature ``T`` [K]."""
+        t, p = self.tables, self.params
+        return bilinear_clamped(t.soc, t.temperature_K, t.r0_ohm, soc, T) * p.n_series / p.n_parallel
+
+    def power_cap(self, soc: np.ndarray, T: np.ndarray, v_rc: np.ndarray | float = 0.0) -> np.ndarray:
+        """Largest discharge power [W]: the one that brings the terminal voltage to ``Ns v_min``."""
+        v_min = self.params.n_series * self.params.cell_voltage_min
+        return v_min * (self.emf(soc) - v_rc - v_min) / self.resistance(soc, T)
+
+    def respond(
+        self, power: np.ndarray, soc: np.ndarray, T: np.ndarray, v_rc: np.ndarray | float = 0.0
+    ) -> BatteryState:
+        """Current, voltage and heat at terminal power ``power`` [W] (> 0 discharging)."""
+        E = np.asarray(self.emf(soc), float)
+        R = np.asarray(self.resistance(soc, T), float)
+        cap = self.power_cap(soc, T, v_rc)
+        demand = np.asarray(power, float)
+        limited = demand > cap
+        P = np.where(limited, cap, demand)
+        source = E - v_rc
+        current = (source - np.sqrt(np.maximum(source**2 - 4.0 * R * P, 0.0))) / (2.0 * R)
+        voltage = source - R * current
+        heat = R * current**2
+        if self.params.r2 > 0:
+            heat = heat + np.asarray(v_rc, float) ** 2 / self.params.r2
+        return BatteryState(current, voltage, E, R, P, heat, limited)
