@@ -12,7 +12,7 @@ from evtms import __version__
 from evtms.cycle.models import DirectModels, LutModels
 from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
 from evtms.cycle.tables import CycleLut
-from evtms.cycle.topology import INPUTS, TOPOLOGIES, Topology, topology
+from evtms.cycle.topology import INPUTS, Topology, topology
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid, SaturationCurve
 from evtms.luts.cache import cached_arrays
@@ -24,9 +24,6 @@ if TYPE_CHECKING:
 #: Batches from this many points interpolate through the compiled kernel: below, numba's
 #: import and load (0.3-0.5 s) cost more than it saves (about 20 ms a point).
 COMPILED_FROM_POINTS = 20
-
-#: Components of the cabin loop (every topology's are ``Topology.components``).
-COMPONENTS = TOPOLOGIES["cabin"].components
 
 #: Result variable -> (units, long_name).
 RESULT_VARIABLES = {
@@ -50,16 +47,6 @@ RESULT_VARIABLES = {
     "balance_residual": ("W", "Q_cond + Q_evap + Q_chiller - W_fluid, each from its own component"),
     "balance_relative": ("1", "balance_residual / W_fluid"),
 }
-
-
-def cycle_variables(component: str) -> list[str]:
-    """The LUT variables the LUT cycle interpolates from ``component``'s file (the valve's: none)."""
-    from evtms.cycle.models import COMPONENT_OUTPUTS, ITERATION_OUTPUTS
-
-    names = [*ITERATION_OUTPUTS.get(component, ()), *COMPONENT_OUTPUTS.get(component, ())]
-    if component == "condenser":
-        names += ITERATION_OUTPUTS["condenser_subcooled"]
-    return list(dict.fromkeys(names))
 
 
 def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> dict[str, CycleLut]:

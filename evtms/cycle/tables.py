@@ -74,7 +74,7 @@ class CycleLut:
             from evtms.luts import open_lut
 
             ds = open_lut(self.path, self.component, variables)
-            return Interpolator.from_dataset(ds, variables, "nan", curved).to_arrays()
+            return DatasetLut(ds, self.component).interpolator(variables, tuple(curved)).to_arrays()
 
         arrays, info = self._cached("itp", {"variables": variables, "curved": curved}, build)
         return Interpolator.from_arrays(arrays, info, compiled)
@@ -87,11 +87,7 @@ class CycleLut:
             from evtms.luts import open_lut
 
             ds = open_lut(self.path, self.component, [])
-            status = ds["status"].values
-            valid = np.isin(status, np.asarray(ds["status"].attrs["valid_flag_values"]))
-            table = np.where(valid, np.isin(status, codes), np.nan)
-            axes = [(d, ds[d].values) for d in self.dims]
-            return Interpolator(axes, {name: table}, "nan", fixed=self.meta.fixed).to_arrays()
+            return DatasetLut(ds, self.component).indicator(name, codes).to_arrays()
 
         arrays, info = self._cached("flag", {"name": name, "codes": list(codes)}, build)
         return Interpolator.from_arrays(arrays, info, compiled)
@@ -116,17 +112,23 @@ class DatasetLut:
         self.fixed = fixed_inputs(ds)
 
     def interpolator(self, variables: list[str], curvature: tuple[str, ...], compiled: bool = True) -> Interpolator:
+        """As :meth:`CycleLut.interpolator`, built from the dataset in memory."""
         from evtms.luts import Interpolator
 
-        return Interpolator.from_dataset(self.ds, variables, out_of_range="nan", curvature=curvature)
+        itp = Interpolator.from_dataset(self.ds, variables, out_of_range="nan", curvature=curvature)
+        itp.compiled = itp.compiled and compiled
+        return itp
 
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
+        """As :meth:`CycleLut.indicator`, built from the dataset in memory."""
         from evtms.luts import Interpolator
 
         status = self.ds["status"].values
         valid = np.isin(status, np.asarray(self.ds["status"].attrs["valid_flag_values"]))
         table = np.where(valid, np.isin(status, codes), np.nan)
-        return Interpolator([(d, self.axes[d]) for d in self.dims], {name: table}, "nan", fixed=self.fixed)
+        itp = Interpolator([(d, self.axes[d]) for d in self.dims], {name: table}, "nan", fixed=self.fixed)
+        itp.compiled = itp.compiled and compiled
+        return itp
 
     def derived(self, name: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
         return build()
