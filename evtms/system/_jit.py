@@ -1,0 +1,32 @@
+"""Compile the system simulator's scalar kernels with numba where it is available.
+
+The time loop and its lookups are written in the subset of Python that numba
+compiles (scalars, NumPy arrays, no objects). :func:`jit` compiles them with
+``numba.njit(cache=True)`` (machine code cached next to the module, so only a
+machine's first run compiles); with ``EVTMS_NO_NUMBA=1`` set, or without
+numba, the same functions run as plain Python: slower, same numbers.
+"""
+
+from __future__ import annotations
+
+import os
+
+
+def numba_enabled() -> bool:
+    """Whether kernels are compiled (numba importable and ``EVTMS_NO_NUMBA`` unset)."""
+    if os.environ.get("EVTMS_NO_NUMBA", "") not in ("", "0"):
+        return False
+    try:
+        import numba  # noqa: F401
+    except ImportError:  # pragma: no cover - numba is a dependency
+        return False
+    return True
+
+
+def jit(fn):
+    """``fn`` compiled by numba (no Python objects, cached), or ``fn`` itself."""
+    if not numba_enabled():
+        return fn
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(fn)
