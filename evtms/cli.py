@@ -1064,6 +1064,134 @@ def demo(
     )
 
 
+_SIM_TAMB = typer.Option(
+    "--t-amb", help="Ambient [degC]: one value, v1,v2,... or start:stop:count (several run side by side)."
+)
+
+
+@app.command()
+def simulate(
+    output: Annotated[Path, typer.Option("--output", "-o", help="Output netCDF file.")],
+    cycle: Annotated[
+        str | None, typer.Option("--cycle", help="Drive cycle: wltc3b, nedc, udds, hwfet or a CSV file.")
+    ] = None,
+    scenario: Annotated[
+        str | None, typer.Option("--scenario", help="Named scenario: hot-drive, cooldown, cold, wltc, nedc.")
+    ] = None,
+    t_amb: Annotated[str | None, _SIM_TAMB] = None,
+    mode: Annotated[str, typer.Option("--mode", help="auto, or force one mode: off, bh, bc, cc, ch.")] = "auto",
+    params: Annotated[Path | None, typer.Option("--params", help="TOML: [vehicle] [battery] [cabin] ...")] = None,
+    luts: Annotated[
+        Path, typer.Option("--luts", help="Cycle LUT folder; built there (bench all --grid cycle) if missing.")
+    ] = Path("luts"),
+    dt: Annotated[float, typer.Option("--dt", help="Time step [s], 0.001 to 60.")] = 1.0,
+    output_every: Annotated[
+        float | None, typer.Option("--output-every", help="Record spacing [s], a multiple of --dt (max(1, dt)).")
+    ] = None,
+    soak_cabin: Annotated[
+        float | None, typer.Option("--soak-cabin", help="Initial cabin air, walls and interior [degC].")
+    ] = None,
+    model: Annotated[str, typer.Option("--model", help="Refrigerant-loop model: lut.")] = "lut",
+    json_out: Annotated[bool, _JSON] = False,
+) -> None:
+    """Simulate the vehicle's thermal system over a drive cycle and write the time series.
+
+    Example: evtms simulate --cycle wltc3b --t-amb 30 -o run.nc --json
+    """
+    t0 = time.perf_counter()
+    from evtms.cycle.topology import parse_values
+    from evtms.system.drive_cycles import drive_cycle
+    from evtms.system.params import load_system_params
+    from evtms.system.simulate import MODES, SCENARIOS
+
+    if (cycle is None) == (scenario is None):
+        fail("give --cycle NAME|FILE.csv or --scenario NAME (one of them)")
+    if scenario is not None and scenario not in SCENARIOS:
+        fail(f"--scenario {scenario!r} is unknown; allowed: {', '.join(SCENARIOS)}")
+    if mode not in MODES:
+        fail(f"--mode {mode!r} is unknown; allowed: {', '.join(MODES)}")
+    if model != "lut":
+        fail(f"--model {model!r} is not available; allowed: lut")
+    if not (math.isfinite(dt) and 1e-3 <= dt <= 60.0):
+        fail(f"--dt {dt:g} is not allowed; allowed: 0.001 to 60 s")
+    if soak_cabin is not None and not -40.0 <= soak_cabin <= 90.0:
+        fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
+    sc = SCENARIOS[scenario] if scenario is not None else None
+    if t_amb is None and (sc is None or sc.T_amb is None):
+        fail("give --t-amb DEGC (this cycle or scenario has no ambient of its own)")
+    ambients = parse_values("T_amb", t_amb, 1000) if t_amb is not None else [sc.T_amb]
+    inputs = [params] if params is not None else []
+    if params is not None:
+        input_file(params, "params file")
+    system = load_system_params(params)
+    trace = drive_cycle(sc.cycle if sc is not None else cycle)
+    if Path(trace.source).is_file():
+        inputs.append(Path(trace.source))
+    output_file(output, inputs, (".nc",))
+    refrigerant = _system_refrigerant(luts, system, quiet=json_out)
+    from evtms.system.output import write_simulation
+    from evtms.system.simulate import simulate as run
+
+    results = [
+        run(
+            trace,
+            T,
+            refrigerant,
+            system,
+            dt=dt,
+            mode=mode,
+            RH_amb=sc.RH_amb if sc else 0.4,
+            sun=sc.sun if sc else 0.0,
+            T_init=sc.T_init if sc else None,
+            soak_cabin=None if soak_cabin is None else soak_cabin + 273.15,
+            output_every=output_every,
+            scenario=scenario or "",
+        )
+        for T in ambients
+    ]
+    with creating_parents(output):
+        write_simulation(results, output)
+    wall = time.perf_counter() - t0
+    for r in results:
+        r.summary["wall_time_s"] = wall
+    if json_out:
+        print_json(results[0].summary if len(results) == 1 else {"runs": [r.summary for r in results]})
+        return
+    for r in results:
+        s = r.summary
+        typer.echo(
+            f"{s['T_amb_degC']:6.1f} degC  {s['distance_km']:.2f} km  battery {s['battery_energy_kWh']:.3f} kWh "
+            f"(HVAC {s['hvac_energy_kWh']:.3f})  SOC {s['soc_end']:.4f}  cabin {s['T_cabin_end_degC']:.1f} degC  "
+            f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
+        )
+    typer.echo(f"wrote {output} ({wall:.2f} s)")
+
+
+def _system_refrigerant(luts: Path, system, quiet: bool):
+    """The cycle maps of ``luts`` for the simulator; LUTs and maps are built first where missing (with a bar)."""
+    from evtms.demo import ensure_luts
+    from evtms.params import Parameters
+    from evtms.system.refrigerant import load_refrigerant
+
+    if not luts.is_dir() or not all((luts / f"{c}.nc").is_file() for c in _CYCLE_COMPONENTS):
+        typer.echo(f"note: no cycle LUTs in {luts}/; building them (evtms bench all --grid cycle, 1-2 min)", err=True)
+        with creating_parents(luts, folder=True):
+            ensure_luts(luts, "cycle", Parameters(), notify=lambda m: typer.echo(f"  {m}", err=True))
+    with _ProgressBar(quiet or not sys.stderr.isatty()) as bar:
+        tasks = {}
+
+        def progress(done: int, total: int, text: str) -> None:
+            if text not in tasks:
+                typer.echo(f"note: building cycle map {text} in {luts}/maps/ (once)", err=True)
+                tasks[text] = bar.task(text, total)
+            tasks[text](done, total)
+
+        return load_refrigerant(luts, system, progress)
+
+
+_CYCLE_COMPONENTS = ("compressor", "condenser", "evaporator", "chiller", "expansion_valve")
+
+
 def main() -> None:
     """Console-script entry point."""
     app()

@@ -50,6 +50,17 @@ class BatteryParams:
         RC branch [ohm], [F]; 0 = off (default).
     soc_min, soc_max : float
         Usable SOC window [1] (0.05, 0.98).
+    soc_init : float
+        State of charge at the start [1] (``SOC_start`` 0.9).
+    heat_capacity : float
+        Pack heat capacity [J/K] (760 J/(kg K) x 0.07 kg x 3072 cells = 163.4 kJ/K).
+    g_coolant : float
+        Conductance pack to coolant [W/K] (68: cells-to-plate 1216 W/K in series
+        with plate-to-coolant laminar convection, about 72 W/K; to calibrate).
+    g_ambient : float
+        Conductance pack to ambient [W/K] (3072 cells at 45 K/W each: 68.3).
+    T_init : float or None
+        Initial pack temperature [K]; None = the ambient.
     """
 
     n_series: int = 96
@@ -60,6 +71,11 @@ class BatteryParams:
     c2: float = 0.0
     soc_min: float = 0.05
     soc_max: float = 0.98
+    soc_init: float = 0.9
+    heat_capacity: float = 163.4e3
+    g_coolant: float = 68.0
+    g_ambient: float = 68.3
+    T_init: float | None = None
 
     @property
     def capacity_As(self) -> float:

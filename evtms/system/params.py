@@ -1,0 +1,328 @@
+"""Parameters of the system simulator: the TOML tables vehicle, battery, cabin, coolant and controls.
+
+Defaults and sources are the project's system spec, section 3 (the Simscape
+BEV example "MW", FASTSim "FS", assumptions "A" to calibrate); they are
+listed with units in ``docs/system-parameters.md``. Every value is SI
+(temperatures in K). :func:`load_system_params` reads a TOML file: an unknown
+table or name, a value that is not a number, or one outside its range is a
+one-line :class:`~evtms.errors.EvtmsInputError`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from evtms.errors import EvtmsInputError
+from evtms.system.battery import BatteryParams
+from evtms.system.vehicle import VehicleParams
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+
+@dataclass(frozen=True)
+class CabinParams:
+    """Cabin air, walls (glass, doors, roof), interior mass and blower (MW M cabin blocks).
+
+    Walls: area [m2], thickness [m], conductivity [W/(m K)] and heat capacity
+    [J/K] each; ``wall_htc`` [W/(m2 K)] on both sides. ``interior_heat_capacity``
+    [J/K] 0 turns the interior node off (the sun then heats the air).
+    ``recirculation`` [1] is the recirculated share of the blower's air;
+    ``sun`` [W/m2] and ``sun_shield`` [1] give ``Q_sun = 3 sun sun_shield``
+    [W]; ``blower_flow_max`` [m3/s] and ``blower_power_max`` [W] (x u^3);
+    ``T_set`` [K] the cabin setpoint; ``rh_cabin`` [1] the initial relative
+    humidity; ``T_init`` [K] the initial temperature (None: the ambient).
+    """
+
+    volume: float = 3.0
+    glass_area: float = 3.0
+    glass_thickness: float = 0.004
+    glass_conductivity: float = 0.96
+    glass_heat_capacity: float = 26.2e3
+    doors_area: float = 4.0
+    doors_thickness: float = 0.06
+    doors_conductivity: float = 0.08
+    doors_heat_capacity: float = 37.5e3
+    roof_area: float = 2.0
+    roof_thickness: float = 0.04
+    roof_conductivity: float = 0.08
+    roof_heat_capacity: float = 15.0e3
+    wall_htc: float = 40.0
+    interior_heat_capacity: float = 80.0e3
+    interior_conductance: float = 100.0
+    recirculation: float = 1.0
+    n_occupants: int = 1
+    rh_cabin: float = 0.5
+    sun: float = 600.0
+    sun_shield: float = 0.5
+    blower_flow_max: float = 0.3
+    blower_power_max: float = 250.0
+    T_set: float = 298.15
+    T_init: float | None = None
+
+    def wall_conductance(self, wall: str) -> float:
+        """Conductance [W/K] from the wall's mid-thickness mass to one side: film in series with half the wall."""
+        area = getattr(self, f"{wall}_area")
+        half = getattr(self, f"{wall}_thickness") / 2.0
+        return 1.0 / (1.0 / (self.wall_htc * area) + half / (getattr(self, f"{wall}_conductivity") * area))
+
+
+WALLS = ("glass", "doors", "roof")
+
+
+@dataclass(frozen=True)
+class CoolantParams:
+    """Battery coolant loop: coolant, plate, heater and pump (MW P/M).
+
+    ``heat_capacity`` [J/K] of the loop; ``density`` [kg/m3] and ``cp``
+    [J/(kg K)] of the coolant; ``flow_max`` [m3/s] at pump command 1;
+    ``pump_power_ref`` [W] at 1000 rpm, ``pump_speed_max`` [rpm] (affinity
+    law, power ~ speed^3); ``heater_max_power`` [W]; ``T_init`` [K] (None:
+    the ambient).
+    """
+
+    heat_capacity: float = 16.5e3
+    density: float = 1070.0
+    cp: float = 3300.0
+    flow_max: float = 4.0e-4
+    pump_power_ref: float = 120.0
+    pump_speed_max: float = 1200.0
+    heater_max_power: float = 4000.0
+    T_init: float | None = None
+
+
+@dataclass(frozen=True)
+class ControlParams:
+    """Controllers, thresholds and refrigerant-loop settings (MW M blocks; A = assumption).
+
+    PI gains in parallel form: blower per K and K s, compressor per MPa and
+    MPa s (the error is ``p_suction - p_suction_target``), PTC per K and K s.
+    Pressures [Pa], temperatures [K], powers [W], times [s], commands [1].
+    The condenser fan runs at ``condenser_fan`` while the compressor runs,
+    drawing ``fan_power_nominal`` at ``fan_flow_nominal`` [m3/s] scaled with
+    the flow cubed (``fan_flow_max`` [m3/s] at fan 1: the condenser bench's).
+    """
+
+    blower_kp: float = 0.02
+    blower_ki: float = 0.02 / 3.0
+    compressor_kp: float = 1.0
+    compressor_ki: float = 0.2
+    p_suction_target: float = 0.3e6
+    freeze_cutoff_low: float = 0.15e6
+    freeze_cutoff_high: float = 0.25e6
+    ptc_kp: float = 0.07
+    ptc_ki: float = 1.0e-5
+    ptc_T_out: float = 313.15
+    ptc_max_power: float = 2500.0
+    compressor_min_speed: float = 0.1
+    blower_min: float = 0.1
+    condenser_fan: float = 1.0
+    fan_power_nominal: float = 533.0
+    fan_flow_nominal: float = 0.8
+    fan_flow_max: float = 0.88
+    compressor_drive_efficiency: float = 1.0
+    tau_refrigerant: float = 10.0
+    bc_on: float = 308.15
+    bc_off: float = 303.15
+    bc_critical_on: float = 313.15
+    bc_critical_off: float = 308.15
+    bh_on: float = 278.15
+    bh_off: float = 288.15
+    bh_ambient_max: float = 278.15
+    cabin_deadband: float = 0.5
+    pump_idle: float = 0.3
+    pump_bc: float = 0.5
+    pump_critical: float = 1.0
+    mode_hold: float = 60.0
+
+
+@dataclass(frozen=True)
+class SystemParams:
+    """All parameters of a system simulation."""
+
+    vehicle: VehicleParams = field(default_factory=VehicleParams)
+    battery: BatteryParams = field(default_factory=BatteryParams)
+    cabin: CabinParams = field(default_factory=CabinParams)
+    coolant: CoolantParams = field(default_factory=CoolantParams)
+    controls: ControlParams = field(default_factory=ControlParams)
+
+    def to_json(self) -> str:
+        """Every parameter, by table, as JSON (recorded in the output file)."""
+        return json.dumps({k: dataclasses.asdict(getattr(self, k)) for k in SECTIONS}, sort_keys=True)
+
+
+SECTIONS = ("vehicle", "battery", "cabin", "coolant", "controls")
+
+_T = (173.15, 373.15)  # any temperature parameter [K]
+#: Allowed range per parameter (both ends included; ``None`` for an optional temperature too).
+RANGES: dict[str, dict[str, tuple[float, float]]] = {
+    "vehicle": {
+        "mass": (100.0, 1e5),
+        "drag_coefficient": (0.0, 3.0),
+        "frontal_area": (0.1, 50.0),
+        "rolling_resistance": (0.0, 0.1),
+        "wheel_radius": (0.05, 2.0),
+        "wheel_inertia": (0.0, 100.0),
+        "gear_ratio": (0.1, 50.0),
+        "gear_efficiency": (0.1, 1.0),
+        "regen_fraction": (0.0, 1.0),
+        "loss_factor": (0.0, 10.0),
+        "aux_power": (0.0, 1e5),
+    },
+    "battery": {
+        "n_series": (1, 1000),
+        "n_parallel": (1, 1000),
+        "cell_capacity": (0.01, 1000.0),
+        "cell_voltage_min": (0.5, 5.0),
+        "r2": (0.0, 10.0),
+        "c2": (0.0, 1e7),
+        "soc_min": (0.0, 1.0),
+        "soc_max": (0.0, 1.0),
+        "soc_init": (0.0, 1.0),
+        "heat_capacity": (1.0, 1e8),
+        "g_coolant": (0.0, 1e5),
+        "g_ambient": (0.0, 1e5),
+        "T_init": _T,
+    },
+    "cabin": {
+        **{
+            f"{w}_{k}": r
+            for w in WALLS
+            for k, r in (
+                ("area", (0.01, 100.0)),
+                ("thickness", (1e-4, 1.0)),
+                ("conductivity", (1e-3, 500.0)),
+                ("heat_capacity", (1.0, 1e7)),
+            )
+        },
+        "volume": (0.1, 100.0),
+        "wall_htc": (0.1, 1000.0),
+        "interior_heat_capacity": (0.0, 1e8),
+        "interior_conductance": (0.0, 1e5),
+        "recirculation": (0.0, 1.0),
+        "n_occupants": (0, 100),
+        "rh_cabin": (0.0, 1.0),
+        "sun": (0.0, 1500.0),
+        "sun_shield": (0.0, 1.0),
+        "blower_flow_max": (0.001, 10.0),
+        "blower_power_max": (0.0, 1e4),
+        "T_set": (283.15, 308.15),
+        "T_init": _T,
+    },
+    "coolant": {
+        "heat_capacity": (1.0, 1e8),
+        "density": (100.0, 3000.0),
+        "cp": (100.0, 1e4),
+        "flow_max": (1e-6, 0.1),
+        "pump_power_ref": (0.0, 1e4),
+        "pump_speed_max": (1.0, 1e5),
+        "heater_max_power": (0.0, 1e5),
+        "T_init": _T,
+    },
+    "controls": {
+        **{k: (0.0, 1e3) for k in ("blower_kp", "blower_ki", "compressor_kp", "compressor_ki", "ptc_kp", "ptc_ki")},
+        "p_suction_target": (0.05e6, 1.0e6),
+        "freeze_cutoff_low": (0.0, 1.0e6),
+        "freeze_cutoff_high": (0.0, 1.0e6),
+        "ptc_T_out": _T,
+        "ptc_max_power": (0.0, 1e5),
+        "compressor_min_speed": (0.0, 1.0),
+        "blower_min": (0.0, 1.0),
+        "condenser_fan": (0.1, 1.0),
+        "fan_power_nominal": (0.0, 1e4),
+        "fan_flow_nominal": (0.01, 100.0),
+        "fan_flow_max": (0.01, 100.0),
+        "compressor_drive_efficiency": (0.1, 1.0),
+        "tau_refrigerant": (0.1, 600.0),
+        **{k: _T for k in ("bc_on", "bc_off", "bc_critical_on", "bc_critical_off", "bh_on", "bh_off")},
+        "bh_ambient_max": _T,
+        "cabin_deadband": (0.0, 10.0),
+        "pump_idle": (0.0, 1.0),
+        "pump_bc": (0.0, 1.0),
+        "pump_critical": (0.0, 1.0),
+        "mode_hold": (0.0, 3600.0),
+    },
+}
+
+#: Pairs that must hold: (table, smaller, larger, strictly).
+_ORDER = (
+    ("battery", "soc_min", "soc_init", True),
+    ("battery", "soc_init", "soc_max", False),
+    ("controls", "bc_off", "bc_on", True),
+    ("controls", "bc_critical_off", "bc_critical_on", True),
+    ("controls", "bh_on", "bh_off", True),
+    ("controls", "freeze_cutoff_low", "freeze_cutoff_high", True),
+)
+
+_INTEGERS = {"n_series", "n_parallel", "n_occupants"}
+
+
+def _value(section: str, name: str, value: Any) -> float | int:
+    lo, hi = RANGES[section][name]
+    allowed = f"allowed: {lo:g} <= {name} <= {hi:g}"
+    if name in _INTEGERS:
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise EvtmsInputError(f"[{section}] {name} = {value!r} is not allowed; {allowed} (whole number)")
+        return int(value)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise EvtmsInputError(f"[{section}] {name} = {value!r} is not a finite number; {allowed}")
+    if not lo <= value <= hi:
+        raise EvtmsInputError(f"[{section}] {name} = {value!r} is not allowed; {allowed}")
+    return float(value)
+
+
+def system_params_from_dict(data: dict[str, Any], base: SystemParams | None = None) -> SystemParams:
+    """``base`` (default: the defaults) with the tables of ``data`` applied, every value checked."""
+    params = base or SystemParams()
+    tables = {}
+    for section, values in data.items():
+        if section not in SECTIONS:
+            raise EvtmsInputError(f"table [{section}] is unknown; allowed: {', '.join(f'[{s}]' for s in SECTIONS)}")
+        if not isinstance(values, dict):
+            raise EvtmsInputError(f"{section} must be a table [{section}], not a value")
+        names = RANGES[section]
+        for name in values:
+            if name not in names:
+                raise EvtmsInputError(f"[{section}] {name} is unknown; allowed: {', '.join(sorted(names))}")
+        checked = {name: _value(section, name, v) for name, v in values.items()}
+        tables[section] = dataclasses.replace(getattr(params, section), **checked)
+    params = dataclasses.replace(params, **tables)
+    for section, small, large, strict in _ORDER:
+        a, b = getattr(getattr(params, section), small), getattr(getattr(params, section), large)
+        if a > b or (strict and a == b):
+            rel = "<" if strict else "<="
+            raise EvtmsInputError(f"[{section}] needs {small} {rel} {large}; got {small} = {a:g}, {large} = {b:g}")
+    return params
+
+
+def load_system_params(path: str | Path | None = None) -> SystemParams:
+    """Default parameters, overridden by a TOML file's tables if ``path`` is given.
+
+    Raises
+    ------
+    EvtmsInputError
+        One line naming the file and the bad table, name or value and what
+        is allowed, e.g. ``params file 'p.toml': [cabin] volume = -1 is not
+        allowed; allowed: 0.1 <= volume <= 100``.
+    """
+    if path is None:
+        return SystemParams()
+    from evtms.params import _read_params_file
+
+    name = repr(str(path))
+    text = _read_params_file(Path(path))
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise EvtmsInputError(f"params file {name} is not valid TOML: {' '.join(str(exc).split())}") from None
+    try:
+        return system_params_from_dict(data)
+    except EvtmsInputError as exc:
+        raise EvtmsInputError(f"params file {name}: {exc}") from None

@@ -1,0 +1,525 @@
+"""A drive-cycle simulation of the whole thermal system: set-up, the loop, records and ledgers.
+
+:func:`simulate` prepares everything the compiled loop (:mod:`evtms.system.loop`)
+needs as flat arrays: the drive cycle's motor power per time step (from the
+per-segment e-drive model, :func:`evtms.system.vehicle.drive_segments`,
+averaged exactly over each step, with and without regeneration), the packed
+parameters, the battery cell tables, the refrigerant's saturation curve and
+the cycle maps; it runs the loop, then turns the per-step values into the
+output records (states at ``t_k = k dt_out``, powers the mean over
+``(t_k-1, t_k]``) and closes the ledgers of every subsystem.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from evtms.errors import EvtmsInputError
+from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
+from evtms.system.drive_cycles import DriveCycle
+from evtms.system.params import WALLS, SystemParams
+from evtms.system.refrigerant import Refrigerant
+from evtms.system.tables import battery_cell_tables
+from evtms.system.vehicle import drive_segments
+
+P_ATM = 101325.0  # [Pa]
+#: Most time steps one simulation may take (a week at 1 s; bounds memory: ~0.5 kB per step).
+MAX_STEPS = 2_000_000
+MODES = {"auto": -1, "off": L.OFF, "bh": L.BH, "bc": L.BC, "cc": L.CC, "ch": L.CH}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A named operating scenario (the project's system spec, section 5).
+
+    Attributes
+    ----------
+    name, cycle : str
+        Scenario and drive-cycle names.
+    T_amb : float or None
+        Ambient temperature [K] (None: the command line's ``--t-amb``).
+    RH_amb : float
+        Ambient relative humidity [1].
+    sun : float
+        Solar irradiance [W/m2].
+    T_init : float or None
+        Initial temperature of battery, coolant and cabin [K] (None: ambient).
+    source : str
+        Where it comes from.
+    """
+
+    name: str
+    cycle: str
+    T_amb: float | None
+    RH_amb: float
+    sun: float
+    T_init: float | None
+    source: str
+
+
+SCENARIOS: dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        Scenario("hot-drive", "udds", 303.15, 0.4, 600.0, None, "thesis 3.5 (i); 30 degC, RH 0.4 as the benches"),
+        Scenario("cooldown", "udds", 313.15, 0.5, 600.0, 313.15, "Simscape BEV example 'Summer'; thesis (ii)"),
+        Scenario("cold", "hwfet", 268.15, 0.65, 300.0, 268.15, "Simscape BEV example 'Winter'; thesis (iii)"),
+        Scenario("wltc", "wltc3b", None, 0.4, 0.0, None, "UN GTR 15"),
+        Scenario("nedc", "nedc", None, 0.4, 0.0, None, "UNECE R83"),
+    )
+}
+
+
+@dataclass
+class SimulationResult:
+    """One simulation's records, ledgers and summary.
+
+    Attributes
+    ----------
+    records : dict of str to numpy.ndarray
+        Output variables on the record times (see :data:`RECORD_VARIABLES`).
+    mode, flags : numpy.ndarray
+        Mode code (int8) and flag bits (uint16) per record.
+    ledgers : dict of str to float
+        Relative residual of every ledger (see :func:`ledgers`).
+    summary : dict
+        The ``--json`` figures of the run.
+    attrs : dict
+        Run description for the output file.
+    """
+
+    records: dict[str, np.ndarray]
+    mode: np.ndarray
+    flags: np.ndarray
+    ledgers: dict[str, float]
+    summary: dict
+    attrs: dict = field(default_factory=dict)
+
+
+#: Output variable -> (units, long_name); states at the record time, powers the mean over its interval.
+RECORD_VARIABLES: dict[str, tuple[str, str]] = {
+    "speed": ("m s-1", "vehicle speed"),
+    "distance": ("m", "distance driven"),
+    "P_wheel": ("W", "power at the wheels (< 0 braking)"),
+    "P_traction": ("W", "positive part of the power at the wheels"),
+    "P_motor_el": ("W", "motor electrical power (< 0 regenerating)"),
+    "P_battery": ("W", "battery terminal power (> 0 discharging)"),
+    "P_hvac": ("W", "electrical power of the thermal system"),
+    "P_compressor": ("W", "compressor electrical power"),
+    "P_ptc": ("W", "PTC air heater power"),
+    "P_heater": ("W", "coolant heater power"),
+    "P_blower": ("W", "cabin blower power"),
+    "P_fan": ("W", "condenser fan power"),
+    "P_pump": ("W", "coolant pump power"),
+    "Q_evaporator": ("W", "evaporator heat flow from the cabin air, total (> 0 cooling)"),
+    "Q_latent": ("W", "latent part of Q_evaporator (condensate)"),
+    "Q_chiller": ("W", "chiller heat flow from the coolant (> 0 cooling)"),
+    "Q_condenser": ("W", "condenser heat flow to the ambient air"),
+    "Q_battery_gen": ("W", "heat generated in the battery"),
+    "Q_battery_to_coolant": ("W", "heat flow battery to coolant"),
+    "v_battery": ("V", "battery terminal voltage"),
+    "i_battery": ("A", "battery current (> 0 discharging)"),
+    "SOC": ("1", "battery state of charge"),
+    "T_battery": ("K", "battery temperature"),
+    "T_coolant": ("K", "coolant temperature"),
+    "T_cabin": ("K", "cabin air temperature"),
+    "T_glass": ("K", "glass temperature"),
+    "T_doors": ("K", "doors temperature"),
+    "T_roof": ("K", "roof temperature"),
+    "T_interior": ("K", "cabin interior mass temperature"),
+    "v_rc": ("V", "voltage of the battery's RC branch (0 when off)"),
+    "RH_cabin": ("1", "cabin air relative humidity"),
+    "T_supply": ("K", "supply air temperature after evaporator and PTC (diagnostic)"),
+    "p_suction": ("Pa", "compressor suction pressure (filtered)"),
+    "p_discharge": ("Pa", "compressor discharge pressure (filtered)"),
+    "compressor_speed": ("1", "compressor speed command, fraction of maximum"),
+    "blower": ("1", "blower command"),
+    "u_pump": ("1", "coolant pump command"),
+}
+
+# Per-step output column -> record variable, for the interval means.
+_MEANS = {
+    "P_motor_el": L.O_P_MOTOR_EL,
+    "P_battery": L.O_P_BATTERY,
+    "P_hvac": L.O_P_HVAC,
+    "P_compressor": L.O_P_COMPRESSOR,
+    "P_ptc": L.O_P_PTC,
+    "P_heater": L.O_P_HEATER,
+    "P_blower": L.O_P_BLOWER,
+    "P_fan": L.O_P_FAN,
+    "P_pump": L.O_P_PUMP,
+    "Q_evaporator": L.O_Q_EVAP,
+    "Q_latent": L.O_Q_LATENT,
+    "Q_chiller": L.O_Q_CHILLER,
+    "Q_condenser": L.O_Q_COND,
+    "Q_battery_gen": L.O_Q_GEN,
+    "v_battery": L.O_V,
+    "i_battery": L.O_I,
+    "T_supply": L.O_T_SUPPLY,
+    "p_suction": L.O_P_SUCTION,
+    "p_discharge": L.O_P_DISCHARGE,
+    "compressor_speed": L.O_SPEED_CMD,
+    "blower": L.O_BLOWER,
+    "u_pump": L.O_U_PUMP,
+}
+_STATES = {
+    "SOC": L.S_SOC,
+    "T_battery": L.S_TB,
+    "T_coolant": L.S_TC,
+    "T_cabin": L.S_TA,
+    "T_glass": L.S_TGLASS,
+    "T_doors": L.S_TDOORS,
+    "T_roof": L.S_TROOF,
+    "T_interior": L.S_TINT,
+    "v_rc": L.S_VRC,
+}
+
+
+def step_edges(duration: float, dt: float) -> np.ndarray:
+    """Step boundaries [s] from 0 to ``duration`` every ``dt``; the last step is shortened."""
+    n = math.ceil(duration / dt - 1e-9)
+    if n > MAX_STEPS:
+        raise EvtmsInputError(
+            f"--dt {dt:g} s gives {n:,} steps over {duration:g} s; allowed: at most {MAX_STEPS:,} steps"
+        )
+    edges = np.arange(n + 1) * dt
+    edges[-1] = duration
+    return edges
+
+
+def _step_means(t_nodes: np.ndarray, power: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Exact mean over each step of a power constant per segment of ``t_nodes``."""
+    energy = np.concatenate(([0.0], np.cumsum(power * np.diff(t_nodes))))
+    return np.diff(np.interp(edges, t_nodes, energy)) / np.diff(edges)
+
+
+def _distance(cycle: DriveCycle, t: np.ndarray) -> np.ndarray:
+    """Distance [m] at times ``t``: the speed is linear between samples, so this is exact."""
+    seg_len = 0.5 * (cycle.speed[:-1] + cycle.speed[1:]) * np.diff(cycle.time)
+    at_nodes = np.concatenate(([0.0], np.cumsum(seg_len)))
+    k = np.clip(np.searchsorted(cycle.time, t, side="right") - 1, 0, cycle.time.size - 2)
+    tau = t - cycle.time[k]
+    a = (cycle.speed[k + 1] - cycle.speed[k]) / (cycle.time[k + 1] - cycle.time[k])
+    return at_nodes[k] + cycle.speed[k] * tau + 0.5 * a * tau**2
+
+
+def pack_parameters(
+    params: SystemParams, T_amb: float, RH_amb: float, sun: float, forced_mode: int, coolant_mdot_max: float
+) -> np.ndarray:
+    """The loop's parameter array (``evtms.system.loop.P_*`` indices), SI."""
+    v, b, c, k, ctl = params.vehicle, params.battery, params.cabin, params.coolant, params.controls
+    par = np.zeros(L.N_P)
+    rho_amb = P_ATM / (L._R_AIR * T_amb)
+    par[L.P_T_AMB] = T_amb
+    par[L.P_W_AMB] = L.humidity_ratio(T_amb, RH_amb, P_ATM)
+    par[L.P_P_ATM] = P_ATM
+    par[L.P_FORCED_MODE] = forced_mode
+    par[L.P_AUX] = v.aux_power
+    par[L.P_NS] = b.n_series
+    par[L.P_R_SCALE] = b.n_series / b.n_parallel
+    par[L.P_R2], par[L.P_C2] = b.r2, b.c2
+    par[L.P_VMIN] = b.cell_voltage_min
+    par[L.P_CAP_AS] = b.capacity_As
+    par[L.P_SOC_MIN], par[L.P_SOC_MAX] = b.soc_min, b.soc_max
+    par[L.P_C_BAT], par[L.P_G_BC], par[L.P_G_BA] = b.heat_capacity, b.g_coolant, b.g_ambient
+    par[L.P_C_COOL] = k.heat_capacity
+    par[L.P_HEATER_MAX] = k.heater_max_power
+    par[L.P_PUMP_REF], par[L.P_PUMP_NMAX] = k.pump_power_ref, k.pump_speed_max
+    par[L.P_C_AIR] = rho_amb * c.volume * L._CP_AIR
+    par[L.P_M_AIR] = rho_amb * c.volume
+    par[L.P_C_INT], par[L.P_G_INT] = c.interior_heat_capacity, c.interior_conductance
+    par[L.P_RECIRC] = c.recirculation
+    par[L.P_Q_OCC] = 70.0 * c.n_occupants
+    par[L.P_MOIST] = 1.4e-5 * c.n_occupants
+    par[L.P_Q_SUN] = 3.0 * sun * c.sun_shield
+    par[L.P_BLOWER_FLOW], par[L.P_BLOWER_POWER] = c.blower_flow_max, c.blower_power_max
+    par[L.P_T_SET] = c.T_set
+    par[L.P_BL_KP], par[L.P_BL_KI] = ctl.blower_kp, ctl.blower_ki
+    par[L.P_CP_KP], par[L.P_CP_KI] = ctl.compressor_kp, ctl.compressor_ki
+    par[L.P_PS_TARGET] = ctl.p_suction_target
+    par[L.P_CUT_LO], par[L.P_CUT_HI] = ctl.freeze_cutoff_low, ctl.freeze_cutoff_high
+    par[L.P_PTC_KP], par[L.P_PTC_KI] = ctl.ptc_kp, ctl.ptc_ki
+    par[L.P_PTC_TOUT], par[L.P_PTC_MAX] = ctl.ptc_T_out, ctl.ptc_max_power
+    par[L.P_SPEED_MIN], par[L.P_BLOWER_MIN] = ctl.compressor_min_speed, ctl.blower_min
+    par[L.P_FAN] = ctl.condenser_fan
+    flow = ctl.condenser_fan * ctl.fan_flow_max
+    par[L.P_FAN_POWER] = ctl.fan_power_nominal * (flow / ctl.fan_flow_nominal) ** 3
+    par[L.P_DRIVE_EFF] = ctl.compressor_drive_efficiency
+    par[L.P_TAU] = ctl.tau_refrigerant
+    par[L.P_BC_ON], par[L.P_BC_OFF] = ctl.bc_on, ctl.bc_off
+    par[L.P_CRIT_ON], par[L.P_CRIT_OFF] = ctl.bc_critical_on, ctl.bc_critical_off
+    par[L.P_BH_ON], par[L.P_BH_OFF], par[L.P_BH_AMB_MAX] = ctl.bh_on, ctl.bh_off, ctl.bh_ambient_max
+    par[L.P_DEADBAND] = ctl.cabin_deadband
+    par[L.P_PUMP_IDLE], par[L.P_PUMP_BC], par[L.P_PUMP_CRIT] = ctl.pump_idle, ctl.pump_bc, ctl.pump_critical
+    par[L.P_HOLD] = ctl.mode_hold
+    par[L.P_COOLANT_MDOT_MAX] = coolant_mdot_max
+    for i, w in enumerate(WALLS):
+        par[L.P_G_GLASS + i] = c.wall_conductance(w)
+        par[L.P_C_GLASS + i] = getattr(c, f"{w}_heat_capacity")
+    return par
+
+
+def initial_state(
+    params: SystemParams, T_amb: float, T_init: float | None, soak_cabin: float | None, p_equalised: float
+) -> np.ndarray:
+    """Row 0 of the loop's states: SOC, temperatures, cabin humidity and the filter at rest."""
+    b, c, k = params.battery, params.cabin, params.coolant
+    base = T_amb if T_init is None else T_init
+    s = np.zeros(L.N_S)
+    s[L.S_SOC] = b.soc_init
+    s[L.S_TB] = b.T_init if b.T_init is not None else base
+    s[L.S_TC] = k.T_init if k.T_init is not None else base
+    T_cab = soak_cabin if soak_cabin is not None else (c.T_init if c.T_init is not None else base)
+    for i in (L.S_TA, L.S_TGLASS, L.S_TDOORS, L.S_TROOF, L.S_TINT):
+        s[i] = T_cab
+    s[L.S_W] = L.humidity_ratio(T_cab, c.rh_cabin, P_ATM)
+    s[L.S_YF + L.Y_PS] = s[L.S_YF + L.Y_PD] = p_equalised
+    return s
+
+
+def simulate(
+    cycle: DriveCycle,
+    T_amb: float,
+    refrigerant: Refrigerant,
+    params: SystemParams | None = None,
+    *,
+    dt: float = 1.0,
+    mode: str = "auto",
+    RH_amb: float = 0.4,
+    sun: float = 0.0,
+    T_init: float | None = None,
+    soak_cabin: float | None = None,
+    output_every: float | None = None,
+    scenario: str = "",
+) -> SimulationResult:
+    """Simulate the vehicle's thermal system over a drive cycle.
+
+    Parameters
+    ----------
+    cycle : DriveCycle
+        Speed trace.
+    T_amb : float
+        Ambient temperature [K].
+    refrigerant : Refrigerant
+        Cycle maps and saturation curve.
+    params : SystemParams, optional
+        Parameters (defaults: the spec's).
+    dt : float
+        Time step [s], 1e-3 to 60.
+    mode : str
+        ``auto`` or a forced mode: ``off``, ``bh``, ``bc``, ``cc``, ``ch``.
+    RH_amb : float
+        Ambient relative humidity [1].
+    sun : float
+        Solar irradiance [W/m2] (``Q_sun = 3 sun sun_shield``).
+    T_init : float, optional
+        Initial temperature of every node [K] (default: the ambient); the
+        tables' ``T_init`` override it per subsystem.
+    soak_cabin : float, optional
+        Initial cabin air, wall and interior temperature [K].
+    output_every : float, optional
+        Record spacing [s], a whole multiple of ``dt`` (default max(1 s, dt)).
+    scenario : str
+        Name recorded in the output.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    wall0 = time.perf_counter()
+    params = params or SystemParams()
+    if not 1e-3 <= dt <= 60.0 or not math.isfinite(dt):
+        raise EvtmsInputError(f"--dt {dt:g} is not allowed; allowed: 0.001 to 60 s")
+    if mode not in MODES:
+        raise EvtmsInputError(f"--mode {mode!r} is unknown; allowed: {', '.join(MODES)}")
+    every = max(1.0, dt) if output_every is None else output_every
+    m = round(every / dt)
+    if m < 1 or abs(m * dt - every) > 1e-9 * every:
+        raise EvtmsInputError(f"--output-every {every:g} s is not a whole multiple of --dt {dt:g} s")
+    edges = step_edges(cycle.duration, dt)
+    dts = np.diff(edges)
+    seg = {regen: drive_segments(cycle, T_amb, params.vehicle, regen=regen) for regen in (True, False)}
+    p_motor = np.column_stack([_step_means(cycle.time, seg[r].P_motor_el, edges) for r in (True, False)])
+    tables = battery_cell_tables()
+    par = pack_parameters(params, T_amb, RH_amb, sun, MODES[mode], refrigerant.coolant_mdot_max)
+    p_eq = float(np.interp(T_amb if T_init is None else T_init, refrigerant.sat_T, refrigerant.sat_p))
+    n = dts.size
+    states = np.full((n + 1, L.N_S), np.nan)
+    states[0] = initial_state(params, T_amb, T_init, soak_cabin, p_eq)
+    out = np.full((n, L.N_O), np.nan)
+    modes = np.zeros(n, np.int8)
+    flags = np.zeros(n, np.uint16)
+    ocv = np.ascontiguousarray(tables.ocv_V[:, 0])
+    args = (
+        par, dts, p_motor, tables.soc, tables.temperature_K, ocv, np.ascontiguousarray(tables.r0_ohm),
+        refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), states, out, modes, flags,
+    )  # fmt: skip
+    loop0 = time.perf_counter()
+    done = L.run_loop(*args)
+    loop_time = time.perf_counter() - loop0
+    termination = "end of cycle" if done == n else "soc_min"
+    edges, dts = edges[: done + 1], dts[:done]
+    states, out, modes, flags = states[: done + 1], out[:done], modes[:done], flags[:done]
+    regen = out[:, L.O_REGEN] > 0.5
+    drive = _drive_means(cycle, seg, edges, regen)
+    ledger = ledgers(par, states, out, dts, drive)
+    records, rec_mode, rec_flags, t_rec = _records(cycle, par, states, out, modes, flags, dts, drive, m)
+    E = np.sum(out[:, L.O_EMF] * out[:, L.O_I] * dts)
+    distance_km = float(_distance(cycle, edges[-1:])[0] / 1e3)
+    summary = {
+        "distance_km": distance_km,
+        "duration_s": float(edges[-1]),
+        "traction_energy_kWh": float(np.sum(drive["P_traction"] * dts) / 3.6e6),
+        "battery_energy_kWh": float(np.sum(out[:, L.O_P_BATTERY] * dts) / 3.6e6),
+        "battery_chemical_kWh": float(E / 3.6e6),
+        "hvac_energy_kWh": float(np.sum(out[:, L.O_P_HVAC] * dts) / 3.6e6),
+        "motor_energy_kWh": float(np.sum(out[:, L.O_P_MOTOR_EL] * dts) / 3.6e6),
+        "aux_energy_kWh": float(params.vehicle.aux_power * edges[-1] / 3.6e6),
+        **_consumption_split(out, dts),
+        "battery_loss_kWh": float(np.sum(out[:, L.O_Q_GEN] * dts) / 3.6e6),
+        "soc_end": float(states[-1, L.S_SOC]),
+        "consumption_kWh_per_100km": float(E / 3.6e6 / max(distance_km, 1e-9) * 100.0),
+        "range_km": float(usable_energy(params) / max(E, 1e-9) * distance_km) if distance_km > 0 else None,
+        "T_cabin_end_degC": float(states[-1, L.S_TA] - 273.15),
+        "T_battery_end_degC": float(states[-1, L.S_TB] - 273.15),
+        "T_amb_degC": float(T_amb - 273.15),
+        "termination": termination,
+        "ledger_worst": float(max(ledger.values())),
+        "wall_time_s": float(time.perf_counter() - wall0),
+        "loop_time_s": float(loop_time),
+        "steps": int(done),
+    }
+    attrs = {
+        "scenario": scenario,
+        "cycle": cycle.name,
+        "cycle_source": cycle.source,
+        "dt": dt,
+        "output_every": every,
+        "T_amb": T_amb,
+        "RH_amb": RH_amb,
+        "sun": sun,
+        "mode_request": mode,
+        "termination": termination,
+        "parameters": params.to_json(),
+        "ledgers": json.dumps(ledger),
+    }
+    records["time"] = t_rec
+    return SimulationResult(records, rec_mode, rec_flags, ledger, summary, attrs)
+
+
+def usable_energy(params: SystemParams) -> float:
+    """Chemical energy [J] between ``soc_max`` and ``soc_min``: the integral of the pack EMF over the charge."""
+    b = params.battery
+    tables = battery_cell_tables()
+    soc = np.linspace(b.soc_min, b.soc_max, 2001)
+    emf = b.n_series * np.interp(soc, tables.soc, tables.ocv_V[:, 0])
+    return float(np.sum(0.5 * (emf[1:] + emf[:-1]) * np.diff(soc)) * b.capacity_As)
+
+
+def _consumption_split(out: np.ndarray, dts: np.ndarray) -> dict[str, float]:
+    """Electrical energy [kWh] by use: the compressor and fan shared by the heat each branch takes."""
+    q_e, q_c = np.abs(out[:, L.O_Q_EVAP]), np.abs(out[:, L.O_Q_CHILLER])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        chiller_share = np.where(q_e + q_c > 0, q_c / (q_e + q_c), 0.0)
+    refrigerant = out[:, L.O_P_COMPRESSOR] + out[:, L.O_P_FAN]
+    battery = out[:, L.O_P_HEATER] + out[:, L.O_P_PUMP] + chiller_share * refrigerant
+    cabin = out[:, L.O_P_HVAC] - battery
+
+    def kwh(p: np.ndarray) -> float:
+        return float(np.sum(p * dts) / 3.6e6)
+
+    return {"hvac_cabin_kWh": kwh(cabin), "battery_thermal_kWh": kwh(battery)}
+
+
+def _drive_means(cycle: DriveCycle, seg: dict, edges: np.ndarray, regen: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-step means of the e-drive's powers, with regeneration where the loop allowed it."""
+    names = ("P_wheel", "P_traction", "P_motor_el", "P_gear_loss", "P_loss", "P_friction")
+    on = {k: _step_means(cycle.time, getattr(seg[True], k), edges) for k in names}
+    off = {k: _step_means(cycle.time, getattr(seg[False], k), edges) for k in names}
+    return {k: np.where(regen, on[k], off[k]) for k in names}
+
+
+def ledgers(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np.ndarray, drive: dict) -> dict[str, float]:
+    """Relative residual of every ledger over the run (each divided by its throughput).
+
+    - ``vehicle``: motor electrical = wheel + gear + motor losses + friction brakes;
+    - ``battery_electrical``: chemical (E i) = terminal (v i) + heat + RC energy;
+    - ``battery_thermal``, ``coolant``, ``cabin``: change of stored heat = sum of flows;
+    - ``refrigerant``: Q_condenser = Q_evaporator + Q_chiller + W_fluid;
+    - ``system``: chemical = motor + auxiliaries + HVAC + battery heat + RC energy.
+    """
+    T_amb = par[L.P_T_AMB]
+    s1 = states[1:]
+    E_chem = out[:, L.O_EMF] * out[:, L.O_I] * dts
+    Pb = out[:, L.O_P_BATTERY] * dts
+    Qg = out[:, L.O_Q_GEN] * dts
+    Erc = out[:, L.O_E_RC]
+
+    def rel(residual: float, throughput: float) -> float:
+        return float(abs(residual) / max(throughput, 1e-300))
+
+    motor = out[:, L.O_P_MOTOR_EL]
+    parts = drive["P_wheel"] + drive["P_gear_loss"] + drive["P_loss"] + drive["P_friction"]
+    res = {"vehicle": rel(np.sum((motor - parts) * dts), np.sum(np.abs(motor) * dts))}
+    res["battery_electrical"] = rel(np.sum(E_chem - Pb - Qg - Erc), np.sum(np.abs(E_chem)))
+    Tb1, Tc1 = s1[:, L.S_TB], s1[:, L.S_TC]
+    q_bc = par[L.P_G_BC] * (Tb1 - Tc1)
+    q_ba = par[L.P_G_BA] * (Tb1 - T_amb)
+    stored_b = par[L.P_C_BAT] * (states[-1, L.S_TB] - states[0, L.S_TB])
+    flow_b = (out[:, L.O_Q_GEN] - q_bc - q_ba) * dts
+    res["battery_thermal"] = rel(stored_b - np.sum(flow_b), np.sum((out[:, L.O_Q_GEN] + abs(q_bc) + abs(q_ba)) * dts))
+    stored_c = par[L.P_C_COOL] * (states[-1, L.S_TC] - states[0, L.S_TC])
+    flow_c = (q_bc + out[:, L.O_Q_HEATER] - out[:, L.O_Q_CHILLER]) * dts
+    through_c = (abs(q_bc) + out[:, L.O_Q_HEATER] + abs(out[:, L.O_Q_CHILLER])) * dts
+    res["coolant"] = rel(stored_c - np.sum(flow_c), np.sum(through_c))
+    caps = [par[L.P_C_AIR], par[L.P_C_GLASS], par[L.P_C_DOORS], par[L.P_C_ROOF], par[L.P_C_INT]]
+    idx = [L.S_TA, L.S_TGLASS, L.S_TDOORS, L.S_TROOF, L.S_TINT]
+    stored = sum(c * (states[-1, i] - states[0, i]) for c, i in zip(caps, idx, strict=True))
+    walls = sum(par[L.P_G_GLASS + k] * (T_amb - s1[:, L.S_TGLASS + k]) for k in range(3))
+    g_fresh = out[:, L.O_MDOT_AIR] * L._CP_AIR * (1.0 - par[L.P_RECIRC])
+    flows = (walls + g_fresh * (T_amb - s1[:, L.S_TA]) + out[:, L.O_Q_AIR_SOURCES] + out[:, L.O_Q_SUN_INT]) * dts
+    walls_abs = sum(par[L.P_G_GLASS + k] * abs(T_amb - s1[:, L.S_TGLASS + k]) for k in range(3))
+    through = (
+        walls_abs + abs(g_fresh * (T_amb - s1[:, L.S_TA])) + abs(out[:, L.O_Q_AIR_SOURCES]) + out[:, L.O_Q_SUN_INT]
+    )
+    res["cabin"] = rel(stored - np.sum(flows), np.sum(through * dts))
+    ref = out[:, L.O_Q_COND] - out[:, L.O_Q_EVAP] - out[:, L.O_Q_CHILLER] - out[:, L.O_W_FLUID]
+    res["refrigerant"] = rel(np.sum(ref * dts), np.sum(out[:, L.O_W_FLUID] * dts) + 1.0)
+    uses = (motor + par[L.P_AUX] + out[:, L.O_P_HVAC] + out[:, L.O_Q_GEN]) * dts + Erc
+    res["system"] = rel(np.sum(E_chem - uses), np.sum(np.abs(E_chem)))
+    return res
+
+
+def _records(cycle, par, states, out, modes, flags, dts, drive, m):
+    """States every ``m`` steps and the means of powers over each record's interval."""
+    n = dts.size
+    starts = np.arange(0, n, m)
+    ends = np.append(starts[1:], n)  # steps [start, end) form record k = 1, 2, ...
+    t_edges = np.concatenate(([0.0], np.cumsum(dts)))
+    t_rec = np.concatenate(([0.0], t_edges[ends]))
+    span = np.diff(t_rec)
+
+    def mean(values: np.ndarray) -> np.ndarray:
+        sums = np.add.reduceat(values * dts, starts) if n else np.zeros(0)
+        return np.concatenate(([np.nan], sums / span))
+
+    rec = {name: mean(out[:, col]) for name, col in _MEANS.items()}
+    for name in ("P_wheel", "P_traction"):
+        rec[name] = mean(drive[name])
+    rec["Q_battery_to_coolant"] = mean(par[L.P_G_BC] * (states[1:, L.S_TB] - states[1:, L.S_TC]))
+    rows = np.concatenate(([0], ends))
+    for name, col in _STATES.items():
+        rec[name] = states[rows, col]
+    rec["speed"] = np.interp(t_rec, cycle.time, cycle.speed)
+    rec["distance"] = _distance(cycle, t_rec)
+    rec["RH_cabin"] = L.relative_humidity(rec["T_cabin"], states[rows, L.S_W], P_ATM)
+    last = np.concatenate(([0], ends - 1)) if n else np.zeros(1, int)
+    rec_mode = modes[last] if n else np.zeros(1, np.int8)
+    rec_flags = np.zeros(t_rec.size, np.uint16)
+    if n:
+        rec_flags[1:] = np.bitwise_or.reduceat(flags, starts)
+    return rec, rec_mode.astype(np.int8), rec_flags, t_rec
