@@ -1091,6 +1091,9 @@ def simulate(
     soak_cabin: Annotated[
         float | None, typer.Option("--soak-cabin", help="Initial cabin air, walls and interior [degC].")
     ] = None,
+    precondition: Annotated[
+        float, typer.Option("--precondition", help="Seconds of HVAC parked and plugged in before the cycle.")
+    ] = 0.0,
     model: Annotated[str, typer.Option("--model", help="Refrigerant-loop model: lut.")] = "lut",
     json_out: Annotated[bool, _JSON] = False,
 ) -> None:
@@ -1114,6 +1117,8 @@ def simulate(
         fail(f"--model {model!r} is not available; allowed: lut")
     if not (math.isfinite(dt) and 1e-3 <= dt <= 60.0):
         fail(f"--dt {dt:g} is not allowed; allowed: 0.001 to 60 s")
+    if not (math.isfinite(precondition) and 0.0 <= precondition <= 86400.0):
+        fail(f"--precondition {precondition:g} is not allowed; allowed: 0 to 86400 s")
     if soak_cabin is not None and not -40.0 <= soak_cabin <= 90.0:
         fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
     sc = SCENARIOS[scenario] if scenario is not None else None
@@ -1146,6 +1151,7 @@ def simulate(
             soak_cabin=None if soak_cabin is None else soak_cabin + 273.15,
             output_every=output_every,
             scenario=scenario or "",
+            precondition=precondition,
         )
         for T in ambients
     ]

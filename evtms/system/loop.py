@@ -102,9 +102,9 @@ N_S = S_YF + N_Y
     O_P_MOTOR_EL, O_P_BATTERY, O_P_HVAC, O_P_COMPRESSOR, O_P_PTC, O_P_HEATER, O_P_BLOWER, O_P_FAN, O_P_PUMP,
     O_Q_EVAP, O_Q_LATENT, O_Q_CHILLER, O_Q_COND, O_W, O_W_FLUID, O_P_SUCTION, O_P_DISCHARGE, O_MDOT_REF,
     O_Q_GEN, O_EMF, O_V, O_I, O_E_RC, O_SPEED_CMD, O_BLOWER, O_U_PUMP, O_MDOT_AIR, O_Q_HEATER,
-    O_Q_AIR_SOURCES, O_Q_SUN_INT, O_T_SUPPLY, O_P_DEFICIT, O_REGEN,
+    O_Q_AIR_SOURCES, O_Q_SUN_INT, O_T_SUPPLY, O_P_DEFICIT, O_REGEN, O_P_GRID,
     N_O,
-) = range(34)  # fmt: skip
+) = range(35)  # fmt: skip
 
 _H_FG = 2.45e6  # latent heat of condensing water at cabin conditions [J/kg]
 _CP_AIR = 1006.0  # dry air [J/(kg K)]
@@ -190,8 +190,9 @@ def run_loop(
 
     ``states`` (steps + 1, N_S) holds the initial state in row 0 and is filled
     row by row; ``out`` (steps, N_O), ``modes`` and ``flags`` (steps) per step.
-    ``p_motor_el`` (steps, 2): the step's mean motor electrical power [W]
-    with regeneration and with it cut.
+    ``p_motor_el`` (steps, 3): the step's mean motor electrical power [W]
+    with regeneration and with it cut, and 1 where the car is plugged in
+    (preconditioning: the grid, not the battery, feeds auxiliaries and HVAC).
     """
     T_amb = par[P_T_AMB]
     w_amb = par[P_W_AMB]
@@ -357,7 +358,12 @@ def run_loop(
         src = E - a_rc
         v_min = ns * par[P_VMIN]
         cap = v_min * (src - v_min) / r_eff
-        p_batt = p_mel + par[P_AUX] + p_comp + p_ptc + p_heater + p_blower + p_fan + p_pump
+        p_loads = par[P_AUX] + p_comp + p_ptc + p_heater + p_blower + p_fan + p_pump
+        p_grid = 0.0
+        if p_motor_el[n, 2] > 0.0:  # preconditioning, plugged in: the grid feeds the loads
+            p_grid = p_loads
+            p_loads = 0.0
+        p_batt = p_mel + p_loads
         deficit = 0.0
         if p_batt > cap:
             flag |= F_POWER_LIMITED
@@ -475,6 +481,7 @@ def run_loop(
         o[O_T_SUPPLY] = T_supply
         o[O_P_DEFICIT] = deficit
         o[O_REGEN] = 1.0 if regen else 0.0
+        o[O_P_GRID] = p_grid
         modes[n] = mode
         flags[n] = flag
         t += dt

@@ -35,8 +35,8 @@ class CabinParams:
     [J/K] each; ``wall_htc`` [W/(m2 K)] on both sides. ``interior_heat_capacity``
     [J/K] 0 turns the interior node off (the sun then heats the air).
     ``recirculation`` [1] is the recirculated share of the blower's air;
-    ``sun`` [W/m2] and ``sun_shield`` [1] give ``Q_sun = 3 sun sun_shield``
-    [W]; ``blower_flow_max`` [m3/s] and ``blower_power_max`` [W] (x u^3);
+    ``sun`` [W/m2] (None: the scenario's) and ``sun_shield`` [1] give
+    ``Q_sun = 3 sun sun_shield`` [W]; ``blower_flow_max`` [m3/s] and ``blower_power_max`` [W] (x u^3);
     ``T_set`` [K] the cabin setpoint; ``rh_cabin`` [1] the initial relative
     humidity; ``T_init`` [K] the initial temperature (None: the ambient).
     """
@@ -60,7 +60,7 @@ class CabinParams:
     recirculation: float = 1.0
     n_occupants: int = 1
     rh_cabin: float = 0.5
-    sun: float = 600.0
+    sun: float | None = None
     sun_shield: float = 0.5
     blower_flow_max: float = 0.3
     blower_power_max: float = 250.0

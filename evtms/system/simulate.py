@@ -235,7 +235,7 @@ def pack_parameters(
     par[L.P_RECIRC] = c.recirculation
     par[L.P_Q_OCC] = 70.0 * c.n_occupants
     par[L.P_MOIST] = 1.4e-5 * c.n_occupants
-    par[L.P_Q_SUN] = 3.0 * sun * c.sun_shield
+    par[L.P_Q_SUN] = 3.0 * (sun if c.sun is None else c.sun) * c.sun_shield
     par[L.P_BLOWER_FLOW], par[L.P_BLOWER_POWER] = c.blower_flow_max, c.blower_power_max
     par[L.P_T_SET] = c.T_set
     par[L.P_BL_KP], par[L.P_BL_KI] = ctl.blower_kp, ctl.blower_ki
@@ -295,6 +295,7 @@ def simulate(
     soak_cabin: float | None = None,
     output_every: float | None = None,
     scenario: str = "",
+    precondition: float = 0.0,
 ) -> SimulationResult:
     """Simulate the vehicle's thermal system over a drive cycle.
 
@@ -319,6 +320,10 @@ def simulate(
     T_init : float, optional
         Initial temperature of every node [K] (default: the ambient); the
         tables' ``T_init`` override it per subsystem.
+    precondition : float
+        Seconds of HVAC parked and plugged in before the cycle (a whole
+        multiple of the record spacing): the grid feeds auxiliaries and HVAC;
+        records of that phase have negative times.
     soak_cabin : float, optional
         Initial cabin air, wall and interior temperature [K].
     output_every : float, optional
@@ -340,10 +345,13 @@ def simulate(
     m = round(every / dt)
     if m < 1 or abs(m * dt - every) > 1e-9 * every:
         raise EvtmsInputError(f"--output-every {every:g} s is not a whole multiple of --dt {dt:g} s")
+    if precondition:
+        cycle = _with_precondition(cycle, precondition, every)
     edges = step_edges(cycle.duration, dt)
     dts = np.diff(edges)
     seg = {regen: drive_segments(cycle, T_amb, params.vehicle, regen=regen) for regen in (True, False)}
-    p_motor = np.column_stack([_step_means(cycle.time, seg[r].P_motor_el, edges) for r in (True, False)])
+    plugged = (edges[1:] <= precondition + 1e-9).astype(float)
+    p_motor = np.column_stack([*(_step_means(cycle.time, seg[r].P_motor_el, edges) for r in (True, False)), plugged])
     tables = battery_cell_tables()
     par = pack_parameters(params, T_amb, RH_amb, sun, MODES[mode], refrigerant.coolant_mdot_max)
     p_eq = float(np.interp(T_amb if T_init is None else T_init, refrigerant.sat_T, refrigerant.sat_p))
@@ -372,14 +380,14 @@ def simulate(
     distance_km = float(_distance(cycle, edges[-1:])[0] / 1e3)
     summary = {
         "distance_km": distance_km,
-        "duration_s": float(edges[-1]),
+        "duration_s": float(edges[-1] - precondition),
         "traction_energy_kWh": float(np.sum(drive["P_traction"] * dts) / 3.6e6),
         "battery_energy_kWh": float(np.sum(out[:, L.O_P_BATTERY] * dts) / 3.6e6),
         "battery_chemical_kWh": float(E / 3.6e6),
-        "hvac_energy_kWh": float(np.sum(out[:, L.O_P_HVAC] * dts) / 3.6e6),
+        "hvac_energy_kWh": float(np.sum(out[:, L.O_P_HVAC] * dts * (1.0 - p_motor[:done, 2])) / 3.6e6),
         "motor_energy_kWh": float(np.sum(out[:, L.O_P_MOTOR_EL] * dts) / 3.6e6),
-        "aux_energy_kWh": float(params.vehicle.aux_power * edges[-1] / 3.6e6),
-        **_consumption_split(out, dts),
+        "aux_energy_kWh": float(params.vehicle.aux_power * (edges[-1] - precondition) / 3.6e6),
+        **_consumption_split(out, dts * (1.0 - p_motor[:done, 2])),
         "battery_loss_kWh": float(np.sum(out[:, L.O_Q_GEN] * dts) / 3.6e6),
         "soc_end": float(states[-1, L.S_SOC]),
         "consumption_kWh_per_100km": float(E / 3.6e6 / max(distance_km, 1e-9) * 100.0),
@@ -392,6 +400,8 @@ def simulate(
         "wall_time_s": float(time.perf_counter() - wall0),
         "loop_time_s": float(loop_time),
         "steps": int(done),
+        "precondition_s": float(precondition),
+        "precondition_grid_kWh": float(np.sum(out[:, L.O_P_GRID] * dts) / 3.6e6),
     }
     attrs = {
         "scenario": scenario,
@@ -401,14 +411,30 @@ def simulate(
         "output_every": every,
         "T_amb": T_amb,
         "RH_amb": RH_amb,
-        "sun": sun,
+        "sun": sun if params.cabin.sun is None else params.cabin.sun,
         "mode_request": mode,
         "termination": termination,
         "parameters": params.to_json(),
         "ledgers": json.dumps(ledger),
     }
-    records["time"] = t_rec
+    records["time"] = t_rec - precondition
     return SimulationResult(records, rec_mode, rec_flags, ledger, summary, attrs)
+
+
+def _with_precondition(cycle: DriveCycle, seconds: float, every: float) -> DriveCycle:
+    """``cycle`` after ``seconds`` parked (the trace must start at standstill)."""
+    k = round(seconds / every)
+    if not 0 < seconds <= 86400.0 or abs(k * every - seconds) > 1e-9 * seconds:
+        raise EvtmsInputError(
+            f"--precondition {seconds:g} s is not allowed; allowed: a multiple of the record spacing {every:g} s, "
+            "up to 86400 s"
+        )
+    if cycle.speed[0] != 0.0:
+        raise EvtmsInputError(f"--precondition needs a cycle that starts at standstill; {cycle.name} does not")
+    t = np.concatenate(([0.0], seconds + cycle.time))
+    return DriveCycle(
+        cycle.name, t, np.concatenate(([0.0], cycle.speed)), np.concatenate(([0.0], cycle.grade)), cycle.source
+    )
 
 
 def usable_energy(params: SystemParams) -> float:
@@ -489,7 +515,7 @@ def ledgers(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np.ndarra
     res["cabin"] = rel(stored - np.sum(flows), np.sum(through * dts))
     ref = out[:, L.O_Q_COND] - out[:, L.O_Q_EVAP] - out[:, L.O_Q_CHILLER] - out[:, L.O_W_FLUID]
     res["refrigerant"] = rel(np.sum(ref * dts), np.sum(out[:, L.O_W_FLUID] * dts) + 1.0)
-    uses = (motor + par[L.P_AUX] + out[:, L.O_P_HVAC] + out[:, L.O_Q_GEN]) * dts + Erc
+    uses = (motor + par[L.P_AUX] + out[:, L.O_P_HVAC] - out[:, L.O_P_GRID] + out[:, L.O_Q_GEN]) * dts + Erc
     res["system"] = rel(np.sum(E_chem - uses), np.sum(np.abs(E_chem)))
     return res
 
