@@ -861,7 +861,9 @@ def cycle_sweep(
     typer.echo(f"cycle: {len(points)} operating points, {ok} solved, {wall:.2f} s, wrote {output}")
 
 
-report_app = typer.Typer(help="Figures and reports from LUT files and cycle sweeps.", no_args_is_help=True)
+report_app = typer.Typer(
+    help="Figures and reports from LUT files, cycle sweeps and system simulations.", no_args_is_help=True
+)
 app.add_typer(report_app, name="report")
 
 
@@ -1017,6 +1019,80 @@ def report_bench(
         figures = bench_report_figures(ds, stage, base, pair, fmt)
         bench_report_page(ds, figures, stage / "index.html", str(file))
     typer.echo(f"wrote {len(figures)} figures and {output / 'index.html'}")
+
+
+def _open_simulation(path: Path, variables: tuple[str, ...] = ()):
+    """A simulation output file (evtms simulate), loaded and checked; anything else is one line, exit 2."""
+    import xarray as xr
+
+    from evtms.reports.system_plots import check_simulation
+
+    input_file(path, "simulation file")
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            ds = ds.load()
+    except Exception as exc:  # not netCDF, truncated: one line, not an HDF5 traceback
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        fail(f"{path}: not a readable simulation file ({first})")
+    try:
+        check_simulation(ds, variables)
+    except EvtmsInputError as exc:
+        fail(f"{path}: {exc}")
+    return ds
+
+
+@report_app.command("simulation")
+def report_simulation(
+    run: Annotated[Path, typer.Argument(help="Simulation file (evtms simulate), one run or an ambient sweep.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Figure file, .png or .svg.")],
+    t_amb: Annotated[
+        float | None,
+        typer.Option("--t-amb", help="Ambient [degC] of the run to draw from a sweep; default: the first."),
+    ] = None,
+    json_out: Annotated[bool, _JSON] = False,
+) -> None:
+    """Time series of one run: speed, temperatures, powers, heat flows, SOC and the modes.
+
+    Example: evtms simulate --cycle wltc3b --t-amb 35 -o run.nc && evtms report simulation run.nc -o run.png
+    """
+    from evtms.reports.system_plots import SIMULATION_VARIABLES, simulation_figure
+
+    output_file(output, [run], (".png", ".svg"))
+    ds = _open_simulation(run, SIMULATION_VARIABLES)
+    try:
+        with creating_parents(output):
+            simulation_figure(ds, output, None if t_amb is None else t_amb + 273.15)
+    except EvtmsInputError as exc:
+        fail(f"{run}: {exc}")
+    if json_out:
+        print_json({"path": str(output)})
+        return
+    typer.echo(f"wrote {output}")
+
+
+@report_app.command("range")
+def report_range(
+    sweep: Annotated[Path, typer.Argument(help="Simulation sweep over the ambient (evtms simulate --t-amb a:b:n).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Figure file, .png or .svg.")],
+    json_out: Annotated[bool, _JSON] = False,
+) -> None:
+    """Consumption per 100 km split by use, and range, against the ambient temperature.
+
+    Example: evtms simulate --cycle wltc3b --t-amb -20:45:14 -o sweep.nc && evtms report range sweep.nc -o range.png
+    """
+    from evtms.reports.system_plots import range_figure
+
+    output_file(output, [sweep], (".png", ".svg"))
+    ds = _open_simulation(sweep)
+    try:
+        with creating_parents(output):
+            range_figure(ds, output)
+    except EvtmsInputError as exc:
+        fail(f"{sweep}: {exc}")
+    if json_out:
+        print_json({"path": str(output)})
+        return
+    typer.echo(f"wrote {output}")
 
 
 @app.command()

@@ -1,0 +1,458 @@
+"""System-simulation figures: the time series of one run, consumption and range over the ambient.
+
+Reads the files of ``evtms simulate`` (:mod:`evtms.system.output`): one run
+(dimension ``time``) or several ambients side by side (dimensions ``T_amb``,
+``time``), with the run figures in the global attribute ``summary`` (JSON: an
+object, or a list of objects along ``T_amb``). As in the other report
+modules, the numbers of every figure come from a ``*_data`` function that
+returns exactly what is drawn (so tests check numbers, not pixels), and the
+figure is drawn with matplotlib's object API (no global state, the Agg
+backend), written as PNG or SVG by the file suffix.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from evtms.errors import EvtmsInputError
+from evtms.reports.cycle_plots import _figure, _save
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+#: Variables the time-series figure draws.
+SIMULATION_VARIABLES = (
+    "speed",
+    "T_cabin",
+    "T_battery",
+    "T_coolant",
+    "P_motor_el",
+    "P_hvac",
+    "P_compressor",
+    "P_ptc",
+    "P_heater",
+    "P_blower",
+    "P_fan",
+    "P_pump",
+    "Q_evaporator",
+    "Q_chiller",
+    "SOC",
+    "mode",
+)
+#: Consumption split of the range figure: label -> summary key [kWh]; together they are battery_chemical_kWh.
+CONSUMPTION_PARTS = {
+    "traction (motor)": "motor_energy_kWh",
+    "cabin HVAC": "hvac_cabin_kWh",
+    "battery thermal": "battery_thermal_kWh",
+    "auxiliaries": "aux_energy_kWh",
+    "battery losses": "battery_loss_kWh",
+}
+#: Summary keys the range figure reads.
+RANGE_KEYS = (*CONSUMPTION_PARTS.values(), "battery_chemical_kWh", "distance_km", "consumption_kWh_per_100km")
+#: Colour of each mode code (as ``evtms.system.loop.MODE_NAMES``: off BH BC CC CH CH+BH CH+BC CC+BC).
+MODE_COLOURS = (
+    "0.85",
+    "tab:orange",
+    "lightskyblue",
+    "tab:blue",
+    "tab:red",
+    "darkred",
+    "tab:purple",
+    "tab:cyan",
+)
+#: Cabin setpoint [K] when the file records none (the simulator's default ``T_set``).
+DEFAULT_SETPOINT = 298.15
+_SWEEP_HINT = "use 'evtms simulate --t-amb a:b:n' for a sweep over the ambient"
+
+
+def summaries(ds: xr.Dataset) -> list[dict]:
+    """The ``summary`` attribute as a list of run summaries (one per ambient).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A simulation output file.
+
+    Returns
+    -------
+    list of dict
+        One summary per run, in the order of ``T_amb`` (energies in kWh,
+        distance in km, temperatures in degC).
+
+    Raises
+    ------
+    EvtmsInputError
+        When ``ds`` is not a simulation output (no readable ``summary``, or
+        one summary count different from the number of ambients).
+    """
+    text = ds.attrs.get("summary")
+    if not isinstance(text, str):
+        raise EvtmsInputError("not an evtms simulation output (no 'summary' attribute; write one with evtms simulate)")
+    try:
+        data = json.loads(text)
+    except ValueError:
+        raise EvtmsInputError("not an evtms simulation output (its 'summary' attribute is not JSON)") from None
+    runs = data if isinstance(data, list) else [data]
+    if not runs or not all(isinstance(r, dict) for r in runs):
+        raise EvtmsInputError("not an evtms simulation output (its 'summary' attribute is not a run summary)")
+    expected = ds.sizes["T_amb"] if "T_amb" in ds.dims else 1
+    if len(runs) != expected or (("T_amb" in ds.dims) != isinstance(data, list)):
+        raise EvtmsInputError(f"the 'summary' attribute holds {len(runs)} runs, the file {expected} ambients")
+    return runs
+
+
+def check_simulation(ds: xr.Dataset, variables: tuple[str, ...] = SIMULATION_VARIABLES) -> None:
+    """Refuse a dataset that is not a simulation output with ``variables``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Candidate simulation output.
+    variables : tuple of str
+        Variables the caller draws.
+
+    Raises
+    ------
+    EvtmsInputError
+        One line naming what is missing.
+    """
+    if "time" not in ds.dims:
+        raise EvtmsInputError("not an evtms simulation output (no 'time' dimension; write one with evtms simulate)")
+    summaries(ds)
+    missing = [v for v in variables if v not in ds.variables]
+    if missing:
+        raise EvtmsInputError(f"not a complete evtms simulation output: missing variable(s) {', '.join(missing)}")
+    for name in variables:
+        if "time" not in ds[name].dims:
+            raise EvtmsInputError(f"variable {name!r} has no 'time' dimension; not an evtms simulation output")
+
+
+def ambients(ds: xr.Dataset) -> np.ndarray:
+    """Ambient temperatures [K] of the runs in ``ds`` (one value for a single run)."""
+    if "T_amb" in ds.dims:
+        return np.asarray(ds["T_amb"].values, dtype=float)
+    if "T_amb" in ds.attrs:
+        return np.array([float(ds.attrs["T_amb"])])
+    return np.array([float(summaries(ds)[0].get("T_amb_degC", np.nan)) + 273.15])
+
+
+def _setpoint(ds: xr.Dataset) -> float:
+    """Cabin setpoint [K] recorded in the file's ``parameters``, else the default."""
+    try:
+        value = json.loads(ds.attrs["parameters"])["cabin"]["T_set"]
+        return float(value) if value is not None else DEFAULT_SETPOINT
+    except (KeyError, TypeError, ValueError):
+        return DEFAULT_SETPOINT
+
+
+def _mode_names(ds: xr.Dataset) -> dict[int, str]:
+    """Mode code -> name from the ``mode`` variable's CF ``flag_values``/``flag_meanings``."""
+    attrs = ds["mode"].attrs
+    meanings = str(attrs.get("flag_meanings", "")).split()
+    values = np.atleast_1d(attrs.get("flag_values", np.arange(len(meanings))))
+    if len(values) != len(meanings):
+        raise EvtmsInputError("variable 'mode': flag_values and flag_meanings differ in length")
+    return {int(v): m.replace("_plus_", "+") for v, m in zip(values, meanings, strict=True)}
+
+
+def _title_cycle(ds: xr.Dataset) -> str:
+    cycle = str(ds.attrs.get("cycle", "")) or "drive cycle"
+    scenario = str(ds.attrs.get("scenario", ""))
+    return f"{cycle} (scenario {scenario})" if scenario else cycle
+
+
+def _fmt(value, spec: str) -> str:
+    return "n/a" if value is None or not np.isfinite(value) else format(value, spec)
+
+
+def simulation_data(ds: xr.Dataset, t_amb: float | None = None) -> dict:
+    """What :func:`simulation_figure` draws, in display units.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A simulation output (one run, or a sweep with dimension ``T_amb``).
+    t_amb : float, optional
+        Ambient temperature [K] of the run to draw from a sweep (within
+        1 mK of a value of ``T_amb``); default: the first. For a single run
+        it must be the run's ambient when given.
+
+    Returns
+    -------
+    dict
+        ``time_min`` [min]; ``speed`` [km/h]; ``T_cabin``, ``T_battery``,
+        ``T_coolant`` [degC]; ``T_amb``, ``T_set`` [degC] (scalars);
+        ``P_motor_el``, ``P_hvac`` and the split ``hvac_parts`` (label ->
+        array; compressor, PTC, heater, blower + fan + pump, summing to
+        ``P_hvac``) [kW]; ``Q_evaporator``, ``Q_chiller`` [kW]; ``SOC`` [1];
+        ``mode`` (int code per record, -1 where a run that stopped early
+        has no record), ``mode_names`` (code -> name), ``summary`` (dict) and
+        ``title`` (str). Powers are means over the interval ending at the
+        record time (NaN at the first record).
+
+    Raises
+    ------
+    EvtmsInputError
+        Not a simulation output, a variable missing, or ``t_amb`` not in the file.
+    """
+    check_simulation(ds)
+    runs = summaries(ds)
+    temps = ambients(ds)
+    index = 0
+    if t_amb is not None:
+        hits = np.flatnonzero(np.abs(temps - float(t_amb)) < 1e-3)
+        if hits.size == 0:
+            allowed = ", ".join(f"{t - 273.15:g}" for t in temps)
+            raise EvtmsInputError(f"ambient {float(t_amb) - 273.15:g} degC is not in the file; allowed: {allowed} degC")
+        index = int(hits[0])
+    run = ds.isel(T_amb=index) if "T_amb" in ds.dims else ds
+
+    def v(name: str, scale: float = 1.0, offset: float = 0.0) -> np.ndarray:
+        return np.asarray(run[name].values, dtype=float) / scale + offset
+
+    kw = 1e3
+    summary = runs[index]
+    T_amb = float(temps[index]) - 273.15
+    hvac_parts = {
+        "compressor": v("P_compressor", kw),
+        "PTC air heater": v("P_ptc", kw),
+        "coolant heater": v("P_heater", kw),
+        "blower + fan + pump": v("P_blower", kw) + v("P_fan", kw) + v("P_pump", kw),
+    }
+    soc = v("SOC")
+    title = (
+        f"{_title_cycle(ds)} at {T_amb:g} degC: {_fmt(summary.get('distance_km'), '.1f')} km, "
+        f"{_fmt(summary.get('consumption_kWh_per_100km'), '.1f')} kWh/100 km, "
+        f"range {_fmt(summary.get('range_km'), '.0f')} km, HVAC {_fmt(summary.get('hvac_energy_kWh'), '.2f')} kWh, "
+        f"SOC {_fmt(soc[0], '.3f')} -> {_fmt(summary.get('soc_end'), '.3f')}"
+    )
+    return {
+        "time_min": np.asarray(run["time"].values, dtype=float) / 60.0,
+        "speed": v("speed", 1.0 / 3.6),
+        "T_cabin": v("T_cabin", offset=-273.15),
+        "T_battery": v("T_battery", offset=-273.15),
+        "T_coolant": v("T_coolant", offset=-273.15),
+        "T_amb": T_amb,
+        "T_set": _setpoint(ds) - 273.15,
+        "P_motor_el": v("P_motor_el", kw),
+        "P_hvac": v("P_hvac", kw),
+        "hvac_parts": hvac_parts,
+        "Q_evaporator": v("Q_evaporator", kw),
+        "Q_chiller": v("Q_chiller", kw),
+        "SOC": soc,
+        "mode": np.asarray(run["mode"].values).astype(int),
+        "mode_names": _mode_names(ds),
+        "summary": summary,
+        "title": title,
+    }
+
+
+def mode_spans(time: np.ndarray, mode: np.ndarray) -> list[tuple[int, float, float]]:
+    """Runs of one mode as (code, start, end) in the units of ``time``.
+
+    The mode of record k is the one of its interval ``(t_k-1, t_k]``; records
+    with code -1 (no record: a run that stopped early) are left out.
+    """
+    if time.size < 2:
+        return []
+    codes = mode[1:]
+    change = np.flatnonzero(np.diff(codes)) + 1
+    starts = np.r_[0, change]
+    ends = np.r_[change, codes.size]
+    return [(int(codes[a]), float(time[a]), float(time[b])) for a, b in zip(starts, ends, strict=True) if codes[a] >= 0]
+
+
+def simulation_figure(ds: xr.Dataset, path: str | Path, t_amb: float | None = None) -> Path:
+    """Draw one run's time series: speed, temperatures, powers, heat flows, SOC and modes.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A simulation output (one run, or a sweep with dimension ``T_amb``).
+    path : str or Path
+        Figure file, ``.png`` or ``.svg`` (written atomically).
+    t_amb : float, optional
+        Ambient temperature [K] of the run to draw from a sweep (default: the first).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    EvtmsInputError
+        Not a simulation output, a variable missing, or ``t_amb`` not in the file.
+    """
+    from matplotlib.patches import Patch
+
+    d = simulation_data(ds, t_amb)
+    t = d["time_min"]
+    fig = _figure(figsize=(10.0, 14.0))
+    axes = fig.subplots(7, 1, sharex=True, height_ratios=(1.0, 1.4, 1.0, 1.2, 1.0, 0.8, 0.35))
+    speed, temps, motor, hvac, heat, soc, modes = axes
+
+    speed.plot(t, d["speed"], color="k", lw=1)
+    speed.set_ylabel("speed [km/h]")
+
+    temps.plot(t, d["T_cabin"], color="tab:blue", label="cabin air T_cabin")
+    temps.plot(t, d["T_battery"], color="tab:red", label="battery T_battery")
+    temps.plot(t, d["T_coolant"], color="tab:green", label="coolant T_coolant")
+    temps.axhline(d["T_amb"], color="0.4", lw=1.2, label=f"ambient T_amb ({d['T_amb']:g} degC)")
+    temps.axhline(d["T_set"], color="tab:blue", ls="--", lw=1, label=f"cabin setpoint ({d['T_set']:g} degC)")
+    temps.set_ylabel("temperature [degC]")
+    temps.legend(loc="best", fontsize="small", ncols=2)
+
+    motor.plot(t, d["P_motor_el"], color="tab:purple", lw=0.8, drawstyle="steps-pre", label="motor P_motor_el")
+    motor.axhline(0, color="0.5", lw=0.6)
+    motor.set_ylabel("motor el. power [kW]")
+    motor.legend(loc="upper left", fontsize="small")
+
+    base = np.zeros_like(t)
+    colours = ("tab:blue", "tab:red", "tab:orange", "tab:gray")
+    for (name, part), colour in zip(d["hvac_parts"].items(), colours, strict=True):
+        top = base + part
+        hvac.fill_between(t, base, top, step="pre", color=colour, alpha=0.6, lw=0, label=name)
+        base = top
+    hvac.plot(t, d["P_hvac"], color="k", lw=0.8, drawstyle="steps-pre", label="total P_hvac")
+    hvac.set_ylabel("thermal system\nel. power [kW]")
+    hvac.legend(loc="upper left", fontsize="small", ncols=3)
+
+    heat.plot(t, d["Q_evaporator"], color="tab:blue", lw=1, drawstyle="steps-pre", label="evaporator Q_evaporator")
+    heat.plot(t, d["Q_chiller"], color="tab:cyan", lw=1, drawstyle="steps-pre", label="chiller Q_chiller")
+    heat.axhline(0, color="0.5", lw=0.6)
+    heat.set_ylabel("heat flow [kW]\n(> 0 cooling)")
+    heat.legend(loc="upper left", fontsize="small")
+
+    soc.plot(t, d["SOC"], color="k", lw=1)
+    soc.set_ylabel("SOC [1]")
+
+    seen: dict[int, str] = {}
+    for code, a, b in mode_spans(t, d["mode"]):
+        modes.axvspan(a, b, color=MODE_COLOURS[code % len(MODE_COLOURS)], lw=0)
+        seen.setdefault(code, d["mode_names"].get(code, str(code)))
+    modes.set_yticks([])
+    modes.set_ylabel("mode")
+    handles = [Patch(color=MODE_COLOURS[c % len(MODE_COLOURS)], label=seen[c]) for c in sorted(seen)]
+    if handles:
+        modes.legend(
+            handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.9), ncols=len(handles), fontsize="small"
+        )
+    modes.set_xlabel("time [min]")
+    if t.size > 1:
+        modes.set_xlim(t[0], t[-1])
+
+    for ax in axes[:-1]:
+        ax.grid(alpha=0.3)
+    fig.suptitle(d["title"], fontsize="medium")
+    return _save(fig, path)
+
+
+def range_data(ds: xr.Dataset) -> dict:
+    """What :func:`range_figure` draws, from the runs' summaries.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A simulation sweep over the ambient (dimension ``T_amb``).
+
+    Returns
+    -------
+    dict
+        ``T_amb`` [degC]; ``parts`` (label -> consumption [kWh/100 km] per
+        ambient: traction, cabin HVAC, battery thermal, auxiliaries,
+        battery losses, as :data:`CONSUMPTION_PARTS`); ``other``
+        [kWh/100 km], the chemical energy the five do not hold (the energy
+        left in the battery's RC branch; 0 without one), so that the parts and
+        ``other`` sum to ``total``; ``total``, the summary's
+        ``consumption_kWh_per_100km`` [kWh/100 km]; ``range_km`` [km] (NaN
+        where the run drove no distance); ``closure``, the largest relative
+        difference between the sum of the five parts and the chemical energy
+        [1]; ``title`` (str).
+
+    Raises
+    ------
+    EvtmsInputError
+        A single run (no ``T_amb`` dimension), or a summary without the
+        consumption split.
+    """
+    if "time" not in ds.dims:
+        raise EvtmsInputError("not an evtms simulation output (no 'time' dimension; write one with evtms simulate)")
+    if "T_amb" not in ds.dims:
+        summaries(ds)  # a LUT or other file: 'not a simulation output' first
+        raise EvtmsInputError(f"the file holds a single run; the range figure needs several ambients: {_SWEEP_HINT}")
+    runs = summaries(ds)
+    for key in RANGE_KEYS:
+        if any(r.get(key) is None for r in runs):
+            raise EvtmsInputError(f"the run summaries have no {key!r}; write the file again with evtms simulate")
+
+    def column(key: str) -> np.ndarray:
+        return np.array([float(r[key]) if r.get(key) is not None else np.nan for r in runs])
+
+    distance = column("distance_km")
+    chemical = column("battery_chemical_kWh")
+    total = column("consumption_kWh_per_100km")
+    per_100 = np.where(distance > 0, 100.0 / np.where(distance > 0, distance, 1.0), np.nan)
+    parts = {label: column(key) * per_100 for label, key in CONSUMPTION_PARTS.items()}
+    summed = sum(column(key) for key in CONSUMPTION_PARTS.values())
+    with np.errstate(invalid="ignore", divide="ignore"):
+        closure = np.abs(summed - chemical) / np.maximum(np.abs(chemical), 1e-300)
+    other = total - sum(parts.values())
+    return {
+        "T_amb": ambients(ds) - 273.15,
+        "parts": parts,
+        "other": other,
+        "total": total,
+        "range_km": column("range_km"),
+        "closure": float(np.nanmax(closure)) if np.isfinite(closure).any() else float("nan"),
+        "title": f"Consumption and range over the ambient: {_title_cycle(ds)}",
+    }
+
+
+def range_figure(ds: xr.Dataset, path: str | Path) -> Path:
+    """Draw consumption per 100 km split by use (stacked bars) and range against the ambient.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A simulation sweep over the ambient (dimension ``T_amb``).
+    path : str or Path
+        Figure file, ``.png`` or ``.svg`` (written atomically).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    EvtmsInputError
+        A single run, or a summary without the consumption split.
+    """
+    d = range_data(ds)
+    x = d["T_amb"]
+    step = float(np.min(np.diff(np.sort(x)))) if x.size > 1 else 5.0
+    width = 0.8 * step if step > 0 else 4.0
+    fig = _figure(figsize=(8.0, 7.0))
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+    colours = ("tab:purple", "tab:blue", "tab:red", "tab:gray", "tab:orange")
+    base = np.zeros_like(x)
+    for (name, part), colour in zip(d["parts"].items(), colours, strict=True):
+        top.bar(x, part, width, bottom=base, color=colour, label=name)
+        base = base + part
+    if np.nanmax(np.abs(d["other"]), initial=0.0) > 1e-9 * np.nanmax(np.abs(d["total"]), initial=0.0):
+        top.bar(x, d["other"], width, bottom=base, color="0.8", label="other (RC branch)")
+    top.plot(x, d["total"], "k_", ms=14, mew=2, ls="none", label="total consumption")
+    top.set_ylabel("consumption [kWh/100 km]")
+    top.legend(loc="best", fontsize="small", ncols=2)
+    top.grid(axis="y", alpha=0.3)
+    bottom.plot(x, d["range_km"], "o-", color="tab:green")
+    bottom.set_ylabel("range [km]")
+    bottom.set_xlabel("ambient temperature T_amb [degC]")
+    bottom.grid(alpha=0.3)
+    top.set_title(d["title"])
+    return _save(fig, path)
