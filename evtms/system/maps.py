@@ -1,0 +1,1043 @@
+"""Steady cycle maps: the refrigerant loop's outputs on a grid of its commands and boundaries (spec 2.5).
+
+The time loop cannot afford the cycle solver per step (milliseconds a point),
+so the steady cycle is solved once on a grid per circuit and read back by a
+multilinear kernel. A map holds, at every node, the nine outputs
+:data:`MAP_OUTPUTS`::
+
+    p_suction, p_discharge [Pa], mdot [kg/s],
+    Q_evaporator, Q_latent, Q_chiller, Q_condenser, W, W_fluid [W]
+
+- ``Q_evaporator`` = -``Q_evap`` of the cycle (> 0 when cooling; total,
+  latent included); ``Q_latent`` its latent part, clipped into
+  [0, ``Q_evaporator``] (the LUTs give a few watts of the wrong sign near a
+  dry coil); ``Q_chiller`` = -``Q_chiller`` of the cycle (> 0 from coolant to
+  refrigerant); a branch a circuit lacks has 0 in its slots.
+- ``W`` is the shaft power, ``W_fluid`` = mdot (h_B - h_A).
+- ``Q_condenser`` is stored as ``Q_evaporator + Q_chiller + W_fluid``, the
+  refrigerant's energy balance: it differs from the condenser's own heat
+  flow ``mdot (h_B - h_C)`` only by the cycle's balance residual (the
+  superheat closure tolerance, at most about 1e-5 of ``W_fluid`` on the
+  'cycle' LUTs; attribute ``balance_relative_max``), and so every node closes
+  to round-off. :func:`map_interp` uses the same weights for every output, so
+  interpolated values close as well.
+
+The maps (:data:`MAPS`): ``ac`` (cabin evaporator) over (speed, blower,
+T_amb, T_air_in, RH_air_in), ``chiller`` over (speed, u_pump, T_amb,
+T_coolant_in) and ``ac+chiller`` (both branches, one compressor) over
+(speed, blower, u_pump, T_amb, T_air_in, T_coolant_in) at RH_air_in 0.5. The
+inputs become cycle operating points as: fan = ``condenser_fan``, RH_amb,
+superheat and subcooling from :class:`MapSettings`, T_cabin = T_air_in,
+RH_cabin = RH_air_in, mdot_coolant = u_pump ``coolant_flow_max``
+``coolant_density``.
+
+Invalid nodes (a cycle status outside
+:data:`~evtms.cycle.solver.VALID_CYCLE_FLAGS`, or a non-finite output) are
+filled at build time by copying the whole output vector of a donor node, so
+a filled node closes too. The donor is searched axis by axis:
+
+1. along speed (same other inputs): the nearest valid node at lower speed,
+   else the nearest valid node at higher speed;
+2. where a whole speed line is invalid: the nearest valid node along T_amb
+   (nearest in kelvin, the lower one on a tie), taking the nodes filled in
+   step 1 as valid;
+3. then along each remaining axis in the map's order (blower, u_pump,
+   T_air_in, RH_air_in, T_coolant_in as the map has them), the same way.
+
+A map without any valid node is an error. The filled nodes are counted
+(``CycleMap.filled``, file attribute ``filled``) and marked (variable
+``filled``).
+
+Maps are cached beside the LUTs in ``<luts_folder>/maps/<name>.nc`` (see
+:func:`load_maps`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as dt
+import hashlib
+import json
+import math
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from evtms import __version__
+from evtms.errors import EvtmsInputError
+from evtms.system._jit import jit
+
+#: The outputs of every map, in slot order.
+MAP_OUTPUTS = (
+    "p_suction",
+    "p_discharge",
+    "mdot",
+    "Q_evaporator",
+    "Q_latent",
+    "Q_chiller",
+    "Q_condenser",
+    "W",
+    "W_fluid",
+)
+
+#: Output -> (units, long_name).
+OUTPUT_ATTRS = {
+    "p_suction": ("Pa", "compressor suction pressure (state A)"),
+    "p_discharge": ("Pa", "compressor discharge pressure (state B)"),
+    "mdot": ("kg s-1", "refrigerant mass flow rate through the compressor"),
+    "Q_evaporator": ("W", "heat taken from the cabin air by the evaporator, latent included (> 0 cooling)"),
+    "Q_latent": ("W", "latent part of Q_evaporator (condensate), 0 <= Q_latent <= Q_evaporator"),
+    "Q_chiller": ("W", "heat taken from the coolant by the chiller (> 0 cooling)"),
+    "Q_condenser": ("W", "heat given to the ambient air by the condenser, Q_evaporator + Q_chiller + W_fluid"),
+    "W": ("W", "compressor shaft power"),
+    "W_fluid": ("W", "power given to the refrigerant, mdot (h_B - h_A)"),
+}
+
+#: Map axis -> (units, long_name).
+AXIS_ATTRS = {
+    "speed": ("1", "compressor speed, fraction of maximum"),
+    "blower": ("1", "evaporator blower fraction"),
+    "u_pump": ("1", "coolant pump command, fraction of coolant_flow_max"),
+    "T_amb": ("K", "ambient air temperature at the condenser"),
+    "T_air_in": ("K", "air temperature entering the evaporator"),
+    "RH_air_in": ("1", "relative humidity of the air entering the evaporator"),
+    "T_coolant_in": ("K", "coolant temperature entering the chiller"),
+}
+
+#: Map axis -> the cycle operating input it sets (u_pump sets mdot_coolant through the settings).
+AXIS_INPUTS = {
+    "speed": "speed",
+    "blower": "blower",
+    "u_pump": "mdot_coolant",
+    "T_amb": "T_amb",
+    "T_air_in": "T_cabin",
+    "RH_air_in": "RH_cabin",
+    "T_coolant_in": "T_coolant_in",
+}
+
+#: Bump when the build rule or the file layout changes: cached maps of another format are rebuilt.
+MAP_FORMAT = 1
+
+
+@dataclass(frozen=True)
+class MapSpec:
+    """What a map is: its circuit, its axes and the inputs it holds fixed.
+
+    Attributes
+    ----------
+    topology : str
+        Circuit (:data:`evtms.cycle.topology.TOPOLOGIES`).
+    axes : tuple of str
+        Map axes in table order (names of :data:`AXIS_ATTRS`).
+    fixed : tuple of (str, float)
+        Map inputs held at one value [SI], e.g. ``(("RH_air_in", 0.5),)``.
+    description : str
+        One line for file attributes.
+    """
+
+    topology: str
+    axes: tuple[str, ...]
+    fixed: tuple[tuple[str, float], ...] = ()
+    description: str = ""
+
+
+#: The maps the simulator reads.
+MAPS: dict[str, MapSpec] = {
+    "ac": MapSpec(
+        "cabin", ("speed", "blower", "T_amb", "T_air_in", "RH_air_in"), (), "cabin evaporator alone (modes CC)"
+    ),
+    "chiller": MapSpec("chiller", ("speed", "u_pump", "T_amb", "T_coolant_in"), (), "chiller alone (mode BC)"),
+    "ac+chiller": MapSpec(
+        "cabin+chiller",
+        ("speed", "blower", "u_pump", "T_amb", "T_air_in", "T_coolant_in"),
+        (("RH_air_in", 0.5),),
+        "cabin evaporator and chiller in parallel (mode CC+BC)",
+    ),
+}
+
+
+def _celsius(start: float, stop: float, step: float) -> tuple[float, ...]:
+    """Temperatures [K] from ``start`` to ``stop`` degC every ``step`` K (rounded to 10 decimals)."""
+    n = int(round((stop - start) / step)) + 1
+    return tuple(round(273.15 + start + i * step, 10) for i in range(n))
+
+
+_FRACTIONS = (0.1, 0.2, 0.35, 0.5, 0.75, 1.0)
+
+#: Default axes (spec 2.5) [SI]; None: the evaporator LUT's RH_air_in axis (read from its file).
+DEFAULT_AXES: dict[str, tuple[float, ...] | None] = {
+    "speed": _FRACTIONS,
+    "blower": _FRACTIONS,
+    "u_pump": (0.3, 0.5, 1.0),
+    "T_amb": _celsius(-10.0, 50.0, 5.0),
+    "T_air_in": _celsius(10.0, 50.0, 4.0),
+    "RH_air_in": None,
+    "T_coolant_in": _celsius(0.0, 50.0, 5.0),
+}
+
+#: The ac+chiller map is coarser (spec 2.5): blower 4 nodes, T_air_in every 8 K, T_coolant_in every 10 K,
+#: so 6 x 4 x 3 x 13 x 6 x 6 = 33,696 nodes, against 36,036 (ac) and 2,574 (chiller); speed, u_pump and
+#: T_amb keep the full axes (speed is the controlled input and the fill runs along it; the chiller duty is
+#: concave in the coolant flow, nearly linear in T_coolant_in). Measured 2026-11-30 on the 2-core
+#: development machine, 'cycle' LUTs (evaporator air 15-35 degC, condenser air 15-45 degC: 22 %, 48 %
+#: and 11 % of the nodes solve), all three maps from scratch (cold LUT-table cache, 72,306 points):
+#: 26.9 s with 2 workers (load from other jobs ~2.5), 36.3 s (load ~5.5); serial 30.5 s. With the LUT
+#: tables cached, per map serial / 2 workers (load ~6): ac 15.1 / 14.4 s, chiller 3.0 / 2.1 s, ac+chiller
+#: 14.5 / 7.3 s. A solved node costs about 3x an out-of-envelope one (0.3-0.5 ms against 0.16 ms), so
+#: LUTs covering every node bring the total to an estimated 30-45 s; reading the three from disk: 0.9 s.
+COARSE_AXES: dict[str, dict[str, tuple[float, ...]]] = {
+    "ac+chiller": {
+        "blower": (0.1, 0.35, 0.75, 1.0),
+        "T_air_in": _celsius(10.0, 50.0, 8.0),
+        "T_coolant_in": _celsius(0.0, 50.0, 10.0),
+    }
+}
+
+
+def _check_axis(key: str, values: Sequence[float]) -> tuple[float, ...]:
+    """An override's values as floats, finite, strictly increasing and inside its input's range."""
+    from evtms.cycle.topology import INPUTS
+
+    axis = key.split(".")[-1]
+    try:
+        out = tuple(float(v) for v in np.atleast_1d(np.asarray(values, float)))
+    except (TypeError, ValueError):
+        raise EvtmsInputError(f"map axis {key!r}: the values are not numbers") from None
+    if not out or not all(math.isfinite(v) for v in out):
+        raise EvtmsInputError(f"map axis {key!r}: give at least one finite value")
+    if any(b <= a for a, b in zip(out, out[1:], strict=False)):
+        raise EvtmsInputError(f"map axis {key!r}: the values must be strictly increasing")
+    if axis == "u_pump":
+        if out[0] <= 0.0:
+            raise EvtmsInputError(f"map axis {key!r}: u_pump must be > 0 (the chiller needs a coolant flow)")
+        return out
+    spec = INPUTS[AXIS_INPUTS[axis]]
+    for v in out:
+        if not spec.lower <= v <= spec.upper or (spec.positive and v == spec.lower):
+            raise EvtmsInputError(f"map axis {key!r}: {v:g} is not allowed; allowed: {spec.allowed()} (SI, K)")
+    return out
+
+
+@dataclass(frozen=True)
+class MapSettings:
+    """Everything besides the LUTs a map depends on (part of its cache key).
+
+    Attributes
+    ----------
+    condenser_fan : float
+        Condenser fan fraction [1].
+    coolant_flow_max : float
+        Coolant volume flow at u_pump 1 [m3/s].
+    coolant_density : float
+        Coolant density [kg/m3]; mdot_coolant = u_pump coolant_flow_max coolant_density.
+    superheat : float
+        Superheat setpoint of every active branch's valve [K].
+    subcooling : float
+        Condenser-outlet subcooling [K] (0: receiver, saturated liquid).
+    RH_amb : float
+        Ambient relative humidity [1].
+    axes : mapping of str to sequence of float
+        Axis overrides [SI, K for temperatures]: ``{"T_amb": [...]}`` sets
+        that axis in every map that has it, ``{"ac+chiller.T_amb": [...]}``
+        in one map only (wins over the former). Other axes keep
+        :data:`DEFAULT_AXES` (``ac+chiller``: :data:`COARSE_AXES`).
+    """
+
+    condenser_fan: float = 1.0
+    coolant_flow_max: float = 4.0e-4
+    coolant_density: float = 1070.0
+    superheat: float = 10.0
+    subcooling: float = 0.0
+    RH_amb: float = 0.4
+    axes: Mapping[str, Sequence[float]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        checks = (
+            ("condenser_fan", 0.0, 1.0, True),
+            ("coolant_flow_max", 0.0, math.inf, True),
+            ("coolant_density", 0.0, math.inf, True),
+            ("superheat", 0.0, 50.0, False),
+            ("subcooling", 0.0, 30.0, False),
+            ("RH_amb", 0.0, 1.0, False),
+        )
+        for name, lo, hi, positive in checks:
+            v = getattr(self, name)
+            ok = isinstance(v, int | float) and math.isfinite(v) and lo <= v <= hi and not (positive and v == lo)
+            if not ok:
+                rng = f"{lo:g} < {name} <= {hi:g}" if positive else f"{lo:g} to {hi:g}"
+                raise EvtmsInputError(f"map setting {name} = {v!r} is not allowed; allowed: {rng}")
+        axes = {}
+        for key, values in dict(self.axes).items():
+            map_name, _, axis = key.rpartition(".")
+            if axis not in AXIS_ATTRS or (map_name and (map_name not in MAPS or axis not in MAPS[map_name].axes)):
+                raise EvtmsInputError(
+                    f"map axis {key!r} is unknown; allowed: {', '.join(AXIS_ATTRS)}, or <map>.<axis> of a map's axes"
+                )
+            axes[key] = _check_axis(key, values)
+        object.__setattr__(self, "axes", axes)
+
+    def recipe(self, name: str) -> dict:
+        """The settings map ``name`` depends on, JSON-serialisable (the coolant only with a chiller)."""
+        spec = MAPS[name]
+        out = {
+            "condenser_fan": self.condenser_fan,
+            "superheat": self.superheat,
+            "subcooling": self.subcooling,
+            "RH_amb": self.RH_amb,
+        }
+        if "u_pump" in spec.axes:
+            out["coolant_flow_max"] = self.coolant_flow_max
+            out["coolant_density"] = self.coolant_density
+        out["axes"] = {a: list(v) for a in spec.axes if (v := self.override(name, a)) is not None}
+        return out
+
+    def override(self, name: str, axis: str) -> tuple[float, ...] | None:
+        """The override of ``axis`` in map ``name`` (None: its default)."""
+        return self.axes.get(f"{name}.{axis}", self.axes.get(axis))
+
+
+@dataclass(frozen=True, eq=False)
+class CycleMap:
+    """One steady cycle map: the outputs :data:`MAP_OUTPUTS` on a grid of inputs.
+
+    Attributes
+    ----------
+    name : str
+        Map name (:data:`MAPS`).
+    axes : tuple of str
+        Axis names in table order.
+    nodes : tuple of numpy.ndarray
+        Each axis' nodes [SI, K for temperatures], float64, strictly increasing.
+    values : numpy.ndarray
+        Outputs, shape ``(*node counts, 9)``, float64, C-contiguous, no NaN
+        (units of :data:`OUTPUT_ATTRS`).
+    filled : int
+        Invalid nodes filled from a donor at build.
+    filled_nodes : numpy.ndarray or None
+        Boolean, shape ``(*node counts)``: which nodes were filled.
+    attrs : dict
+        Provenance (topology, LUT files, settings, evtms version, created, ...).
+    """
+
+    name: str
+    axes: tuple[str, ...]
+    nodes: tuple[np.ndarray, ...]
+    values: np.ndarray
+    filled: int
+    filled_nodes: np.ndarray | None = None
+    attrs: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        nodes = tuple(np.ascontiguousarray(n, dtype=np.float64).reshape(-1) for n in self.nodes)
+        object.__setattr__(self, "nodes", nodes)
+        object.__setattr__(self, "values", np.ascontiguousarray(self.values, dtype=np.float64))
+        shape = (*(n.size for n in nodes), len(MAP_OUTPUTS))
+        if len(self.axes) != len(nodes) or self.values.shape != shape:
+            raise ValueError(f"map {self.name}: values of shape {self.values.shape}, axes need {shape}")
+        for a, n in zip(self.axes, nodes, strict=True):
+            if n.size == 0 or np.any(np.diff(n) <= 0) or not np.all(np.isfinite(n)):
+                raise ValueError(f"map {self.name}: the nodes of {a} are not strictly increasing")
+        if not np.all(np.isfinite(self.values)):
+            raise ValueError(f"map {self.name}: the values hold NaN or inf")
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Node counts per axis."""
+        return tuple(n.size for n in self.nodes)
+
+    def output(self, name: str) -> np.ndarray:
+        """The table of one output, shape ``(*node counts)`` (a view)."""
+        return self.values[..., MAP_OUTPUTS.index(name)]
+
+    def packed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Flat arrays for :func:`map_interp`.
+
+        Returns
+        -------
+        knots : numpy.ndarray
+            float64, 1-D: every axis' nodes, concatenated in axis order.
+        starts : numpy.ndarray
+            int64, ``(ndim + 1,)``: axis ``d``'s nodes are ``knots[starts[d]:starts[d + 1]]``.
+        table : numpy.ndarray
+            float64, ``(n_nodes, 9)``, C order of the node grid (a view of ``values``).
+        """
+        knots = np.ascontiguousarray(np.concatenate(self.nodes), dtype=np.float64)
+        starts = np.zeros(len(self.nodes) + 1, np.int64)
+        starts[1:] = np.cumsum([n.size for n in self.nodes])
+        return knots, starts, self.values.reshape(-1, len(MAP_OUTPUTS))
+
+    def interp(self, x: Sequence[float]) -> tuple[np.ndarray, bool]:
+        """The outputs at one point, by :func:`map_interp` (a convenience; the loop calls the kernel).
+
+        Parameters
+        ----------
+        x : sequence of float
+            One value per axis [SI, K for temperatures].
+
+        Returns
+        -------
+        (numpy.ndarray, bool)
+            The 9 outputs (:data:`MAP_OUTPUTS`) and whether a coordinate was clipped.
+        """
+        knots, starts, table = self.packed()
+        out = np.empty(len(MAP_OUTPUTS))
+        clipped = map_interp(knots, starts, table, np.asarray(x, np.float64).reshape(-1), out)
+        return out, bool(clipped)
+
+
+def _map_interp(knots, starts, table, x, out):
+    """Multilinear interpolation of every column of ``table`` at ``x``, the same weights for each.
+
+    Plain scalar code (numba-compilable); :data:`map_interp` is its compiled
+    form.
+
+    Parameters
+    ----------
+    knots : numpy.ndarray
+        float64, 1-D: the axes' nodes concatenated [SI].
+    starts : numpy.ndarray
+        int64, ``(ndim + 1,)``: offsets of each axis in ``knots``.
+    table : numpy.ndarray
+        float64, ``(n_nodes, n_out)``: node values, C order of the grid.
+    x : numpy.ndarray
+        float64, ``(ndim,)``: the point [SI]. A coordinate outside its axis
+        is clipped to the axis' end; NaN gives NaN outputs.
+    out : numpy.ndarray
+        float64, ``(n_out,)``: receives the interpolated values.
+
+    Returns
+    -------
+    int
+        1 if any coordinate was clipped, else 0.
+    """
+    ndim = starts.shape[0] - 1
+    nout = out.shape[0]
+    base = np.empty(ndim, np.int64)
+    frac = np.empty(ndim, np.float64)
+    stride = np.empty(ndim, np.int64)
+    clipped = 0
+    s = 1
+    for d in range(ndim - 1, -1, -1):
+        stride[d] = s
+        s *= starts[d + 1] - starts[d]
+    for d in range(ndim):
+        lo = starts[d]
+        n = starts[d + 1] - lo
+        xd = x[d]
+        if n == 1:
+            base[d] = 0
+            frac[d] = 0.0
+            if xd != knots[lo]:
+                clipped = 1
+        elif xd <= knots[lo]:
+            base[d] = 0
+            frac[d] = 0.0
+            if xd < knots[lo]:
+                clipped = 1
+        elif xd >= knots[lo + n - 1]:
+            base[d] = n - 2
+            frac[d] = 1.0
+            if xd > knots[lo + n - 1]:
+                clipped = 1
+        else:
+            i = 0
+            j = n - 1
+            while j - i > 1:
+                m = (i + j) // 2
+                if knots[lo + m] <= xd:
+                    i = m
+                else:
+                    j = m
+            base[d] = i
+            frac[d] = (xd - knots[lo + i]) / (knots[lo + i + 1] - knots[lo + i])
+    for k in range(nout):
+        out[k] = 0.0
+    for c in range(1 << ndim):
+        w = 1.0
+        row = 0
+        for d in range(ndim):
+            if (c >> d) & 1:
+                w *= frac[d]
+                row += (base[d] + 1) * stride[d]
+            else:
+                w *= 1.0 - frac[d]
+                row += base[d] * stride[d]
+        if w != 0.0:  # corners without weight are skipped: a node returns its own values exactly
+            for k in range(nout):
+                out[k] += w * table[row, k]
+    return clipped
+
+
+#: :func:`_map_interp` compiled by numba (``cache=True``), or itself under ``EVTMS_NO_NUMBA=1``;
+#: callable from the simulator's own jitted loop.
+map_interp = jit(_map_interp)
+
+
+# ----------------------------------------------------------------------------------------------
+# Building
+
+
+#: Operating points per solver call: the result does not depend on the chunking (checked), and
+#: batches of a few thousand points solve fastest per point.
+CHUNK_POINTS = 4000
+#: Builds of fewer points run in this process (a worker process costs about a second to start).
+POOL_FROM_POINTS = 6000
+
+Progress = Callable[[int, int, str], None]
+
+
+def map_axes(name: str, luts_folder: str | Path, settings: MapSettings | None = None) -> dict[str, np.ndarray]:
+    """The nodes of map ``name``'s axes: the overrides, else the defaults.
+
+    Parameters
+    ----------
+    name : str
+        Map name (:data:`MAPS`).
+    luts_folder : path
+        Folder of the cycle LUTs (the default RH_air_in axis is the evaporator LUT's).
+    settings : MapSettings, optional
+        Axis overrides (default: none).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Nodes per axis [SI, K for temperatures], in the map's axis order.
+    """
+    from evtms.cycle.tables import CycleLut
+    from evtms.paths import input_file
+
+    if name not in MAPS:
+        raise EvtmsInputError(f"cycle map {name!r} is unknown; allowed: {', '.join(MAPS)}")
+    settings = settings or MapSettings()
+    out = {}
+    for axis in MAPS[name].axes:
+        values = settings.override(name, axis)
+        if values is None:
+            values = COARSE_AXES.get(name, {}).get(axis, DEFAULT_AXES[axis])
+        if values is None:  # the evaporator grid's humidity axis
+            path = Path(luts_folder) / "evaporator.nc"
+            if not path.exists():
+                raise EvtmsInputError(f"{path}: no such file; write the cycle LUTs with 'evtms bench all --grid cycle'")
+            values = CycleLut(input_file(path, "LUT file"), "evaporator").axes["RH_air_in"]
+        out[axis] = np.asarray(values, np.float64)
+    return out
+
+
+def _operating_inputs(name: str, axes: Mapping[str, np.ndarray], settings: MapSettings) -> dict[str, np.ndarray]:
+    """Flat operating inputs (:class:`OperatingPoints` keywords) of every node, C order of the grid."""
+    spec = MAPS[name]
+    mesh = np.meshgrid(*[axes[a] for a in spec.axes], indexing="ij")
+    values = {a: m.ravel() for a, m in zip(spec.axes, mesh, strict=True)}
+    values.update({a: np.full(mesh[0].size, v) for a, v in spec.fixed})
+    points = {
+        "fan": settings.condenser_fan,
+        "RH_amb": settings.RH_amb,
+        "superheat": settings.superheat,
+        "subcooling": settings.subcooling,
+    }
+    for a, v in values.items():
+        if a == "u_pump":
+            points["mdot_coolant"] = v * settings.coolant_flow_max * settings.coolant_density
+        else:
+            points[AXIS_INPUTS[a]] = v
+    return {k: np.broadcast_to(np.asarray(v, float), mesh[0].size).copy() for k, v in points.items()}
+
+
+#: Cycle results a map is made of.
+_RESULT_KEYS = ("p_A", "p_B", "mdot", "Q_evap", "Q_latent", "Q_chiller", "Q_cond", "W", "W_fluid", "status")
+#: Per worker process: LUTs by (folder, topology), loaded once per process (a pool lives for one build).
+_WORKER_LUTS: dict[tuple[str, str], dict] = {}
+
+
+def _solve(luts: dict, topology: str, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    from evtms.cycle.api import run_cycle
+    from evtms.cycle.solver import OperatingPoints
+
+    res = run_cycle(OperatingPoints(**inputs), luts, circuit=topology)
+    return {k: np.asarray(res[k]) for k in _RESULT_KEYS}
+
+
+def _solve_in_worker(folder: str, topology: str, inputs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """A worker process' chunk: the LUTs loaded once per process."""
+    from evtms.cycle.api import load_cycle_luts
+
+    key = (folder, topology)
+    if key not in _WORKER_LUTS:
+        _WORKER_LUTS[key] = load_cycle_luts(folder, topology)
+    return _solve(_WORKER_LUTS[key], topology, inputs)
+
+
+def _map_values(res: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, float]:
+    """Node values ``(n, 9)``, valid mask and the largest relative balance residual of the valid nodes."""
+    from evtms.cycle.solver import VALID_CYCLE_FLAGS
+
+    q_evap = 0.0 - np.asarray(res["Q_evap"], float)  # 0.0 - x: no -0.0 where a branch is absent
+    q_chiller = 0.0 - np.asarray(res["Q_chiller"], float)
+    w_fluid = np.asarray(res["W_fluid"], float)
+    with np.errstate(invalid="ignore"):
+        q_latent = np.minimum(np.maximum(0.0 - np.asarray(res["Q_latent"], float), 0.0), np.maximum(q_evap, 0.0))
+    q_cond = q_evap + q_chiller + w_fluid
+    columns = {
+        "p_suction": res["p_A"],
+        "p_discharge": res["p_B"],
+        "mdot": res["mdot"],
+        "Q_evaporator": q_evap,
+        "Q_latent": q_latent,
+        "Q_chiller": q_chiller,
+        "Q_condenser": q_cond,
+        "W": res["W"],
+        "W_fluid": w_fluid,
+    }
+    values = np.stack([np.asarray(columns[k], float) for k in MAP_OUTPUTS], axis=-1)
+    valid = np.isin(res["status"], VALID_CYCLE_FLAGS) & np.all(np.isfinite(values), axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.abs(np.asarray(res["Q_cond"], float) - q_cond) / w_fluid
+    balance = float(np.max(rel[valid])) if valid.any() else float("nan")
+    return values, valid, balance
+
+
+def fill_order(axes: Sequence[str]) -> tuple[int, ...]:
+    """The order in which the fill searches the axes: speed, T_amb, then the others in map order."""
+    first = [a for a in ("speed", "T_amb") if a in axes]
+    return tuple(axes.index(a) for a in (*first, *(a for a in axes if a not in first)))
+
+
+def fill_invalid(
+    values: np.ndarray, valid: np.ndarray, nodes: Sequence[np.ndarray], axes: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Invalid nodes filled with a donor's whole output vector (the module's fill rule).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        ``(*node counts, n_out)``; invalid nodes may hold anything.
+    valid : numpy.ndarray
+        Boolean ``(*node counts)``.
+    nodes : sequence of numpy.ndarray
+        Each axis' nodes [SI] (distances for the nearest donor).
+    axes : sequence of str
+        Axis names (speed: lower speed first; the others: nearest, lower on a tie).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        The filled values (a copy) and the boolean mask of filled nodes; nodes
+        still invalid (only if no node is valid) keep their values.
+    """
+    values = np.array(values, dtype=np.float64, copy=True)
+    ok = np.array(valid, dtype=bool, copy=True)
+    for axis in fill_order(axes):
+        if ok.all():
+            break
+        v = np.moveaxis(ok, axis, -1)  # views: writing into them writes into ok / values
+        vals = np.moveaxis(values, axis, -2)
+        n = v.shape[-1]
+        idx = np.arange(n)
+        lower = np.maximum.accumulate(np.where(v, idx, -1), axis=-1)
+        upper = np.minimum.accumulate(np.where(v, idx, n)[..., ::-1], axis=-1)[..., ::-1]
+        has_lower, has_upper = lower >= 0, upper < n
+        if axes[axis] == "speed":
+            use_lower = has_lower
+        else:
+            x = np.asarray(nodes[axis], float)
+            d_lower = x[idx] - x[np.clip(lower, 0, n - 1)]
+            d_upper = x[np.clip(upper, 0, n - 1)] - x[idx]
+            use_lower = has_lower & (~has_upper | (d_lower <= d_upper))
+        donor = np.clip(np.where(use_lower, lower, upper), 0, n - 1)
+        take = ~v & (has_lower | has_upper)
+        if take.any():
+            gathered = np.take_along_axis(vals, donor[..., None], axis=-2)
+            vals[take] = gathered[take]
+            v[take] = True
+    return values, ok & ~np.asarray(valid, bool)
+
+
+def _lut_identity(folder: Path, topology: str) -> dict[str, dict]:
+    """Each LUT file a map of ``topology`` is built from: name, size and mtime_ns (its cache key part)."""
+    from evtms.cycle.api import load_cycle_luts
+    from evtms.cycle.topology import topology as get_topology
+
+    out = {}
+    for c in get_topology(topology).components:
+        path = folder / f"{c}.nc"
+        try:
+            st = os.stat(path)
+        except OSError:
+            load_cycle_luts(folder, topology)  # its one-line error names the missing or bad file
+            raise
+        out[c] = {"file": path.name, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
+    return out
+
+
+@dataclass
+class _Plan:
+    """One map to build: its axes, operating inputs, cache key and provenance."""
+
+    name: str
+    axes: dict[str, np.ndarray]
+    inputs: dict[str, np.ndarray]
+    key: str
+    provenance: dict
+
+    @property
+    def size(self) -> int:
+        return next(iter(self.inputs.values())).size
+
+
+def _plan(name: str, folder: Path, settings: MapSettings) -> _Plan:
+    spec = MAPS[name]
+    axes = map_axes(name, folder, settings)
+    luts = _lut_identity(folder, spec.topology)
+    provenance = {
+        "map_format": MAP_FORMAT,
+        "evtms_version": __version__,
+        "map_name": name,
+        "topology": spec.topology,
+        "fixed": dict(spec.fixed),
+        "settings": settings.recipe(name),
+        "axes": {a: [float(v) for v in axes[a]] for a in spec.axes},
+        "lut_files": luts,
+    }
+    key = hashlib.sha256(json.dumps(provenance, sort_keys=True).encode()).hexdigest()
+    return _Plan(name, axes, _operating_inputs(name, axes, settings), key, provenance)
+
+
+def _build(plans: Sequence[_Plan], folder: Path, progress: Progress | None, workers: int | None) -> dict[str, CycleMap]:
+    """Solve every plan's nodes (in worker processes when large), fill, and make the maps."""
+    report = progress or (lambda done, total, text: None)
+    chunks = [(p, i, min(i + CHUNK_POINTS, p.size)) for p in plans for i in range(0, p.size, CHUNK_POINTS)]
+    results: dict[str, list] = {p.name: [None] * math.ceil(p.size / CHUNK_POINTS) for p in plans}
+    workers = min(workers or os.cpu_count() or 1, len(chunks))
+    done = dict.fromkeys((p.name for p in plans), 0)
+    t0 = time.perf_counter()
+    for p in plans:  # maps built together progress together: each is announced at the start
+        report(0, p.size, p.name)
+
+    def take(plan: _Plan, start: int, stop: int, res: dict) -> None:
+        results[plan.name][start // CHUNK_POINTS] = res
+        done[plan.name] += stop - start
+        report(done[plan.name], plan.size, plan.name)
+
+    def piece(plan: _Plan, start: int, stop: int) -> dict[str, np.ndarray]:
+        return {k: v[start:stop] for k, v in plan.inputs.items()}
+
+    if workers > 1 and sum(p.size for p in plans) >= POOL_FROM_POINTS:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        # fork where the platform has it (as evtms.demo's pool): a spawned worker re-runs the caller's
+        # main script, which breaks scripts without an ``if __name__ == "__main__"`` guard
+        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method)) as pool:
+            futures = {
+                pool.submit(_solve_in_worker, str(folder), p.provenance["topology"], piece(p, a, b)): (p, a, b)
+                for p, a, b in chunks
+            }
+            for fut in as_completed(futures):
+                take(*futures[fut], fut.result())
+    else:
+        from evtms.cycle.api import load_cycle_luts
+
+        luts = {}
+        for p, a, b in chunks:
+            topo = p.provenance["topology"]
+            if topo not in luts:
+                luts[topo] = load_cycle_luts(folder, topo)
+            take(p, a, b, _solve(luts[topo], topo, piece(p, a, b)))
+    seconds = time.perf_counter() - t0
+
+    maps = {}
+    for p in plans:
+        res = {k: np.concatenate([r[k] for r in results[p.name]]) for k in _RESULT_KEYS}
+        spec = MAPS[p.name]
+        shape = tuple(p.axes[a].size for a in spec.axes)
+        flat, valid, balance = _map_values(res)
+        if not valid.any():
+            raise EvtmsInputError(
+                f"cycle map {p.name!r}: none of its {p.size:,} operating points solved on the LUTs in {folder} "
+                "(check that the LUT grids cover the map's axes)"
+            )
+        nodes = tuple(p.axes[a] for a in spec.axes)
+        values, filled = fill_invalid(flat.reshape(*shape, len(MAP_OUTPUTS)), valid.reshape(shape), nodes, spec.axes)
+        created = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+        attrs = {
+            **p.provenance,
+            "map_key": p.key,
+            "created": created,
+            "filled": int(filled.sum()),
+            "status": np.asarray(res["status"], np.int8).reshape(shape),
+            "balance_relative_max": balance,
+            "build_seconds": seconds,
+        }
+        maps[p.name] = CycleMap(p.name, spec.axes, nodes, values, int(filled.sum()), filled, attrs)
+    return maps
+
+
+def build_map(
+    name: str,
+    luts_folder: str | Path,
+    settings: MapSettings | None = None,
+    progress: Progress | None = None,
+    *,
+    workers: int | None = None,
+) -> CycleMap:
+    """Solve the cycle on every node of map ``name`` and fill the invalid nodes (nothing cached).
+
+    Parameters
+    ----------
+    name : str
+        Map name (:data:`MAPS`).
+    luts_folder : path
+        Folder holding the cycle LUTs (``evtms bench all --grid cycle``).
+    settings : MapSettings, optional
+        Settings and axis overrides (default :class:`MapSettings`).
+    progress : callable, optional
+        ``progress(done, total, text)``: ``done`` of the map's ``total``
+        operating points solved; ``text`` is the map's name.
+    workers : int, optional
+        Worker processes for large maps (default: the CPU count); 1 solves in this process.
+
+    Returns
+    -------
+    CycleMap
+
+    Raises
+    ------
+    EvtmsInputError
+        Unknown map, missing or bad LUT file, bad settings, or no node of the map solved.
+    """
+    folder = Path(luts_folder)
+    return _build([_plan(name, folder, settings or MapSettings())], folder, progress, workers)[name]
+
+
+# ----------------------------------------------------------------------------------------------
+# Files
+
+
+def map_dataset(cmap: CycleMap):
+    """A map as an :class:`xarray.Dataset`: one variable per output with units, provenance attributes.
+
+    Parameters
+    ----------
+    cmap : CycleMap
+        The map.
+
+    Returns
+    -------
+    xarray.Dataset
+        Outputs (:data:`OUTPUT_ATTRS`), ``filled`` and ``status`` (int8) on the
+        map's axes; dict attributes as JSON text.
+    """
+    import xarray as xr
+
+    from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
+
+    dims = cmap.axes
+    coords = {
+        a: xr.Variable(a, n, {"units": AXIS_ATTRS[a][0], "long_name": AXIS_ATTRS[a][1]})
+        for a, n in zip(dims, cmap.nodes, strict=True)
+    }
+    data = {
+        k: xr.Variable(dims, cmap.output(k), {"units": OUTPUT_ATTRS[k][0], "long_name": OUTPUT_ATTRS[k][1]})
+        for k in MAP_OUTPUTS
+    }
+    filled = np.zeros(cmap.shape, np.int8) if cmap.filled_nodes is None else cmap.filled_nodes.astype(np.int8)
+    data["filled"] = xr.Variable(
+        dims, filled, {"units": "1", "long_name": "1: node invalid on the LUTs, values copied from a donor node"}
+    )
+    attrs = {k: v for k, v in cmap.attrs.items() if k != "status"}
+    if "status" in cmap.attrs:
+        codes = sorted(CYCLE_FLAGS)
+        data["status"] = xr.Variable(
+            dims,
+            np.asarray(cmap.attrs["status"], np.int8),
+            {
+                "units": "1",
+                "long_name": "cycle status of the node as solved (before the fill)",
+                "flag_values": np.array(codes, np.int8),
+                "flag_meanings": " ".join(CYCLE_FLAGS[c] for c in codes),
+                "valid_flag_values": np.array(VALID_CYCLE_FLAGS, np.int8),
+            },
+        )
+    for k in ("fixed", "settings", "axes", "lut_files"):
+        if k in attrs:
+            attrs[k] = json.dumps(attrs[k], sort_keys=True)
+    attrs = {
+        "Conventions": "CF-1.10",
+        "title": f"evtms steady cycle map {cmap.name}",
+        "description": MAPS[cmap.name].description if cmap.name in MAPS else "",
+        "fill_rule": "invalid nodes copy the whole output vector of the nearest valid node at lower speed, "
+        "else higher speed, else along T_amb, then the other axes in map order (evtms.system.maps)",
+        **attrs,
+        "filled": int(cmap.filled),
+    }
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def write_map(cmap: CycleMap, path: str | Path) -> Path:
+    """Write a map to netCDF atomically (a temporary file beside ``path``, then :func:`os.replace`).
+
+    Parameters
+    ----------
+    cmap : CycleMap
+        The map.
+    path : path
+        The file to write (its folder must exist).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    from evtms.luts.io import atomic_output
+
+    ds = map_dataset(cmap)
+    encoding: dict[str, dict] = {d: {"_FillValue": None} for d in ds.coords}
+    for k in ds.data_vars:
+        encoding[k] = {"_FillValue": None, "zlib": True, "shuffle": True, "complevel": 4}
+    path = Path(path)
+    with atomic_output(path) as tmp:
+        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+    return path
+
+
+def read_map(path: str | Path, key: str | None = None) -> CycleMap | None:
+    """The map in a file of :func:`write_map`.
+
+    Parameters
+    ----------
+    path : path
+        The map file.
+    key : str, optional
+        The ``map_key`` the file must carry (the cache key of :func:`load_maps`).
+
+    Returns
+    -------
+    CycleMap or None
+        None if the file is missing, unreadable, malformed or (with ``key``) stale.
+    """
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path, engine="netcdf4", decode_times=False) as ds:
+            attrs = dict(ds.attrs)
+            if key is not None and attrs.get("map_key") != key:
+                return None
+            name = str(attrs["map_name"])
+            axes = tuple(MAPS[name].axes)
+            nodes = tuple(np.asarray(ds[a].values, np.float64) for a in axes)
+            values = np.stack([np.asarray(ds[k].transpose(*axes).values, np.float64) for k in MAP_OUTPUTS], axis=-1)
+            filled_nodes = np.asarray(ds["filled"].transpose(*axes).values, bool)
+            if "status" in ds:
+                attrs["status"] = np.asarray(ds["status"].transpose(*axes).values, np.int8)
+    except (OSError, ValueError, KeyError, RuntimeError, TypeError):
+        return None  # damaged, truncated, another layout: rebuild
+    for k in ("fixed", "settings", "axes", "lut_files"):
+        with contextlib.suppress(KeyError, TypeError, ValueError):
+            attrs[k] = json.loads(attrs[k])
+    try:
+        return CycleMap(name, axes, nodes, values, int(attrs["filled"]), filled_nodes, attrs)
+    except (ValueError, KeyError, TypeError):
+        return None
+
+
+def _locations(folder: Path, name: str) -> tuple[Path, Path]:
+    """Where map ``name`` of the LUTs in ``folder`` is cached: beside them, and the user-cache fallback."""
+    from evtms.luts.cache import cache_root
+
+    where = hashlib.sha256(str(folder.resolve()).encode()).hexdigest()[:16]
+    return folder / "maps" / f"{name}.nc", cache_root() / "maps" / where / f"{name}.nc"
+
+
+def _store(cmap: CycleMap, places: Sequence[Path]) -> None:
+    """Write ``cmap`` to the first place that can be written (none: it stays in memory only)."""
+    for path in places:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_map(cmap, path)
+            return
+        except (OSError, RuntimeError):
+            continue
+
+
+def load_maps(
+    luts_folder: str | Path,
+    settings: MapSettings | None = None,
+    names: Sequence[str] = ("ac", "chiller", "ac+chiller"),
+    progress: Progress | None = None,
+    *,
+    workers: int | None = None,
+) -> dict[str, CycleMap]:
+    """The cycle maps ``names`` of the LUTs in ``luts_folder``, from the cache or built.
+
+    A map is cached in ``<luts_folder>/maps/<name>.nc`` (netCDF with units;
+    attributes: the LUT files' identities, the settings as JSON, the filled
+    count, evtms's version, created). It is rebuilt when one of the LUTs it
+    is made from changed (file name, size or mtime_ns), when the settings,
+    its axes, the evtms version or :data:`MAP_FORMAT` differ, or when the file
+    is unreadable; maps to build are solved together (one pool of workers).
+    Files are written atomically (temporary file + :func:`os.replace`), so a
+    concurrent run never reads a partial file (the last writer wins). Where
+    the LUT folder cannot be written, the map goes to the user cache
+    (:func:`evtms.luts.cache.cache_root` ``/maps/<folder hash>/``); where
+    neither can, it is returned unsaved. ``EVTMS_NO_CACHE=1`` neither reads
+    nor writes any file.
+
+    Parameters
+    ----------
+    luts_folder : path
+        Folder holding the cycle LUTs.
+    settings : MapSettings, optional
+        Settings and axis overrides (default :class:`MapSettings`).
+    names : sequence of str
+        Maps wanted (:data:`MAPS`).
+    progress : callable, optional
+        ``progress(done, total, text)`` during builds: ``done`` of map
+        ``text``'s ``total`` operating points solved (``text`` is the map's
+        name, the same for all calls about one map; every map being built is
+        announced with ``done`` 0 first). Not called for maps read from the cache.
+    workers : int, optional
+        Worker processes for builds (default: the CPU count).
+
+    Returns
+    -------
+    dict of str to CycleMap
+        In the order of ``names``.
+
+    Raises
+    ------
+    EvtmsInputError
+        Unknown map name, missing or bad LUT file or folder, bad settings, or a
+        map without any solved node.
+    """
+    from evtms.luts.cache import DISABLE_ENV
+
+    folder = Path(luts_folder)
+    if folder.exists() and not folder.is_dir():
+        raise EvtmsInputError(f"LUT folder {str(folder)!r} is a file; give the folder holding the cycle LUTs")
+    if not folder.is_dir():
+        raise EvtmsInputError(f"LUT folder {str(folder)!r} does not exist")
+    unknown = [n for n in names if n not in MAPS]
+    if unknown:
+        raise EvtmsInputError(f"cycle map {unknown[0]!r} is unknown; allowed: {', '.join(MAPS)}")
+    settings = settings or MapSettings()
+    use_files = os.environ.get(DISABLE_ENV) != "1"
+    plans = [_plan(n, folder, settings) for n in dict.fromkeys(names)]
+    maps: dict[str, CycleMap] = {}
+    for p in plans:
+        for path in _locations(folder, p.name) if use_files else ():
+            if path.is_file() and (got := read_map(path, p.key)) is not None:
+                maps[p.name] = got
+                break
+    stale = [p for p in plans if p.name not in maps]
+    if stale:
+        built = _build(stale, folder, progress, workers)
+        for name, cmap in built.items():
+            if use_files:
+                _store(cmap, _locations(folder, name))
+            maps[name] = cmap
+    return {n: maps[n] for n in names}
