@@ -207,6 +207,7 @@ def run_loop(
     mode = OFF if forced < 0 else forced
     t_mode = -1e300
     bc = crit = bh = cc = ch = False
+    blower_at_min = True
     i_blower = i_comp = i_ptc = 0.0
     blower_was_on = comp_was_on = ptc_was_on = False
     q_ptc_prev = 0.0
@@ -232,13 +233,17 @@ def run_loop(
         elif Tc > par[P_BH_OFF]:
             bh = False
         T_set, band = par[P_T_SET], par[P_DEADBAND]
+        # A cabin request ends past the far side of the band only once the blower PI has
+        # wound down to its minimum: ending it earlier (the integrator still high after a
+        # pull-down) stops the blower for the mode hold while sun and walls reheat the
+        # 3.4 kJ/K air by several kelvin a minute, a limit cycle of +-7 K (hot soak, 40 degC).
         if T_amb > T_set and Ta > T_set + band:
             cc = True
-        elif Ta < T_set - band:
+        elif Ta < T_set - band and (blower_at_min or not cc):
             cc = False
         if T_amb < T_set and Ta < T_set - band:
             ch = True
-        elif Ta > T_set + band:
+        elif Ta > T_set + band and (blower_at_min or not ch):
             ch = False
         if forced >= 0:
             mode = forced
@@ -262,6 +267,9 @@ def run_loop(
             e = (Ta - T_set) if cab_cool else (T_set - Ta)
             u, i_blower = _pi(e, i_blower, par[P_BL_KP], par[P_BL_KI], dt)
             blower = max(u, par[P_BLOWER_MIN])
+            blower_at_min = u <= par[P_BLOWER_MIN]
+        else:
+            blower_at_min = True
         blower_was_on = blower > 0.0
         mdot_air = blower * par[P_BLOWER_FLOW] * rho_mix
         # Compressor: PI on the filtered suction pressure, freeze cutoff, speed floor.
