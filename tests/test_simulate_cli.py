@@ -1,0 +1,154 @@
+"""`evtms simulate` end to end on cycle maps built from the session's cycle LUTs (small map axes).
+
+The map axes are cut to 2-3 nodes each (``refrigerant.map_settings`` patched)
+so that the maps build in seconds; the command, its output file, its JSON and
+its errors are what a user gets.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from evtms.cli import app
+from evtms.system import refrigerant as refrigerant_module
+from evtms.system.maps import MapSettings
+
+SMALL = {
+    "speed": [0.1, 0.4, 1.0],
+    "blower": [0.1, 0.5, 1.0],
+    "T_amb": [268.15, 298.15, 313.15],
+    "T_air_in": [288.15, 303.15, 313.15],
+    "RH_air_in": [0.4, 0.6],
+    "u_pump": [0.3, 1.0],
+    "T_coolant_in": [283.15, 303.15],
+}
+JSON_FIELDS = {
+    "distance_km",
+    "duration_s",
+    "traction_energy_kWh",
+    "battery_energy_kWh",
+    "battery_chemical_kWh",
+    "hvac_energy_kWh",
+    "soc_end",
+    "T_cabin_end_degC",
+    "T_battery_end_degC",
+    "wall_time_s",
+    "loop_time_s",
+    "steps",
+}
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def luts(cycle_luts_dir, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("sim") / "luts"
+    folder.mkdir()
+    for f in cycle_luts_dir.glob("*.nc"):
+        os.symlink(f, folder / f.name)
+    return folder
+
+
+@pytest.fixture(autouse=True)
+def small_maps(monkeypatch):
+    original = refrigerant_module.map_settings
+
+    def small(params):
+        s = original(params)
+        return MapSettings(s.condenser_fan, s.coolant_flow_max, s.coolant_density, axes=SMALL)
+
+    monkeypatch.setattr(refrigerant_module, "map_settings", small)
+
+
+def run(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def test_wltc_at_30_degC_json_and_file(luts, tmp_path):
+    out = tmp_path / "run.nc"
+    r = run("simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", luts, "-o", out, "--json")
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert JSON_FIELDS <= set(s)
+    assert s["distance_km"] == pytest.approx(23.27, abs=0.005)
+    assert s["steps"] == 1800 and s["termination"] == "end of cycle"
+    assert s["ledger_worst"] <= 1e-9
+    assert 0.0 < s["battery_energy_kWh"] < s["battery_chemical_kWh"]
+    assert s["soc_end"] < 0.9
+    with xr.open_dataset(out) as ds:
+        assert ds["time"].size == 1801
+        assert ds["T_cabin"].attrs["units"] == "K"
+        assert ds["mode"].attrs["flag_meanings"].startswith("off BH BC CC")
+        ledgers = json.loads(ds.attrs["ledgers"])
+        assert max(ledgers.values()) <= 1e-9
+        assert json.loads(ds.attrs["parameters"])["battery"]["n_series"] == 96
+        assert np.nanmax(ds["Q_evaporator"].values) > 500.0  # the cabin was cooled on the maps
+
+
+def test_scenarios_and_a_sweep_of_ambients(luts, tmp_path):
+    out = tmp_path / "sweep.nc"
+    r = run("simulate", "--cycle", "nedc", "--t-amb", "-10,35", "--luts", luts, "-o", out, "--json")
+    assert r.exit_code == 0, r.output
+    runs = json.loads(r.stdout)["runs"]
+    assert [x["T_amb_degC"] for x in runs] == pytest.approx([-10.0, 35.0])
+    assert runs[0]["distance_km"] == pytest.approx(11.0132, abs=5e-4)
+    with xr.open_dataset(out) as ds:
+        assert ds["SOC"].dims == ("T_amb", "time")
+    r = run("simulate", "--scenario", "cold", "--luts", luts, "-o", tmp_path / "cold.nc", "--json")
+    assert r.exit_code == 0, r.output
+    cold = json.loads(r.stdout)
+    assert cold["T_amb_degC"] == pytest.approx(-5.0)
+    assert cold["distance_km"] == pytest.approx(16.5068, abs=5e-4)
+    assert cold["T_cabin_end_degC"] > 5.0  # heated from -5 degC
+
+
+def test_a_user_trace(luts, tmp_path):
+    trace = tmp_path / "trace.csv"
+    trace.write_text("# constant 50 km/h\ntime_s,speed_kmh\n0,0\n10,50\n600,50\n610,0\n")
+    r = run("simulate", "--cycle", trace, "--t-amb", "20", "--luts", luts, "-o", tmp_path / "u.nc", "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["distance_km"] == pytest.approx((5 * 50 + 590 * 50 + 5 * 50) / 3600, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--cycle", "wltc3b", "--t-amb", "30", "--dt", "0"], "--dt 0 is not allowed"),
+        (["--cycle", "wltc3b"], "give --t-amb"),
+        (["--cycle", "wltc3b", "--scenario", "cold", "--t-amb", "3"], "one of them"),
+        (["--scenario", "desert"], "--scenario 'desert' is unknown"),
+        (["--cycle", "wltc3b", "--t-amb", "30", "--mode", "heat"], "--mode 'heat' is unknown"),
+        (["--cycle", "wltc3b", "--t-amb", "30", "--model", "surrogate"], "--model 'surrogate'"),
+        (["--cycle", "wltc3b", "--t-amb", "90"], "T_amb = 90 degC is not allowed"),
+        (["--cycle", "wltc3b", "--t-amb", "30", "--precondition", "-5"], "--precondition"),
+        (["--cycle", "wltc3b", "--t-amb", "30", "--dt", "0.3", "--output-every", "1"], "--output-every"),
+        (["--cycle", "nosuch", "--t-amb", "30"], "nosuch"),
+    ],
+)
+def test_bad_input_is_one_line_and_no_file(luts, tmp_path, args, message):
+    out = tmp_path / "bad.nc"
+    r = run("simulate", *args, "--luts", luts, "-o", out)
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], r.stderr
+    assert not out.exists()
+
+
+def test_bad_params_file(luts, tmp_path):
+    p = tmp_path / "p.toml"
+    p.write_text("[cabin]\nvolume = -1\n")
+    out = tmp_path / "bad.nc"
+    r = run("simulate", "--cycle", "wltc3b", "--t-amb", "30", "--params", p, "--luts", luts, "-o", out)
+    assert r.exit_code == 2
+    assert "[cabin] volume = -1 is not allowed" in r.stderr and "p.toml" in r.stderr
+    p.write_text("[cabin]\nvolume = 2.5\n[controls]\ntau_refrigerant = 20.0\n")
+    r = run("simulate", "--cycle", "wltc3b", "--t-amb", "30", "--params", p, "--luts", luts, "-o", out, "--json")
+    assert r.exit_code == 0, r.output
+    with xr.open_dataset(out) as ds:
+        used = json.loads(ds.attrs["parameters"])
+    assert used["cabin"]["volume"] == 2.5 and used["controls"]["tau_refrigerant"] == 20.0
