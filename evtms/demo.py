@@ -164,10 +164,13 @@ def run_demo(
     force: bool = False,
     workers: int = 2,
     notify: Notify | None = None,
+    map_settings=None,
 ) -> DemoResult:
     """Run benches, cycle and reports into ``out`` (see the module notes).
 
     ``notify(message)`` is called as each step starts or ends (for progress).
+    ``map_settings`` (:class:`evtms.system.maps.MapSettings`) overrides the
+    cycle maps of the system simulation (default: the full axes).
     """
     params = params or Parameters()
     notify = notify or (lambda message: None)
@@ -176,12 +179,46 @@ def run_demo(
     for grid in GRIDS:
         ensure_luts(out / "luts" / grid, grid, params, force, workers, notify, result)
     t0 = time.perf_counter()
-    _cycle_and_reports(out, params, result, notify)
+    simulation = _simulation(out, notify, map_settings)
+    _cycle_and_reports(out, params, result, notify, simulation)
     result.timings["cycle and reports"] = time.perf_counter() - t0
     return result
 
 
-def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify: Notify) -> None:
+#: The demo's system simulation: WLTC class 3b at 40 degC after a hot soak in the sun.
+DEMO_SIMULATION = {"cycle": "wltc3b", "T_amb": 313.15, "T_init": 313.15, "sun": 600.0}
+
+
+def _simulation(out: Path, notify: Notify, map_settings) -> dict:
+    """One WLTC simulation on the cycle LUTs' maps: its file, figure and summary."""
+    from evtms.reports.system_plots import simulation_figure
+    from evtms.system.drive_cycles import drive_cycle
+    from evtms.system.output import to_dataset, write_simulation
+    from evtms.system.refrigerant import load_refrigerant
+    from evtms.system.simulate import simulate
+
+    notify("building the cycle maps for the system simulation (cached beside the cycle LUTs)")
+    refrigerant = load_refrigerant(out / "luts" / "cycle", settings=map_settings)
+    spec = DEMO_SIMULATION
+    notify(f"simulating {spec['cycle']} at {spec['T_amb'] - 273.15:g} degC after a hot soak")
+    run = simulate(
+        drive_cycle(spec["cycle"]),
+        spec["T_amb"],
+        refrigerant,
+        T_init=spec["T_init"],
+        sun=spec["sun"],
+        scenario="demo: hot soak",
+    )
+    folder = out / "simulation"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = write_simulation([run], folder / "wltc_40C.nc")
+    figure = out / "reports" / "simulation" / "wltc_40C.png"
+    figure.parent.mkdir(parents=True, exist_ok=True)
+    simulation_figure(to_dataset([run]), figure)
+    return {"file": path, "figure": figure, "summary": run.summary}
+
+
+def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify: Notify, simulation: dict) -> None:
     from evtms.cycle import cycle_dataset, load_cycle_luts
     from evtms.cycle.api import solve_grid
     from evtms.cycle.topology import INPUTS, TOPOLOGIES
@@ -232,10 +269,10 @@ def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify
         folder.mkdir(parents=True, exist_ok=True)
         figures = bench_report_figures(ds, folder)
         bench_pages.append((c, bench_report_page(ds, figures, folder / "index.html", str(lut_path.relative_to(out)))))
-    _write_index(out, result, bench_pages, cycle_figures, sweep)
+    _write_index(out, result, bench_pages, cycle_figures, sweep, simulation)
 
 
-def _write_index(out: Path, result: DemoResult, bench_pages, cycle_figures, sweep) -> None:
+def _write_index(out: Path, result: DemoResult, bench_pages, cycle_figures, sweep, simulation: dict) -> None:
     import html
 
     from evtms.cycle.solver import CYCLE_FLAGS
@@ -276,6 +313,33 @@ def _write_index(out: Path, result: DemoResult, bench_pages, cycle_figures, swee
             f'<figure><a href="{rel}"><img src="{rel}" alt="{html.escape(caption)}"></a>'
             f"<figcaption>{html.escape(caption)}</figcaption></figure>"
         )
+    body.append("<h2>System simulation</h2>")
+    s = simulation["summary"]
+    body.append(
+        "<p>WLTC class 3b at 40 degC, cabin, battery and coolant soaked at 40 degC, sun 600 W/m2, "
+        "auto mode (<code>evtms simulate --cycle wltc3b --t-amb 40</code> with the soak).</p>"
+    )
+    body.append(
+        _table(
+            [
+                ("distance", f"{s['distance_km']:.2f} km"),
+                ("battery energy (terminals)", f"{s['battery_energy_kWh']:.3f} kWh"),
+                ("of which HVAC", f"{s['hvac_energy_kWh']:.3f} kWh"),
+                ("consumption (chemical)", f"{s['consumption_kWh_per_100km']:.1f} kWh/100 km"),
+                ("SOC at the end", f"{s['soc_end']:.4f}"),
+                ("cabin at the end", f"{s['T_cabin_end_degC']:.1f} degC"),
+                ("battery at the end", f"{s['T_battery_end_degC']:.1f} degC"),
+                ("worst ledger residual", f"{s['ledger_worst']:.1e}"),
+            ],
+            ("figure", "value"),
+        )
+    )
+    rel = _rel(simulation["figure"], out)
+    body.append(
+        f'<figure><a href="{rel}"><img src="{rel}" alt="WLTC simulation at 40 degC"></a>'
+        "<figcaption>Speed, temperatures, powers, heat flows, SOC and modes</figcaption></figure>"
+    )
+    body.append(f'<p>Time series: <a href="{_rel(simulation["file"], out)}">simulation/wltc_40C.nc</a></p>')
     body.append("<h2>This run</h2>")
     body.append(
         _table(

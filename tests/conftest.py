@@ -77,6 +77,23 @@ def cycle_luts_dir(tmp_path_factory, params):
     return folder
 
 
+#: Cycle-map axes of 2-3 nodes (maps in seconds instead of the full axes' half minute).
+SMALL_MAP_AXES = {
+    "speed": [0.1, 0.4, 1.0],
+    "blower": [0.1, 0.5, 1.0],
+    "T_amb": [268.15, 298.15, 313.15],
+    "T_air_in": [288.15, 303.15, 313.15],
+    "RH_air_in": [0.4, 0.6],
+    "u_pump": [0.3, 1.0],
+    "T_coolant_in": [283.15, 303.15],
+}
+
+
+@pytest.fixture(scope="session")
+def small_map_axes():
+    return SMALL_MAP_AXES
+
+
 @pytest.fixture(scope="session")
 def demo_run(tmp_path_factory, cycle_luts_dir):
     """One full 'evtms demo' into a fresh folder that already holds the cycle LUTs (the demo reuses
@@ -88,7 +105,9 @@ def demo_run(tmp_path_factory, cycle_luts_dir):
     out = tmp_path_factory.mktemp("demo")
     shutil.copytree(cycle_luts_dir, out / "luts" / "cycle")
     messages = []
-    result = run_demo(out, workers=2, notify=messages.append)
+    from evtms.system.maps import MapSettings
+
+    result = run_demo(out, workers=2, notify=messages.append, map_settings=MapSettings(axes=SMALL_MAP_AXES))
     return out, result, messages
 
 

@@ -41,6 +41,17 @@ def test_demo_produces_every_artefact(demo_run):
     ):
         assert (out / "reports" / "cycle" / name).stat().st_size > 500
     assert (out / "cycle" / "speed_sweep.nc").exists()
+    # The system simulation: its file, figure and a link from the index.
+    import json
+
+    import xarray as xr
+
+    with xr.open_dataset(out / "simulation" / "wltc_40C.nc") as ds:
+        summary = json.loads(ds.attrs["summary"])
+    assert summary["distance_km"] == pytest.approx(23.2663, abs=5e-5) and summary["ledger_worst"] <= 1e-9
+    assert summary["T_cabin_end_degC"] < 40.0 - 5.0  # pulled down from the soak
+    assert (out / "reports" / "simulation" / "wltc_40C.png").stat().st_size > 20_000
+    assert "reports/simulation/wltc_40C.png" in (out / "index.html").read_text()
 
 
 def test_html_pages_reference_only_existing_files(demo_run):

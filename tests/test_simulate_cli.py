@@ -19,15 +19,6 @@ from evtms.cli import app
 from evtms.system import refrigerant as refrigerant_module
 from evtms.system.maps import MapSettings
 
-SMALL = {
-    "speed": [0.1, 0.4, 1.0],
-    "blower": [0.1, 0.5, 1.0],
-    "T_amb": [268.15, 298.15, 313.15],
-    "T_air_in": [288.15, 303.15, 313.15],
-    "RH_air_in": [0.4, 0.6],
-    "u_pump": [0.3, 1.0],
-    "T_coolant_in": [283.15, 303.15],
-}
 JSON_FIELDS = {
     "distance_km",
     "duration_s",
@@ -55,12 +46,12 @@ def luts(cycle_luts_dir, tmp_path_factory):
 
 
 @pytest.fixture(autouse=True)
-def small_maps(monkeypatch):
+def small_maps(monkeypatch, small_map_axes):
     original = refrigerant_module.map_settings
 
     def small(params):
         s = original(params)
-        return MapSettings(s.condenser_fan, s.coolant_flow_max, s.coolant_density, axes=SMALL)
+        return MapSettings(s.condenser_fan, s.coolant_flow_max, s.coolant_density, axes=small_map_axes)
 
     monkeypatch.setattr(refrigerant_module, "map_settings", small)
 

@@ -55,13 +55,17 @@ def load_refrigerant(
     luts_folder: str | Path,
     params: SystemParams | None = None,
     progress: Callable[[int, int, str], None] | None = None,
+    settings: MapSettings | None = None,
 ) -> Refrigerant:
-    """Cycle maps (built and cached when missing or stale) and saturation curve of the LUTs in ``luts_folder``."""
+    """Cycle maps (built and cached when missing or stale) and saturation curve of the LUTs in ``luts_folder``.
+
+    ``settings`` overrides the map settings the parameters imply (e.g. coarser axes).
+    """
     from evtms.cycle import load_cycle_luts
     from evtms.cycle.api import saturation_curve
 
     params = params or SystemParams()
-    settings = map_settings(params)
+    settings = settings or map_settings(params)
     maps = load_maps(luts_folder, settings, progress=progress)
     sat = saturation_curve(load_cycle_luts(luts_folder, "cabin"))
     return Refrigerant(
