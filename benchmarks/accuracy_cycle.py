@@ -1,11 +1,12 @@
 """LUT cycle against the direct physics on random points over the whole envelope.
 
-Run:  python benchmarks/accuracy_cycle.py LUT_FOLDER [--points 100] [--topology cabin,chiller,cabin+chiller]
+Run:  python benchmarks/accuracy_cycle.py LUT_FOLDER [--points 100] [--topology cabin,chiller,cabin+chiller] [--wide]
 
 The tests compare 24 points (fan and blower from 0.2, speed from 0.15); this
 script draws points over the full envelope of the README (speed 0.1-1, fan and
 blower 0.1-1, ambient 15-45 degC, cabin 15-35 degC at RH 0.2-0.8, superheat
-5-10 K) and prints the median, 90th percentile and worst relative error of
+5-10 K; with --wide ambient -10-50 degC and cabin 10-50 degC, the system
+simulator's) and prints the median, 90th percentile and worst relative error of
 the suction and discharge pressures, Q_evap, COP and valve opening, the
 floating superheat where the valve is saturated in both, the statuses of both
 solutions and the worst energy-balance residuals, for each circuit topology
@@ -25,15 +26,15 @@ from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
 from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, VALVE_SATURATED_FLAGS
 
 
-def envelope(n: int, seed: int = 11) -> OperatingPoints:
+def envelope(n: int, seed: int = 11, wide: bool = False) -> OperatingPoints:
     rng = np.random.default_rng(seed)
     return OperatingPoints(
         speed=rng.uniform(0.1, 1.0, n),
         fan=rng.uniform(0.1, 1.0, n),
         blower=rng.uniform(0.1, 1.0, n),
-        T_amb=rng.uniform(288.15, 318.15, n),
+        T_amb=rng.uniform(263.15, 323.15, n) if wide else rng.uniform(288.15, 318.15, n),
         RH_amb=0.4,
-        T_cabin=rng.uniform(288.15, 308.15, n),
+        T_cabin=rng.uniform(283.15, 323.15, n) if wide else rng.uniform(288.15, 308.15, n),
         RH_cabin=rng.uniform(0.2, 0.8, n),
         mdot_coolant=rng.uniform(0.12, 0.45, n),
         T_coolant_in=rng.uniform(288.15, 313.15, n),
@@ -54,8 +55,11 @@ def main() -> None:
     ap.add_argument("luts")
     ap.add_argument("--points", type=int, default=100)
     ap.add_argument("--topology", default="cabin,chiller,cabin+chiller")
+    ap.add_argument(
+        "--wide", action="store_true", help="the system simulator's envelope: ambient -10-50 degC, cabin 10-50 degC"
+    )
     args = ap.parse_args()
-    points = envelope(args.points)
+    points = envelope(args.points, wide=args.wide)
     for circuit in args.topology.split(","):
         print(f"== topology {circuit}, {args.points} random points")
         compare(points, load_cycle_luts(args.luts, circuit), circuit)

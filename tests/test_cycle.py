@@ -104,10 +104,10 @@ def test_speed_and_ambient_trends(cycle_luts):
 
 
 def test_outside_the_envelope_names_the_axis(cycle_luts):
-    # Cabin air at 40 degC is beyond the evaporator LUT's air axis (15-35 degC).
-    r = run_cycle(OperatingPoints(speed=0.5, fan=0.5, blower=0.5, T_amb=303.15, T_cabin=313.15), cycle_luts)
+    # Cabin air at 55 degC is beyond the evaporator LUT's air axis (10-50 degC).
+    r = run_cycle(OperatingPoints(speed=0.5, fan=0.5, blower=0.5, T_amb=303.15, T_cabin=328.15), cycle_luts)
     assert r["status"][0] == STATUS_OUTSIDE_ENVELOPE
-    assert "evaporator LUT axis T_air_in" in r["reason"][0] and "313.15" in r["reason"][0]
+    assert "evaporator LUT axis T_air_in" in r["reason"][0] and "328.15" in r["reason"][0]
     assert np.isnan(r["p_A"][0]) and np.isnan(r["COP"][0])
 
 
@@ -157,7 +157,7 @@ def test_cli_cycle_run_and_envelope_error(cycle_luts_dir):
     )
     assert res.exit_code == 0, res.output
     assert "A evaporator outlet" in res.stdout and "cooling COP" in res.stdout
-    res = runner.invoke(app, ["cycle", "run", "--luts", str(cycle_luts_dir), "--t-cabin", "40"])
+    res = runner.invoke(app, ["cycle", "run", "--luts", str(cycle_luts_dir), "--t-cabin", "-20"])
     assert res.exit_code == 2
     assert res.stderr.startswith("error: operating point not solved: evaporator LUT axis T_air_in")
     assert len(res.stderr.strip().splitlines()) == 1

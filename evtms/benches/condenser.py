@@ -180,16 +180,22 @@ BENCH = Bench(
             "T_in": (330.0, 345.0, 360.0, 375.0),
             "T_res": (300.0, 315.0, 330.0),
         },
-        # Cycle envelope (README): ambient 15-45 degC, fan 0.1-1, condensing 15-91 degC.
-        # Saturation temperature and air temperature every 2 K: the response hinges on
-        # their difference, which is small (a few kelvin) at a fully condensing point.
+        # Cycle envelope (README): ambient -10-50 degC, fan 0.1-1, condensing -10-91 degC.
+        # Saturation temperature and air temperature every 2 K over 15-91 and 15-45 degC: the
+        # response hinges on their difference, which is small (a few kelvin) at a fully
+        # condensing point. Beyond, for the system simulator (spec 2.5): air every 5 K from
+        # -10 degC and at 50 degC, saturation every 4 K from -10 degC and at 13 degC (with fan 1
+        # a -10 degC ambient condenses at -9 degC, a 50 degC one at full speed at 55-63 degC),
+        # h_in up to 520 kJ/kg (a 50 degC ambient at full speed discharges at up to 495 kJ/kg;
+        # the last cell is superheated vapour). 777,216 points, 35 MB, 16.5 s (was 399,360,
+        # 18 MB, 8.1 s back to back).
         "cycle": {
             "mdot": tuple(np.geomspace(0.002, 0.15, 16)),
             "fan": tuple(np.geomspace(0.1, 1.0, 8)),
-            "p_in": pressure_nodes(np.arange(15.0, 92.0, 2.0)),
-            "h_in": tuple(np.linspace(400e3, 480e3, 5)),
+            "p_in": pressure_nodes(np.r_[-10.0, -6.0, -2.0, 2.0, 6.0, 10.0, 13.0, np.arange(15.0, 92.0, 2.0)]),
+            "h_in": (*np.linspace(400e3, 480e3, 5), 520e3),
             "T_res": (300.0,),
-            "T_air_in": tuple(np.arange(15.0, 45.1, 2.0) + 273.15),
+            "T_air_in": tuple(np.r_[-10.0, -5.0, 0.0, 5.0, 10.0, np.arange(15.0, 45.1, 2.0), 50.0] + 273.15),
         },
     },
 )

@@ -173,10 +173,11 @@ BENCH = Bench(
             "p_in": (0.9e6, 1.0e6, 1.1e6, 1.2e6),
             "mdot": (0.0045, 0.00625, 0.008),
         },
-        # Condenser outlets of the cycle envelope; dp goes with mdot^2, so two flows suffice.
+        # Condenser outlets of the cycle envelope (condensing -10-91 degC: liquid at 187-345
+        # kJ/kg); dp goes with mdot^2, so two flows suffice.
         "cycle": {
-            "h_in": tuple(np.linspace(200e3, 350e3, 7)),
-            "p_in": pressure_nodes(np.arange(15.0, 92.0, 5.0)),
+            "h_in": tuple(np.linspace(175e3, 350e3, 8)),
+            "p_in": pressure_nodes(np.arange(-10.0, 92.0, 5.0)),
             "mdot": (0.001, 0.005),
         },
     },
