@@ -58,8 +58,15 @@ def test_readme_has_the_two_setup_commands_first():
     assert "shared/" not in README.read_text(encoding="utf-8")  # users have no shared/ folder
 
 
-def test_every_readme_command_works_in_a_fresh_folder(tmp_path, monkeypatch, cycle_luts_dir):
+def test_every_readme_command_works_in_a_fresh_folder(tmp_path, monkeypatch, cycle_luts_dir, small_map_axes):
+    import dataclasses
+
+    from evtms.system import refrigerant
+
     monkeypatch.chdir(tmp_path)
+    # 'evtms simulate' builds its cycle maps on 2-3 nodes per axis here (seconds, not half a minute).
+    full = refrigerant.map_settings
+    monkeypatch.setattr(refrigerant, "map_settings", lambda p: dataclasses.replace(full(p), axes=small_map_axes))
     runner = CliRunner()
     ran = 0
     for kind, step in readme_steps():
