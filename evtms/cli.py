@@ -1181,7 +1181,7 @@ def simulate(
     from evtms.cycle.topology import parse_values
     from evtms.system.drive_cycles import drive_cycle
     from evtms.system.params import load_system_params
-    from evtms.system.simulate import MODES, SCENARIOS
+    from evtms.system.simulate import MODES, SCENARIOS, check_run_options
 
     if (cycle is None) == (scenario is None):
         fail("give --cycle NAME|FILE.csv or --scenario NAME (one of them)")
@@ -1191,11 +1191,9 @@ def simulate(
         fail(f"--mode {mode!r} is unknown; allowed: {', '.join(MODES)}")
     if model != "lut":
         fail(f"--model {model!r} is not available; allowed: lut")
-    if not (math.isfinite(dt) and 1e-3 <= dt <= 60.0):
-        fail(f"--dt {dt:g} is not allowed; allowed: 0.001 to 60 s")
     if not (math.isfinite(precondition) and 0.0 <= precondition <= 86400.0):
         fail(f"--precondition {precondition:g} is not allowed; allowed: 0 to 86400 s")
-    if soak_cabin is not None and not -40.0 <= soak_cabin <= 90.0:
+    if soak_cabin is not None and not (math.isfinite(soak_cabin) and -40.0 <= soak_cabin <= 90.0):
         fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
     sc = SCENARIOS[scenario] if scenario is not None else None
     if t_amb is None and (sc is None or sc.T_amb is None):
@@ -1206,8 +1204,13 @@ def simulate(
         input_file(params, "params file")
     system = load_system_params(params)
     trace = drive_cycle(sc.cycle if sc is not None else cycle)
+    check_run_options(trace, dt, mode, output_every, precondition)
     if Path(trace.source).is_file():
         inputs.append(Path(trace.source))
+    if luts.exists() and not luts.is_dir():
+        fail(f"--luts {str(luts)!r} is not a folder; allowed: a folder of cycle LUTs (or one to build them in)")
+    if luts.is_dir():
+        inputs += sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
     output_file(output, inputs, (".nc",))
     refrigerant = _system_refrigerant(luts, system, quiet=json_out)
     from evtms.system.output import write_simulation

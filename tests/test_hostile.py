@@ -326,6 +326,89 @@ CASES: list[Case] = [
         ],
         "fixed at 300",
     ),
+    # evtms simulate: a bad trace, parameter file, option or LUT folder is refused before any work.
+    *[
+        Case(
+            f"simulate-trace-{i}",
+            ["simulate", "--cycle", "t.csv", "--t-amb", "30", "-o", "o.nc"],
+            m,
+            [write("t.csv", t)],
+        )
+        for i, t, m in (
+            ("words", "time_s,speed_kmh\n0,0\n1,fast\n", "fast"),
+            ("negative", "time_s,speed_kmh\n0,0\n1,-5\n", "-5"),
+            ("backwards", "time_s,speed_kmh\n0,0\n2,5\n1,5\n", "time"),
+            ("empty", "", "empty"),
+            ("no-header", "0,0\n1,5\n", "header"),
+            ("binary", b"\x00\x01\x02", "t.csv"),
+        )
+    ],
+    Case(
+        "simulate-trace-fifo", ["simulate", "--cycle", "t.csv", "--t-amb", "30", "-o", "o.nc"], "t.csv", [fifo("t.csv")]
+    ),
+    Case(
+        "simulate-params-unknown-table",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--params", "n.toml", "-o", "o.nc"],
+        "table [hvac] is unknown",
+        [write("n.toml", "[hvac]\nx = 1\n")],
+    ),
+    Case(
+        "simulate-params-string",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--params", "n.toml", "-o", "o.nc"],
+        "[cabin] volume = 'big'",
+        [write("n.toml", "[cabin]\nvolume = 'big'\n")],
+    ),
+    Case(
+        "simulate-params-order",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--params", "n.toml", "-o", "o.nc"],
+        "soc_min < soc_init",
+        [write("n.toml", "[battery]\nsoc_min = 0.95\n")],
+    ),
+    Case("simulate-dt-nan", ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--dt", "nan", "-o", "o.nc"], "--dt"),
+    Case(
+        "simulate-too-many-steps",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--dt", "0.001", "--precondition", "86400", "-o", "o.nc"],
+        "steps",
+    ),
+    Case(
+        "simulate-output-every",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--dt", "2", "--output-every", "3", "-o", "o.nc"],
+        "--output-every",
+    ),
+    Case(
+        "simulate-precondition-fraction",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--precondition", "0.5", "-o", "o.nc"],
+        "--precondition 0.5",
+    ),
+    Case(
+        "simulate-soak-nan",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--soak-cabin", "nan", "-o", "o.nc"],
+        "soak",
+    ),
+    Case("simulate-t-amb-words", ["simulate", "--cycle", "wltc3b", "--t-amb", "hot", "-o", "o.nc"], "--t-amb"),
+    Case(
+        "simulate-over-lut",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "-o", "luts/condenser.nc"],
+        "is the input",
+    ),
+    Case("simulate-not-nc", ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "-o", "o.csv"], ".nc"),
+    Case(
+        "simulate-luts-is-a-file",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", "c.nc", "-o", "o.nc"],
+        "not a folder",
+    ),
+    Case(
+        "simulate-wrong-lut",
+        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", "luts", "-o", "o.nc"],
+        "the compressor LUT is needed",
+        [link_as("condenser.nc", "compressor.nc")],
+    ),
+    Case(
+        "report-simulation-not-a-run",
+        ["report", "simulation", "c.nc", "-o", "r.png"],
+        "c.nc",
+    ),
+    Case("report-range-not-a-sweep", ["report", "range", "s.nc", "-o", "r.png"], "s.nc"),
 ]
 
 

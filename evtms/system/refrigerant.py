@@ -66,8 +66,9 @@ def load_refrigerant(
 
     params = params or SystemParams()
     settings = settings or map_settings(params)
+    # Every LUT the maps need is read (headers) and checked first: a bad one is one error before any map work.
+    sat = saturation_curve(load_cycle_luts(luts_folder, "cabin+chiller"))
     maps = load_maps(luts_folder, settings, progress=progress)
-    sat = saturation_curve(load_cycle_luts(luts_folder, "cabin"))
     return Refrigerant(
         maps=maps,
         sat_T=np.ascontiguousarray(sat.T, float),

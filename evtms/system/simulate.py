@@ -337,16 +337,10 @@ def simulate(
     """
     wall0 = time.perf_counter()
     params = params or SystemParams()
-    if not 1e-3 <= dt <= 60.0 or not math.isfinite(dt):
-        raise EvtmsInputError(f"--dt {dt:g} is not allowed; allowed: 0.001 to 60 s")
-    if mode not in MODES:
-        raise EvtmsInputError(f"--mode {mode!r} is unknown; allowed: {', '.join(MODES)}")
-    every = max(1.0, dt) if output_every is None else output_every
+    every = check_run_options(cycle, dt, mode, output_every, precondition)
     m = round(every / dt)
-    if m < 1 or abs(m * dt - every) > 1e-9 * every:
-        raise EvtmsInputError(f"--output-every {every:g} s is not a whole multiple of --dt {dt:g} s")
     if precondition:
-        cycle = _with_precondition(cycle, precondition, every)
+        cycle = _with_precondition(cycle, precondition)
     edges = step_edges(cycle.duration, dt)
     dts = np.diff(edges)
     seg = {regen: drive_segments(cycle, T_amb, params.vehicle, regen=regen) for regen in (True, False)}
@@ -421,16 +415,43 @@ def simulate(
     return SimulationResult(records, rec_mode, rec_flags, ledger, summary, attrs)
 
 
-def _with_precondition(cycle: DriveCycle, seconds: float, every: float) -> DriveCycle:
-    """``cycle`` after ``seconds`` parked (the trace must start at standstill)."""
-    k = round(seconds / every)
-    if not 0 < seconds <= 86400.0 or abs(k * every - seconds) > 1e-9 * seconds:
-        raise EvtmsInputError(
-            f"--precondition {seconds:g} s is not allowed; allowed: a multiple of the record spacing {every:g} s, "
-            "up to 86400 s"
-        )
-    if cycle.speed[0] != 0.0:
-        raise EvtmsInputError(f"--precondition needs a cycle that starts at standstill; {cycle.name} does not")
+def check_run_options(
+    cycle: DriveCycle, dt: float, mode: str, output_every: float | None, precondition: float
+) -> float:
+    """Check the run's time options before any work; returns the record spacing [s].
+
+    Raises
+    ------
+    EvtmsInputError
+        ``dt`` outside 0.001-60 s, an unknown mode, a record spacing that is
+        not a whole multiple of ``dt``, a preconditioning time that is not a
+        multiple of the record spacing (or above a day), or preconditioning
+        before a cycle that does not start at standstill; or more than
+        :data:`MAX_STEPS` steps.
+    """
+    if not (math.isfinite(dt) and 1e-3 <= dt <= 60.0):
+        raise EvtmsInputError(f"--dt {dt:g} is not allowed; allowed: 0.001 to 60 s")
+    if mode not in MODES:
+        raise EvtmsInputError(f"--mode {mode!r} is unknown; allowed: {', '.join(MODES)}")
+    every = max(1.0, dt) if output_every is None else output_every
+    m = round(every / dt) if math.isfinite(every) else 0
+    if not (math.isfinite(every) and m >= 1 and abs(m * dt - every) <= 1e-9 * every):
+        raise EvtmsInputError(f"--output-every {every:g} s is not allowed; allowed: a whole multiple of --dt {dt:g} s")
+    if precondition:
+        k = round(precondition / every) if math.isfinite(precondition) else 0
+        if not (0 < precondition <= 86400.0 and abs(k * every - precondition) <= 1e-9 * precondition):
+            raise EvtmsInputError(
+                f"--precondition {precondition:g} s is not allowed; allowed: a multiple of the record spacing "
+                f"{every:g} s, up to 86400 s"
+            )
+        if cycle.speed[0] != 0.0:
+            raise EvtmsInputError(f"--precondition needs a cycle that starts at standstill; {cycle.name} does not")
+    step_edges(cycle.duration + precondition, dt)  # bounds the steps before anything is allocated
+    return every
+
+
+def _with_precondition(cycle: DriveCycle, seconds: float) -> DriveCycle:
+    """``cycle`` after ``seconds`` parked."""
     t = np.concatenate(([0.0], seconds + cycle.time))
     return DriveCycle(
         cycle.name, t, np.concatenate(([0.0], cycle.speed)), np.concatenate(([0.0], cycle.grade)), cycle.source
