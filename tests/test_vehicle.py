@@ -73,3 +73,11 @@ def test_wltc_energy_is_plausible_for_a_light_ev():
     kwh = np.sum(s.P_motor_el * (s.t1 - s.t0)) / 3.6e6
     assert 8.0 < kwh / (c.distance / 1e5) < 11.0
     assert not s.torque_limited.any()
+
+
+def test_spec_analytic_wheel_power_at_30_degC():
+    """The project spec's reference values: flat road, 30 degC (air 1.1644 kg/m3), constant speed."""
+    p = VehicleParams()
+    for kmh, watts in ((50.0, 2300.7), (100.0, 9186.4)):
+        s = drive_segments(trace([kmh / 3.6] * 3), 303.15, p)
+        assert s.P_wheel == pytest.approx(watts, abs=0.1)  # the spec gives 5 significant digits
