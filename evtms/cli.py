@@ -867,17 +867,23 @@ report_app = typer.Typer(
 app.add_typer(report_app, name="report")
 
 
-def _open_cycle(path: Path):
-    """A cycle sweep file, loaded; anything else is one line, exit 2."""
+def _load_netcdf(path: Path, what: str):
+    """The netCDF file ``path`` loaded into memory; missing, not netCDF or truncated: one line, exit 2."""
     import xarray as xr
 
-    input_file(path, "cycle sweep file")
+    input_file(path, what)
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
-            ds = ds.load()
+            return ds.load()
     except Exception as exc:  # not netCDF, truncated: one line, not an HDF5 traceback
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        fail(f"{path}: not a readable cycle sweep file ({first})")
+        fail(f"{path}: not a readable {what} ({first})")
+
+
+def _open_cycle(path: Path):
+    """A cycle sweep file, loaded; anything else is one line, exit 2."""
+
+    ds = _load_netcdf(path, "cycle sweep file")
     if "status" not in ds or "p_A" not in ds or "reason" not in ds:
         fail(f"{path}: not an evtms cycle sweep (write one with 'evtms cycle sweep')")
     return ds
@@ -1023,17 +1029,10 @@ def report_bench(
 
 def _open_simulation(path: Path, variables: tuple[str, ...] = ()):
     """A simulation output file (evtms simulate), loaded and checked; anything else is one line, exit 2."""
-    import xarray as xr
 
     from evtms.reports.system_plots import check_simulation
 
-    input_file(path, "simulation file")
-    try:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
-            ds = ds.load()
-    except Exception as exc:  # not netCDF, truncated: one line, not an HDF5 traceback
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        fail(f"{path}: not a readable simulation file ({first})")
+    ds = _load_netcdf(path, "simulation file")
     try:
         check_simulation(ds, variables)
     except EvtmsInputError as exc:
