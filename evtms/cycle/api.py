@@ -43,7 +43,15 @@ RESULT_VARIABLES = {
     "dp_valve": ("Pa", "expansion-valve pressure drop p_C - p_D (of the first branch)"),
     "valve_opening": ("1", "first branch's valve opening relative to its nominal opening"),
     "valve_opening_chiller": ("1", "chiller valve opening relative to its nominal opening (NaN without a chiller)"),
-    "superheat_actual": ("K", "evaporator-outlet superheat: the setpoint, or floating where the valve is saturated"),
+    "superheat_actual": (
+        "K",
+        "first branch's outlet superheat: the setpoint, or floating where its valve is saturated (NaN where closed)",
+    ),
+    "superheat_chiller": (
+        "K",
+        "chiller-outlet superheat: the setpoint, or floating where its valve is saturated (NaN without a chiller "
+        "or where closed)",
+    ),
     "balance_residual": ("W", "Q_cond + Q_evap + Q_chiller - W_fluid, each from its own component"),
     "balance_relative": ("1", "balance_residual / W_fluid"),
 }

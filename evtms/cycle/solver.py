@@ -5,7 +5,8 @@ condenser inlet, C condenser outlet = valve inlet, D valve outlet =
 evaporator inlet. The evaporating side is one branch (the cabin evaporator or
 the battery chiller) or both in parallel (:mod:`evtms.cycle.topology`; with two
 branches, A is the mixed suction state and D the first branch's valve outlet,
-the flow split is solved at each suction iterate, :meth:`CycleSolver._parallel`).
+the flow split is solved at each suction iterate, :meth:`CycleSolver._parallel`;
+a valve at its maximum opening or closed, :meth:`CycleSolver._parallel_limits`).
 "Cabin air" below stands for the branch's secondary inlet (the coldest of the
 two with parallel branches). The circuit has a receiver after the condenser, so the
 condenser ends in saturated liquid (or at a given subcooling), and a
@@ -103,8 +104,8 @@ from evtms.fluid import SaturationCurve
 class CycleStatus(IntEnum):
     """Status of a solved operating point (the ``status`` of a cycle result).
 
-    0 and 5-7 are solved points (5-7 with a note); the others failed and
-    their states are NaN, with the reason in ``reason``.
+    0, 5-7 and 10 are solved points (5-7 and 10 with a note); the others
+    failed and their states are NaN, with the reason in ``reason``.
     """
 
     CONVERGED = 0
@@ -117,6 +118,7 @@ class CycleStatus(IntEnum):
     VALVE_SATURATED_FROST_RISK = 7
     EVAPORATOR_WET = 8
     BRANCH_VALVE_SATURATED = 9
+    BRANCH_CLOSED = 10
 
 
 STATUS_CONVERGED = CycleStatus.CONVERGED
@@ -129,6 +131,7 @@ STATUS_FROST_RISK = CycleStatus.FROST_RISK
 STATUS_VALVE_SATURATED_FROST_RISK = CycleStatus.VALVE_SATURATED_FROST_RISK
 STATUS_EVAPORATOR_WET = CycleStatus.EVAPORATOR_WET
 STATUS_BRANCH_VALVE_SATURATED = CycleStatus.BRANCH_VALVE_SATURATED
+STATUS_BRANCH_CLOSED = CycleStatus.BRANCH_CLOSED
 
 #: Status code -> CF flag meaning.
 CYCLE_FLAGS = {
@@ -142,13 +145,30 @@ CYCLE_FLAGS = {
     int(STATUS_VALVE_SATURATED_FROST_RISK): "converged_valve_saturated_frost_risk",
     int(STATUS_EVAPORATOR_WET): "evaporator_outlet_wet",
     int(STATUS_BRANCH_VALVE_SATURATED): "branch_valve_beyond_max_opening",
+    int(STATUS_BRANCH_CLOSED): "converged_branch_valve_closed",
 }
-#: Solved points: their states are valid (the flags 5-7 are notes on a valid point).
-VALID_CYCLE_FLAGS = (STATUS_CONVERGED, STATUS_VALVE_SATURATED, STATUS_FROST_RISK, STATUS_VALVE_SATURATED_FROST_RISK)
+#: Solved points: their states are valid (the flags 5-7 and 10 are notes on a valid point).
+VALID_CYCLE_FLAGS = (
+    STATUS_CONVERGED,
+    STATUS_VALVE_SATURATED,
+    STATUS_FROST_RISK,
+    STATUS_VALVE_SATURATED_FROST_RISK,
+    STATUS_BRANCH_CLOSED,
+)
 #: Solved points with the valve at its maximum opening and the superheat floating above its setpoint.
 VALVE_SATURATED_FLAGS = (STATUS_VALVE_SATURATED, STATUS_VALVE_SATURATED_FROST_RISK)
 #: Solved points with an evaporator surface below 0 degC under condensate (frost would build up).
 FROST_RISK_FLAGS = (STATUS_FROST_RISK, STATUS_VALVE_SATURATED_FROST_RISK)
+
+#: Parallel branches (``ops["branch_mode"]``): both valves hold the setpoint; the first (second)
+#: branch's valve at its maximum opening, its superheat floating; the first (second) branch's valve closed.
+_BOTH_HOLD, _FIRST_FLOATS, _SECOND_FLOATS, _FIRST_CLOSED, _SECOND_CLOSED = 0, 1, 2, 3, 4
+#: Why a parallel split found no root: the first (second) branch would need less than its model's least
+#: flow, or another bound (a branch would need more than its model's largest flow).
+_CLAMP_FIRST_LEAST, _CLAMP_SECOND_LEAST, _CLAMP_OTHER = 1, 2, 3
+
+#: Largest difference [J/kg] between the suction state and the branches' mixture at a solved parallel point.
+_MIX_TOL = 1.0
 
 #: Scale [J/(kg K)] that turns the suction enthalpy residual into about kelvin of superheat.
 _CP_SCALE = 1000.0
@@ -488,10 +508,47 @@ class CycleSolver:
         return drop
 
     def _secondary_temperature(self, ops: dict) -> np.ndarray:
-        """The coldest secondary inlet of the branches: every branch must evaporate below it [K]."""
-        return np.minimum.reduce([np.asarray(ops[b.secondary_temperature], float) for b in self.circuit.branches])
+        """The coldest secondary inlet of the open branches: every open branch must evaporate below it [K]."""
+        temps = [np.asarray(ops[b.secondary_temperature], float) for b in self.circuit.branches]
+        coldest = np.minimum.reduce(temps)
+        if self.circuit.parallel and "branch_mode" in ops:
+            mode = ops["branch_mode"]
+            coldest = np.where(mode == _FIRST_CLOSED, temps[1], np.where(mode == _SECOND_CLOSED, temps[0], coldest))
+        return coldest
 
-    def _parallel(self, ops: dict, mdot: np.ndarray, p_A: np.ndarray, h_D: np.ndarray, idx: np.ndarray, final: bool):
+    def _run_branch(self, component: str, ops: dict, mdot, p_in, h_in, open_: np.ndarray) -> dict:
+        """:meth:`_branch` where ``open_``; a closed branch (no flow) leaves its inlet state, no heat."""
+        if open_.all():
+            return self._branch(component, ops, mdot, p_in, h_in)
+        n = open_.size
+        out = {
+            "h_out_continued": np.array(h_in, float, copy=True),
+            "p_out": np.array(p_in, float, copy=True),
+            "reason": np.full(n, "", dtype=object),
+            "Q_latent": np.zeros(n),
+            "frost_risk": np.zeros(n),
+            "no_heat_flow": np.zeros(n, bool),
+        }
+        k = np.nonzero(open_)[0]
+        if k.size:
+            r = self._branch(component, {c: v[k] for c, v in ops.items()}, mdot[k], p_in[k], h_in[k])
+            for key, v in r.items():
+                v = np.asarray(v)
+                if key not in out:
+                    out[key] = np.full(n, "", dtype=object) if v.dtype == object else np.full(n, np.nan)
+                out[key][k] = v
+        return out
+
+    def _parallel(
+        self,
+        ops: dict,
+        mdot: np.ndarray,
+        p_A: np.ndarray,
+        h_D: np.ndarray,
+        idx: np.ndarray,
+        final: bool,
+        h_set: np.ndarray | None = None,
+    ):
         r"""Two evaporating branches in parallel from the valves to the suction, at total flow ``mdot``.
 
         Both valves see the condenser's liquid (enthalpy ``h_D``) and both
@@ -513,37 +570,70 @@ class CycleSolver:
         the whole batch; with ``final``, the stored split and drops are used
         as they are (the last iterate's).
 
+        ``ops["branch_mode"]`` (absent: all 0) changes a point's split
+        (:meth:`solve` sets it): 1 (2), the first (second) branch's valve at
+        its maximum opening: the other branch alone holds the setpoint, its
+        outlet at ``h_set`` (the enthalpy at the setpoint superheat at
+        ``p_A`` [J/kg]), and the suction superheat (``ops["superheat"]``) is
+        the mixture's, found by :meth:`_float_superheat`; 3 (4), the first
+        (second) branch's valve closed: all the flow goes through the other
+        branch, and the closed one leaves its inlet state with no flow and no
+        heat.
+
         Returns the mixed outlet (``h_out_continued``, ``p_out`` = ``p_A``),
-        ``reason``, ``p_D`` (the first branch's inlet), and per branch
-        ``branches`` (model results), ``flows`` [kg/s] and ``inlets`` [Pa].
+        ``reason``, ``p_D`` (the first branch's inlet), ``h_set``, and per
+        branch ``branches`` (model results), ``flows`` [kg/s] and ``inlets`` [Pa].
         """
         names = [b.component for b in self.circuit.branches]
+        labels = [b.label for b in self.circuit.branches]
         n = p_A.size
+        mode = np.asarray(ops.get("branch_mode", np.zeros(n)), int)
+        if h_set is None:
+            h_set = np.full(n, np.nan)
         inlets = {c: p_A + self._dp_branch[c][idx] for c in names}
         (lo1, hi1), (lo2, hi2) = (self.models.flow_range(c) for c in names)
         with np.errstate(invalid="ignore", divide="ignore"):
             s_lo = np.maximum(lo2 / mdot, 1.0 - hi1 / mdot) * (1 + 1e-9)
             s_hi = np.minimum(1.0 - lo1 / mdot, hi2 / mdot) * (1 - 1e-9)
-        ok = np.isfinite(mdot) & np.isfinite(p_A) & np.isfinite(h_D) & (s_lo < s_hi)
+            # Which bound binds: the second (first) branch at the least flow its model covers.
+            second_least = lo2 / mdot >= 1.0 - hi1 / mdot
+            first_least = 1.0 - lo1 / mdot <= hi2 / mdot
+        split_mode = mode <= _SECOND_FLOATS
+        first_closed, second_closed = mode == _FIRST_CLOSED, mode == _SECOND_CLOSED
+        with np.errstate(invalid="ignore"):
+            fits = np.where(
+                split_mode,
+                s_lo < s_hi,
+                np.where(first_closed, (mdot >= lo2) & (mdot <= hi2), (mdot >= lo1) & (mdot <= hi1)),
+            )
+        ok = np.isfinite(mdot) & np.isfinite(p_A) & np.isfinite(h_D) & fits
         reason = np.full(n, "", dtype=object)
-        reason[~ok & np.isfinite(mdot)] = "the flow cannot be split between the branches within their models' flows"
+        bad = ~ok & np.isfinite(mdot)
+        reason[bad & split_mode] = "the flow cannot be split between the branches within their models' flows"
+        reason[bad & ~split_mode] = "with one valve closed, the other branch's model does not cover the whole flow"
+        open1, open2 = ~first_closed, ~second_closed
 
         # ``i``: the points' positions in this call's arrays (``idx[i]`` in the whole batch).
         def evaluate(share: np.ndarray, i: np.ndarray) -> tuple[dict, dict]:
             o = {k: v[i] for k, v in ops.items()}
             m = mdot[i]
-            r1 = self._branch(names[0], o, m * (1.0 - share), inlets[names[0]][i], h_D[i])
-            r2 = self._branch(names[1], o, m * share, inlets[names[1]][i], h_D[i])
+            r1 = self._run_branch(names[0], o, m * (1.0 - share), inlets[names[0]][i], h_D[i], open1[i])
+            r2 = self._run_branch(names[1], o, m * share, inlets[names[1]][i], h_D[i], open2[i])
             return r1, r2
 
         def residual(share: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             r1, r2 = evaluate(share, i)
-            f = (r2["h_out_continued"] - r1["h_out_continued"]) / _CP_SCALE
+            h1, h2 = r1["h_out_continued"], r2["h_out_continued"]
+            md = mode[i]
+            # Both hold the setpoint: equal outlets; one valve saturated: the other one at the setpoint.
+            f = np.where(md == _FIRST_FLOATS, h2 - h_set[i], np.where(md == _SECOND_FLOATS, h_set[i] - h1, h2 - h1))
             why = np.where(r1["reason"] != "", r1["reason"], r2["reason"])
-            return f, why
+            return f / _CP_SCALE, why
 
         share = np.where(ok, self._split[idx], np.nan)
-        clamped = np.zeros(n, bool)
+        share[ok & first_closed] = 1.0
+        share[ok & second_closed] = 0.0
+        clamped = np.zeros(n, np.int8)
 
         def solve_split(todo: np.ndarray) -> None:
             """The split of the points ``todo`` at the present branch inlets, into ``share``."""
@@ -573,12 +663,16 @@ class CycleSolver:
             # One sign over the whole range of flows the models cover: one branch takes the least
             # flow its model covers (its valve nearly closed). The outlets then differ, and the
             # mixture still tells the suction closure which way to go; a root found so is not a
-            # state with both valves holding their setpoint and fails in the final evaluation.
+            # state with both valves holding their setpoint and fails in the final evaluation
+            # (solve then closes that valve, where it is a branch at its least flow).
             finite = np.isfinite(f_lo) & np.isfinite(f_hi)
             low = no_root & finite & (f_lo <= 0)
             high = no_root & finite & (f_hi > 0)
             share[todo[low]], share[todo[high]] = lo[low], hi[high]
-            clamped[todo] = low | high
+            kind = np.zeros(todo.size, np.int8)
+            kind[low] = np.where(second_least[todo[low]], _CLAMP_SECOND_LEAST, _CLAMP_OTHER)
+            kind[high] = np.where(first_least[todo[high]], _CLAMP_FIRST_LEAST, _CLAMP_OTHER)
+            clamped[todo] = kind
             nan = no_root & ~low & ~high
             reason[todo[nan]] = np.where(~np.isfinite(f_lo[nan]), w_lo[nan], w_hi[nan])
             go = np.nonzero(~no_root)[0]
@@ -596,7 +690,9 @@ class CycleSolver:
             # drops stop moving (see _DP_TOL): the outlets then meet at p_A.
             todo = np.nonzero(ok)[0]
             for _ in range(_DP_PASSES):
-                solve_split(todo)
+                split = todo[split_mode[todo]]
+                if split.size:
+                    solve_split(split)
                 todo = todo[np.isfinite(share[todo])]
                 if todo.size == 0:
                     break
@@ -617,6 +713,15 @@ class CycleSolver:
             self._clamped[idx] = clamped
         else:
             clamped = self._clamped[idx]
+            # With a saturated valve the mixture depends on the split itself (not only on both outlets
+            # being equal): the split of the last suction iterate, which may be the root's neighbour,
+            # is solved again at the root (at the stored drops), so that the mixture closes there.
+            again = np.nonzero(ok & (clamped == 0) & ((mode == _FIRST_FLOATS) | (mode == _SECOND_FLOATS)))[0]
+            if again.size:
+                kept, why = share[again].copy(), reason[again].copy()
+                solve_split(again)
+                lost = ~np.isfinite(share[again])
+                share[again[lost]], reason[again[lost]] = kept[lost], why[lost]
         everyone = np.arange(n)
         r1, r2 = evaluate(share, everyone)
         flows = {names[0]: mdot * (1.0 - share), names[1]: mdot * share}
@@ -624,10 +729,16 @@ class CycleSolver:
         with np.errstate(invalid="ignore"):
             h_mix = (flows[names[0]] * r1["h_out_continued"] + flows[names[1]] * r2["h_out_continued"]) / mdot
         if final:
-            h_mix[clamped] = np.nan
-            reason[clamped] = (
+            h_mix[clamped > 0] = np.nan
+            lows = {_CLAMP_FIRST_LEAST: (labels[0], lo1), _CLAMP_SECOND_LEAST: (labels[1], lo2)}
+            for kind, (label, least) in lows.items():
+                reason[clamped == kind] = (
+                    "no split of the flow brings both branch outlets to the setpoint within the flows "
+                    f"their models cover (the {label} would need less than {least * 1e3:.3g} g/s)"
+                )
+            reason[clamped == _CLAMP_OTHER] = (
                 "no split of the flow brings both branch outlets to the setpoint within the flows "
-                "their models cover (one branch would need less)"
+                "their models cover (one branch would need more)"
             )
         for r in (r1, r2):
             reason = np.where(reason != "", reason, r["reason"])
@@ -636,10 +747,27 @@ class CycleSolver:
             "p_out": p_A.copy(),
             "reason": reason,
             "p_D": inlets[names[0]],
+            "h_set": h_set,
             "branches": branches,
             "flows": flows,
             "inlets": inlets,
         }
+
+    def _setpoint_enthalpy(self, ops: dict, p_A: np.ndarray, p_B: np.ndarray) -> np.ndarray | None:
+        """Suction-side enthalpy at the setpoint superheat [J/kg] where one parallel valve is saturated
+        (the other branch's outlet holds it; NaN elsewhere), from the compressor's inlet state; None
+        where no point has a saturated parallel valve."""
+        mode = ops.get("branch_mode")
+        if mode is None:
+            return None
+        k = np.nonzero((mode == _FIRST_FLOATS) | (mode == _SECOND_FLOATS))[0]
+        if k.size == 0:
+            return None
+        out = np.full(p_A.size, np.nan)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            T = self.sat.temperature(p_A[k]) + ops["setpoint"][k]
+            out[k] = self.models.compressor(ops["speed"][k], T, p_A[k], p_B[k] / p_A[k])["h_in"]
+        return out
 
     # -- the two residuals ---------------------------------------------------
     def _discharge_side(self, ops: dict, p_A: np.ndarray, p_B: np.ndarray) -> dict:
@@ -843,7 +971,8 @@ class CycleSolver:
         # Evaporator inlet = outlet pressure + its own drop: a fixed point, warm-started
         # from the drop at the previous suction iterate (the drop changes slowly).
         if self.circuit.parallel:
-            evap = self._parallel(ops, comp["mdot"], p_A, h_D, idx, final)
+            h_set = self._setpoint_enthalpy(ops, p_A, dis["p_B"])
+            evap = self._parallel(ops, comp["mdot"], p_A, h_D, idx, final, h_set)
             p_D = evap["p_D"]
         else:
             branch = self.circuit.branches[0].component
@@ -899,31 +1028,197 @@ class CycleSolver:
             what its flags mean; empty when converged without a flag).
         """
         ops = points.subset(np.arange(len(points)))
+        if self.circuit.parallel:
+            ops["branch_mode"] = np.zeros(len(points), np.int8)
+            ops["setpoint"] = ops["superheat"].copy()
         res = self._solve_at(ops)
         valve, _ = self.models.valve()
         self.max_opening = valve.capacity_max / valve.capacity_nominal
-        saturated = (res["status"] == STATUS_CONVERGED) & (res["valve_opening"] > self.max_opening)
         if self.circuit.parallel:
-            # A saturated valve in one of two parallel branches floats that branch's superheat
-            # while the other holds its own, and the suction state becomes their mixture: not
-            # solved here; such points are invalid and say which valve.
-            for key, label in (("valve_opening", "cabin evaporator"), ("valve_opening_chiller", "chiller")):
-                over = (res["status"] == STATUS_CONVERGED) & (res[key] > self.max_opening)
-                res["status"][over] = STATUS_BRANCH_VALVE_SATURATED
-                res["reason"][over] = [
-                    f"the {label} valve would need {x:.3g} x its nominal opening, beyond its maximum "
-                    f"{self.max_opening:.3g}: a saturated valve in parallel branches is not modelled"
-                    for x in res[key][over]
-                ]
-            for v in res.values():
-                if v.dtype.kind == "f":
-                    v[res["status"] == STATUS_BRANCH_VALVE_SATURATED] = np.nan
-            saturated[:] = False
-        idx = np.nonzero(saturated)[0]
-        if idx.size:
-            self._float_superheat(ops, res, idx)
+            saturated = self._parallel_limits(ops, res)
+        else:
+            saturated = (res["status"] == STATUS_CONVERGED) & (res["valve_opening"] > self.max_opening)
+            idx = np.nonzero(saturated)[0]
+            if idx.size:
+                self._float_superheat(ops, res, idx)
         self._flag(res, ops, saturated)
         return res
+
+    def _parallel_limits(self, ops: dict, res: dict) -> np.ndarray:
+        """Parallel branches at their valves' limits, solved again (in place); the points floating.
+
+        Two thermostatic valves in parallel each act on their own branch's
+        outlet superheat; the compressor sets the common suction pressure.
+        A valve that reaches a limit of its stroke stops holding its setpoint
+        while the other one keeps holding its own:
+
+        - closed: a branch whose secondary stream is barely warmer than the
+          suction saturation plus the setpoint (coolant at 20 degC against
+          evaporation at 12 degC and a 10 K setpoint) cannot superheat its
+          refrigerant by the setpoint at any flow, and the split finds the
+          branch below the least flow its model covers (the chiller's
+          ``mdot`` axis starts at 1 g/s, the evaporator's at 3 g/s). The
+          valve's bulb then sees less than its static superheat and the
+          valve closes: that branch carries no flow and no heat, and the
+          circuit runs on the other branch alone (its valve holding the
+          setpoint, or saturated as below), with status 10
+          ``converged_branch_valve_closed`` (5-7 where those notes apply;
+          the reason names the closed branch, ``mdot_evap`` or
+          ``mdot_chiller`` is 0 and its valve opening 0). We chose the
+          closed valve over pinning the branch at its model's least flow:
+          at that flow its outlet would be below the setpoint (two-phase or
+          nearly), which no TXV lets through in steady state, and the mixed
+          suction state would be wrong; a real valve in that state modulates
+          near its seat with a bleed below the least flow, whose duty (below
+          that flow times the enthalpy rise, about 0.15 kW for the chiller,
+          0.45 kW for the evaporator) is dropped. At the solved point the
+          closed branch is evaluated at its least flow: where it would leave
+          above the setpoint superheat there (the suction pressure fell once
+          it closed), its valve would open a little and the true flow lies
+          between 0 and that least flow; the point stays valid and its
+          reason says "nearly closed", with the bound of the duty left out.
+          The same holds where, with the other valve saturated, the branch
+          holding the setpoint would need less than its least flow: it
+          closes and the saturated branch runs alone.
+        - saturated: a valve that would need more than its maximum opening
+          sits at it, and its branch's superheat floats above the setpoint
+          while the other branch holds the setpoint (the split is solved with
+          the other outlet at the setpoint, :meth:`_parallel`). The suction
+          state is the outlets' mixture, with its own superheat, found as for
+          a single branch (:meth:`_float_superheat`) so that the saturated
+          valve passes its branch's flow at its maximum opening. Status 5
+          (7 with frost risk); ``superheat_actual`` (the first branch) or
+          ``superheat_chiller`` is the floating superheat. Where both valves
+          would need more than their maximum (or the other one would, once
+          the first floats), the point stays invalid (status 9).
+
+        Every valid point's suction state must be the branches' mixture to
+        within ``_MIX_TOL`` (the energy balance closes on it); one where the
+        suction closure stopped on a jump of the mixture is status 4.
+        """
+        names = [b.component for b in self.circuit.branches]
+        labels = [b.label for b in self.circuit.branches]
+        mode = ops["branch_mode"]
+        # Closed valves: a branch that would need less than its model's least flow.
+        kind = self._clamped.copy()
+        least = np.isin(kind, (_CLAMP_FIRST_LEAST, _CLAMP_SECOND_LEAST))
+        idx = np.nonzero((res["status"] == STATUS_OUTSIDE_ENVELOPE) & least)[0]
+        if idx.size:
+            mode[idx] = np.where(kind[idx] == _CLAMP_FIRST_LEAST, _FIRST_CLOSED, _SECOND_CLOSED)
+            r = self._solve_at({k: v[idx] for k, v in ops.items()})
+            for k, v in r.items():
+                res[k][idx] = v
+        # Saturated valves: one floats, the other holds its setpoint.
+        ok = res["status"] == STATUS_CONVERGED
+        over = [ok & (res[key] > self.max_opening) for key in ("valve_opening", "valve_opening_chiller")]
+        both = over[0] & over[1]
+        self._branch_invalid(
+            res,
+            both,
+            [
+                f"both valves would need more than their maximum {self.max_opening:.3g} x nominal "
+                f"({a:.3g} and {b:.3g}): two saturated valves in parallel are not modelled"
+                for a, b in zip(res["valve_opening"][both], res["valve_opening_chiller"][both], strict=True)
+            ],
+        )
+        saturated = np.zeros(mode.size, bool)
+        for b, key in enumerate(("valve_opening", "valve_opening_chiller")):
+            floating = over[b] & ~both
+            mode[floating & (mode == _BOTH_HOLD)] = _FIRST_FLOATS if b == 0 else _SECOND_FLOATS
+            idx = np.nonzero(floating)[0]
+            if idx.size:
+                flow = res["mdot_evap" if b == 0 else "mdot_chiller"][idx]
+                self._float_superheat(ops, res, idx, key, share=flow / res["mdot"][idx])
+            saturated |= floating
+        # With one valve at its maximum the suction pressure falls, and the branch holding the setpoint
+        # may then need less than its model's least flow (or the total flow no longer splits within
+        # the models' flows): that valve closes, and the saturated branch runs alone.
+        why = res["reason"].astype(str)
+        retry = (res["status"] == STATUS_OUTSIDE_ENVELOPE) & ((mode == _FIRST_FLOATS) | (mode == _SECOND_FLOATS))
+        retry &= np.char.find(why, "split") >= 0
+        idx = np.nonzero(retry)[0]
+        if idx.size:
+            mode[idx] = np.where(mode[idx] == _FIRST_FLOATS, _SECOND_CLOSED, _FIRST_CLOSED)
+            r = self._solve_at({k: v[idx] for k, v in ops.items()})
+            for k, v in r.items():
+                res[k][idx] = v
+            saturated[idx] = False
+            for b, key in enumerate(("valve_opening", "valve_opening_chiller")):
+                alone = (_SECOND_CLOSED, _FIRST_CLOSED)[b]
+                k = idx[(res["status"][idx] == STATUS_CONVERGED) & (mode[idx] == alone)]
+                k = k[res[key][k] > self.max_opening]
+                if k.size:
+                    self._float_superheat(ops, res, k, key)
+                    saturated[k] = True
+        # The holding valve may then need more than its maximum in turn.
+        for b, key in enumerate(("valve_opening_chiller", "valve_opening")):
+            held = (res["status"] == STATUS_CONVERGED) & (mode == (_FIRST_FLOATS, _SECOND_FLOATS)[b])
+            held &= res[key] > self.max_opening
+            self._branch_invalid(
+                res,
+                held,
+                [
+                    f"with the {labels[b]} valve at its maximum opening, the {labels[1 - b]} valve would need "
+                    f"{x:.3g} x its nominal opening, beyond its maximum {self.max_opening:.3g}: two saturated "
+                    "valves in parallel are not modelled"
+                    for x in res[key][held]
+                ],
+            )
+        # A closed valve: where its branch at the least flow its model covers would leave above the
+        # setpoint superheat at the solved point, the valve would open a little: the branch's flow lies
+        # between 0 and that least flow (the valve modulating near its seat) and its duty, below the
+        # least flow's, is left out; the note says so, with that bound.
+        self._closed_notes = np.full(mode.size, "", dtype=object)
+        idx = np.nonzero((res["status"] == STATUS_CONVERGED) & ((mode == _FIRST_CLOSED) | (mode == _SECOND_CLOSED)))[0]
+        if idx.size:
+            sub = {k: v[idx] for k, v in ops.items()}
+            p_A, h_C = res["p_A"][idx], res["h_C"][idx]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                h_set = self.models.compressor(
+                    sub["speed"], self.sat.temperature(p_A) + sub["setpoint"], p_A, res["p_B"][idx] / p_A
+                )["h_in"]
+            closed = np.where(mode[idx] == _FIRST_CLOSED, 0, 1)
+            for b in (0, 1):
+                k = np.nonzero(closed == b)[0]
+                if k.size == 0:
+                    continue
+                o = {c: v[k] for c, v in sub.items()}
+                least = np.full(k.size, self.models.flow_range(names[b])[0] * (1 + 1e-6))
+                drop = self._converged_drop(names[b], o, least, p_A[k], h_C[k], np.zeros(k.size))
+                h_out = self._branch(names[b], o, least, p_A[k] + drop, h_C[k])["h_out_continued"]
+                opens = h_out > h_set[k] + _OUTER_FTOL * _CP_SCALE
+                duty = least * (h_out - h_C[k])
+                for i, d in zip(idx[k[opens]], duty[opens], strict=True):
+                    self._closed_notes[i] = (
+                        f"; nearly closed: its flow lies between 0 and that least flow, its duty below "
+                        f"{d / 1e3:.2g} kW is left out"
+                    )
+        # The suction state must be the branches' mixture (the energy balance closes on it); where the
+        # suction closure stopped on a jump of the mixture (the split changing branch between two
+        # suction iterates), it did not converge.
+        with np.errstate(invalid="ignore"):
+            jump = np.isin(res["status"], (STATUS_CONVERGED,)) & (np.abs(res["h_A_evap"] - res["h_A"]) > _MIX_TOL)
+        res["status"][jump] = STATUS_NOT_CONVERGED
+        res["reason"][jump] = [
+            f"the suction closure stopped {abs(x):.3g} J/kg off the branches' mixture (not converged)"
+            for x in (res["h_A_evap"] - res["h_A"])[jump]
+        ]
+        for v in res.values():
+            if v.dtype.kind == "f":
+                v[jump] = np.nan
+        saturated &= ~jump
+        return saturated
+
+    @staticmethod
+    def _branch_invalid(res: dict, where: np.ndarray, reasons: list[str]) -> None:
+        """Mark the points ``where`` status 9 with their ``reasons``, their states NaN (in place)."""
+        if not where.any():
+            return
+        res["status"][where] = STATUS_BRANCH_VALVE_SATURATED
+        res["reason"][where] = reasons
+        for v in res.values():
+            if v.dtype.kind == "f":
+                v[where] = np.nan
 
     def _solve_at(
         self,
@@ -967,7 +1262,7 @@ class CycleSolver:
         self._dp_guess = np.zeros(n) if dp_guess is None else np.nan_to_num(np.asarray(dp_guess, float))
         self._dp_branch = {b.component: np.zeros(n) for b in self.circuit.branches}
         self._split = np.full(n, np.nan)
-        self._clamped = np.zeros(n, bool)
+        self._clamped = np.zeros(n, np.int8)
         self._slope = np.full(n, np.nan)
         self.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
 
@@ -1020,7 +1315,9 @@ class CycleSolver:
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
 
-    def _float_superheat(self, ops: dict, res: dict, idx: np.ndarray) -> None:
+    def _float_superheat(
+        self, ops: dict, res: dict, idx: np.ndarray, key: str = "valve_opening", share: np.ndarray | None = None
+    ) -> None:
         """Cycle of the points ``idx`` with the valve at its maximum opening; written into ``res``.
 
         A thermostatic valve at its maximum opening (its stroke's end) can
@@ -1063,6 +1360,15 @@ class CycleSolver:
         point fails with that reason (prefixed "with the valve at its maximum
         opening"). About four cycle solves per batch, most points converging
         in three.
+
+        ``key`` is the result holding the saturated valve's opening
+        (``valve_opening_chiller``: the chiller's valve of two parallel
+        branches, whose branch floats while the other holds the setpoint;
+        the superheat iterated on is then the suction mixture's, see
+        :meth:`_parallel_limits`), and ``share`` the saturated branch's share
+        of the flow at the setpoint (default 1): the mixture's superheat
+        moves that share of the branch's, so the typical changes per kelvin
+        above are divided by it.
         """
         log_max = np.log(self.max_opening)
         sub = {k: v[idx] for k, v in ops.items()}
@@ -1082,7 +1388,8 @@ class CycleSolver:
         fail = np.full(m, STATUS_OUTSIDE_ENVELOPE, np.int8)
 
         # ln(opening over the maximum) at the setpoint: positive where the valve saturates.
-        g0 = np.maximum(np.log(res["valve_opening"][idx]) - log_max, 0.0)
+        g0 = np.maximum(np.log(res[key][idx]) - log_max, 0.0)
+        share = np.ones(m) if share is None else np.clip(np.asarray(share, float), 0.05, 1.0)
 
         def guess(sh, i):
             s1, s0 = seen[0, i], seen[1, i]
@@ -1091,7 +1398,7 @@ class CycleSolver:
                 w = np.where(two, (sh - s1) / (s1 - s0), 0.0)
             g = {k: np.where(two, v[0, i] + w * (v[0, i] - v[1, i]), v[0, i]) for k, v in known.items()}
             # From one solved superheat: the typical changes over the shift to the root.
-            d, g0_i = sh - s1, g0[i]
+            d, g0_i = (sh - s1) / share[i], g0[i]
             one = {
                 "t": known["t"][0, i] + d * (_SH_FIRST_T[0] + _SH_FIRST_T[1] * g0_i),
                 "p_B": known["p_B"][0, i] * np.exp(d * (_SH_FIRST_LN_PB[0] + _SH_FIRST_LN_PB[1] * g0_i)),
@@ -1111,7 +1418,7 @@ class CycleSolver:
                 store[k][i] = v
             ok = r["status"] == STATUS_CONVERGED
             with np.errstate(invalid="ignore", divide="ignore"):
-                f = np.where(ok, np.log(r["valve_opening"]) - log_max, np.nan)
+                f = np.where(ok, np.log(r[key]) - log_max, np.nan)
             k = i[ok]
             seen[1, k], seen[0, k] = seen[0, k], sh[ok]
             new = {"t": self.sat.temperature(r["p_A"]), "p_B": r["p_B"], "dp": r["p_D"] - r["p_A"]}
@@ -1122,10 +1429,10 @@ class CycleSolver:
 
         # Bracket: secant steps up from the setpoint, plus 0.5 K.
         lo = sub["superheat"].copy()
-        f_lo = np.log(res["valve_opening"][idx]) - log_max
+        f_lo = np.log(res[key][idx]) - log_max
         hi, f_hi = np.full(m, np.nan), np.full(m, np.nan)
         why_hi = np.full(m, "", dtype=object)
-        slope = _SH_FIRST_SLOPE[0] + _SH_FIRST_SLOPE[1] * g0
+        slope = (_SH_FIRST_SLOPE[0] + _SH_FIRST_SLOPE[1] * g0) / share
         sh = np.full(m, np.nan)
         state = np.full(m, 3, np.int8)
         why = np.full(m, "", dtype=object)
@@ -1208,7 +1515,7 @@ class CycleSolver:
         for v in store.values():
             if v.dtype.kind == "f":
                 v[failed] = np.nan
-        store["valve_opening"][~failed] = self.max_opening
+        store[key][~failed] = self.max_opening
         for k, v in store.items():
             res[k][idx] = v
 
@@ -1224,12 +1531,30 @@ class CycleSolver:
         ok = status == STATUS_CONVERGED
         sat = ok & saturated
         frost = ok & (np.nan_to_num(res["frost_risk"]) >= 0.5)
+        mode = ops.get("branch_mode", np.zeros(status.size, np.int8))
+        closed = ok & ((mode == _FIRST_CLOSED) | (mode == _SECOND_CLOSED))
+        status[closed] = STATUS_BRANCH_CLOSED
         status[sat] = STATUS_VALVE_SATURATED
         status[frost] = STATUS_FROST_RISK
         status[sat & frost] = STATUS_VALVE_SATURATED_FROST_RISK
-        for i in np.nonzero(sat | frost)[0]:
+        labels = [b.label for b in self.circuit.branches]
+        for i in np.nonzero(sat | frost | closed)[0]:
             notes = []
-            if sat[i]:
+            if closed[i]:
+                b = 0 if mode[i] == _FIRST_CLOSED else 1
+                least = self.models.flow_range(self.circuit.branches[b].component)[0]
+                notes.append(
+                    f"the {labels[b]} valve is closed (no flow, no heat): that branch would need less than the "
+                    f"least flow its model covers ({least * 1e3:.3g} g/s) to hold the setpoint" + self._closed_notes[i]
+                )
+            if sat[i] and self.circuit.parallel:
+                b = 0 if mode[i] in (_FIRST_FLOATS, _SECOND_CLOSED) else 1
+                key = "superheat_actual" if b == 0 else "superheat_chiller"
+                notes.append(
+                    f"the {labels[b]} valve is at its maximum opening ({self.max_opening:.3g} x nominal): its "
+                    f"superheat floats at {res[key][i]:.3g} K, above its setpoint {ops['setpoint'][i]:.3g} K"
+                )
+            elif sat[i]:
                 notes.append(
                     f"the valve is at its maximum opening ({self.max_opening:.3g} x nominal): the superheat floats "
                     f"at {res['superheat_actual'][i]:.3g} K, above its setpoint {ops['superheat'][i]:.3g} K"
@@ -1279,8 +1604,9 @@ class CycleSolver:
             for c in names:
                 opening[c] = flows[c] / (area * np.sqrt(2.0 * rho_C * (p_C - inlets[c])))
         # Heat flows as each branch's flow times its enthalpy change, the outlet from its own model.
-        heat = {c: -flows[c] * (branches[c]["h_out_continued"] - h_C) for c in names}
+        heat = {c: 0.0 - flows[c] * (branches[c]["h_out_continued"] - h_C) for c in names}
         h_B = comp["h_out"]
+        superheat = self._branch_superheats(ops, p_A, fin["p_B"], comp, evap, branches)
         res = {
             "p_A": p_A,
             "T_A": side["T_A"],
@@ -1307,7 +1633,8 @@ class CycleSolver:
             "dp_valve": p_C - fin["p_D"],
             "valve_opening": opening[names[0]],
             "valve_opening_chiller": opening.get("chiller", np.full(p_A.size, np.nan)),
-            "superheat_actual": ops["superheat"].copy(),
+            "superheat_actual": superheat[names[0]],
+            "superheat_chiller": superheat.get("chiller", np.full(p_A.size, np.nan)),
             "frost_risk": branches["evaporator"].get("frost_risk", zero) if "evaporator" in branches else zero,
         }
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -1320,6 +1647,46 @@ class CycleSolver:
         res["status"] = status
         res["reason"] = reason
         return res
+
+    def _branch_superheats(self, ops: dict, p_A, p_B, comp: dict, evap: dict, branches: dict) -> dict:
+        """Each branch's outlet superheat [K]: the setpoint, the suction superheat for a branch alone
+        (or the only open one), NaN for a closed one; a floating parallel branch's from its outlet
+        enthalpy at ``p_A``, by the secant method on the compressor's inlet enthalpy h(T) (within 1e-3 K)."""
+        names = [b.component for b in self.circuit.branches]
+        if not self.circuit.parallel:
+            return {names[0]: ops["superheat"].copy()}
+        mode, suction, setpoint = ops["branch_mode"], ops["superheat"], ops["setpoint"]
+        out = {c: setpoint.copy() for c in names}
+        for b, (closed, floats) in enumerate(((_FIRST_CLOSED, _FIRST_FLOATS), (_SECOND_CLOSED, _SECOND_FLOATS))):
+            other = names[1 - b]
+            out[names[b]][mode == closed] = np.nan
+            out[other][mode == closed] = suction[mode == closed]
+            k = np.nonzero(mode == floats)[0]
+            if k.size == 0:
+                continue
+            target = branches[names[b]]["h_out_continued"][k]
+            T_sat = self.sat.temperature(p_A[k])
+            pr = p_B[k] / p_A[k]
+
+            def h(sh, k=k, T_sat=T_sat, pr=pr):
+                return self.models.compressor(ops["speed"][k], T_sat + sh, p_A[k], pr)["h_in"]
+
+            x0, y0 = setpoint[k], evap["h_set"][k]
+            x1, y1 = suction[k].copy(), comp["h_in"][k]
+            near = np.abs(x1 - x0) < 1e-6
+            if near.any():  # one point only: about 1 kJ/(kg K)
+                x1 = np.where(near, x0 + (target - y0) / _CP_SCALE, x1)
+                y1 = np.where(near, h(x1), y1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                for _ in range(4):
+                    x2 = x1 + (target - y1) * (x1 - x0) / (y1 - y0)
+                    x2 = np.where(np.isfinite(x2), x2, x1)
+                    if np.all(~np.isfinite(x2) | (np.abs(x2 - x1) < 1e-3)):
+                        x1 = x2
+                        break
+                    x0, y0, x1, y1 = x1, y1, x2, h(x2)
+            out[names[b]][k] = x1
+        return out
 
     #: Maximum over nominal opening of the valve (its maximum over nominal capacity), set by solve.
     max_opening = np.nan

@@ -10,7 +10,10 @@ valve (TXV) that holds the superheat at that branch's outlet:
 - ``cabin+chiller``: both in parallel, one compressor (modes CC and BC at
   once): the valves split the condenser's liquid between the branches so
   that both outlets leave at the setpoint superheat, and their outlets mix at
-  the compressor suction.
+  the compressor suction. A valve that would need more than its maximum
+  opening sits at it, its branch's superheat floating while the other holds
+  the setpoint; a branch that would need less than the least flow its model
+  covers has its valve closed (no flow, no heat).
 
 :data:`INPUTS` declares every operating input once (units, meaning, allowed
 range, how the command line takes it); a topology lists the ones it uses.

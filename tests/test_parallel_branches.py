@@ -1,0 +1,128 @@
+"""Two evaporating branches in parallel (cabin+chiller) at their valves' limits (spec system.md 2.5).
+
+A valve that would need more than its maximum opening sits at it and its
+branch's superheat floats while the other branch holds the setpoint; a branch
+that would need less than the least flow its model covers has its valve closed
+(no flow, no heat). Both are valid points that close the energy balance.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
+from evtms.cycle.solver import (
+    CYCLE_FLAGS,
+    STATUS_BRANCH_CLOSED,
+    STATUS_VALVE_SATURATED,
+    VALID_CYCLE_FLAGS,
+    CycleStatus,
+)
+from evtms.params import ExpansionValveParams
+
+#: The two points of the report: the chiller's coolant (20 degC) barely warmer than evaporation
+#: plus the setpoint (its valve closes), and a hot cabin at full speed (the evaporator's valve saturates).
+POINTS = OperatingPoints(
+    speed=[0.2, 1.0],
+    fan=1.0,
+    blower=[0.75, 1.0],
+    mdot_coolant=[0.128, 0.428],
+    T_amb=[313.15, 303.15],
+    T_cabin=[299.15, 315.15],
+    RH_cabin=0.5,
+    T_coolant_in=[293.15, 313.15],
+)
+
+
+@pytest.fixture(scope="module")
+def lut_result(cycle_luts_dir):
+    return run_cycle(POINTS, load_cycle_luts(cycle_luts_dir, "cabin+chiller"), circuit="cabin+chiller")
+
+
+@pytest.fixture(scope="module")
+def direct_result():
+    return run_cycle(POINTS, circuit="cabin+chiller")
+
+
+def _check(r):
+    assert r["status"].tolist() == [STATUS_BRANCH_CLOSED, STATUS_VALVE_SATURATED], r["reason"]
+    assert np.isin(r["status"], VALID_CYCLE_FLAGS).all()
+    # Closure per point: Q_cond + Q_evap + Q_chiller - W_fluid = 0, each term from its own component.
+    assert np.abs(r["balance_relative"]).max() < 1e-5
+    assert np.allclose(r["mdot_evap"] + r["mdot_chiller"], r["mdot"], rtol=1e-12)
+    # Point 0: the chiller's valve is closed; the evaporator alone holds the setpoint.
+    assert r["mdot_chiller"][0] == 0.0 and r["Q_chiller"][0] == 0.0 and r["valve_opening_chiller"][0] == 0.0
+    assert np.isnan(r["superheat_chiller"][0])
+    assert r["superheat_actual"][0] == pytest.approx(10.0)
+    assert r["Q_evap"][0] < 0 and r["valve_opening"][0] <= 1.56
+    assert "battery chiller valve is closed" in r["reason"][0]
+    # Point 1: the evaporator's valve at its maximum opening, its superheat floating above 10 K;
+    # the chiller holds 10 K, and the suction state is the mixture of both outlets.
+    valve = ExpansionValveParams()
+    assert r["valve_opening"][1] == pytest.approx(valve.capacity_max / valve.capacity_nominal, rel=1e-9)
+    assert r["valve_opening_chiller"][1] < r["valve_opening"][1]
+    assert r["superheat_actual"][1] > 15.0
+    assert r["superheat_chiller"][1] == pytest.approx(10.0)
+    assert r["Q_evap"][1] < 0 and r["Q_chiller"][1] < 0
+    assert "cabin evaporator valve is at its maximum opening" in r["reason"][1]
+
+
+def test_limits_of_parallel_valves_on_luts(lut_result):
+    _check(lut_result)
+
+
+def test_limits_of_parallel_valves_direct_physics_and_luts_agree(direct_result, lut_result):
+    _check(direct_result)
+    for key in ("p_A", "mdot", "mdot_evap", "Q_evap"):
+        assert np.allclose(lut_result[key], direct_result[key], rtol=0.02), key
+    assert abs(lut_result["superheat_actual"][1] - direct_result["superheat_actual"][1]) < 0.5
+
+
+def test_floating_branch_superheat_matches_its_outlet_enthalpy(lut_result):
+    """The mixed suction enthalpy is the flow-weighted mean of the two outlets: the floating branch
+    above the chiller's 10 K outlet, so the suction superheat lies between the two."""
+    r = lut_result
+    # Suction superheat (T_A over saturation at p_A) lies between the branches' superheats.
+    sh_suction = r["T_A"][1] - _t_sat(r["p_A"][1])
+    assert 10.0 < sh_suction < r["superheat_actual"][1]
+    # Flow-weighted: the branch carrying the share w adds w of its extra superheat (cp nearly constant).
+    w = r["mdot_evap"][1] / r["mdot"][1]
+    assert sh_suction - 10.0 == pytest.approx(w * (r["superheat_actual"][1] - 10.0), rel=0.1)
+
+
+def _t_sat(p):
+    from evtms.fluid import Fluid
+
+    return float(Fluid().saturation(np.asarray([p]))["T"][0])
+
+
+def test_status_codes_are_consistent():
+    assert CycleStatus.BRANCH_CLOSED == 10 and CYCLE_FLAGS[10] == "converged_branch_valve_closed"
+    assert STATUS_BRANCH_CLOSED in VALID_CYCLE_FLAGS
+    assert CycleStatus.BRANCH_VALVE_SATURATED not in VALID_CYCLE_FLAGS
+    assert sorted(CYCLE_FLAGS) == [int(s) for s in CycleStatus]
+
+
+def test_fewer_invalid_nodes_on_a_small_ac_chiller_map(cycle_luts_dir):
+    """3 nodes per axis: before the valves' limits were solved, 413 of 729 nodes were invalid on the
+    'cycle' LUTs (222 status 1, 178 status 9, 13 status 3); 116 after (49, 15, 48 and 4 status 4)."""
+    from evtms.system.maps import MapSettings, build_map
+
+    axes = {
+        "speed": [0.2, 0.6, 1.0],
+        "blower": [0.1, 0.5, 1.0],
+        "u_pump": [0.3, 0.5, 1.0],
+        "T_amb": [283.15, 303.15, 313.15],
+        "T_air_in": [288.15, 303.15, 315.15],
+        "T_coolant_in": [283.15, 298.15, 313.15],
+    }
+    cmap = build_map("ac+chiller", cycle_luts_dir, MapSettings(axes=axes), workers=1)
+    status = np.asarray(cmap.attrs["status"]).ravel()
+    counts = Counter(status.tolist())
+    invalid = int((~np.isin(status, VALID_CYCLE_FLAGS)).sum())
+    assert status.size == 729
+    assert invalid < 200, counts
+    assert counts[int(STATUS_BRANCH_CLOSED)] > 0 and counts[int(STATUS_VALVE_SATURATED)] > 0, counts
