@@ -182,13 +182,9 @@ DEFAULT_AXES: dict[str, tuple[float, ...] | None] = {
 #: The ac+chiller map is coarser (spec 2.5): blower 4 nodes, T_air_in every 8 K, T_coolant_in every 10 K,
 #: so 6 x 4 x 3 x 13 x 6 x 6 = 33,696 nodes, against 36,036 (ac) and 2,574 (chiller); speed, u_pump and
 #: T_amb keep the full axes (speed is the controlled input and the fill runs along it; the chiller duty is
-#: concave in the coolant flow, nearly linear in T_coolant_in). Measured 2026-11-30 on the 2-core
-#: development machine, 'cycle' LUTs (evaporator air 15-35 degC, condenser air 15-45 degC: 22 %, 48 %
-#: and 11 % of the nodes solve), all three maps from scratch (cold LUT-table cache, 72,306 points):
-#: 26.9 s with 2 workers (load from other jobs ~2.5), 36.3 s (load ~5.5); serial 30.5 s. With the LUT
-#: tables cached, per map serial / 2 workers (load ~6): ac 15.1 / 14.4 s, chiller 3.0 / 2.1 s, ac+chiller
-#: 14.5 / 7.3 s. A solved node costs about 3x an out-of-envelope one (0.3-0.5 ms against 0.16 ms), so
-#: LUTs covering every node bring the total to an estimated 30-45 s; reading the three from disk: 0.9 s.
+#: concave in the coolant flow, nearly linear in T_coolant_in). All three maps from scratch on the 'cycle'
+#: LUTs reaching the simulator's envelope, with a saturated or closed valve in one of two parallel branches
+#: solved (2026-11-30, 2 cores, inside 'evtms demo'): 46 s; reading the three from disk: 0.9 s.
 COARSE_AXES: dict[str, dict[str, tuple[float, ...]]] = {
     "ac+chiller": {
         "blower": (0.1, 0.35, 0.75, 1.0),
