@@ -5,6 +5,12 @@ compiles (scalars, NumPy arrays, no objects). :func:`jit` compiles them with
 ``numba.njit(cache=True)`` (machine code cached next to the module, so only a
 machine's first run compiles); with ``EVTMS_NO_NUMBA=1`` set, or without
 numba, the same functions run as plain Python: slower, same numbers.
+
+numba keys a function's cache on its own source file only: the loop
+(``loop.py``) inlines the map kernel of ``maps.py``, so after editing that
+kernel alone, touch ``loop.py`` (or delete ``evtms/system/__pycache__/*.nb*``)
+or the loop keeps the old machine code. An installed release replaces both
+files together.
 """
 
 from __future__ import annotations
