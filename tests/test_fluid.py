@@ -50,7 +50,6 @@ def test_saturated_air_table_matches_haprops():
     assert float(humid_air_temperature(h, 0.01, 101325.0)) == pytest.approx(300.0, abs=1e-6)
 
 
-@pytest.mark.slow
 def test_tabular_backend_within_half_a_percent_of_heos(thesis, params):
     """BICUBIC&HEOS builds its tables on first use (about 5 s, cached on disk)."""
     tab = Fluid(backend="BICUBIC&HEOS")

@@ -21,6 +21,7 @@ from evtms.cycle.solver import (
     VALID_CYCLE_FLAGS,
     CycleStatus,
 )
+from evtms.cycle.topology import INPUTS
 from evtms.params import ExpansionValveParams
 
 #: The two points of the report: the chiller's coolant (20 degC) barely warmer than evaporation
@@ -74,6 +75,16 @@ def test_limits_of_parallel_valves_on_luts(lut_result):
     _check(lut_result)
 
 
+def test_closed_branch_direct_physics_and_luts_agree(lut_result):
+    """The closed chiller branch (point 0) with the bench physics: about 6 s."""
+    direct = run_cycle(OperatingPoints(**{k: getattr(POINTS, k)[:1] for k in INPUTS}), circuit="cabin+chiller")
+    assert direct["status"].tolist() == [STATUS_BRANCH_CLOSED], direct["reason"]
+    assert direct["mdot_chiller"][0] == 0.0 and direct["superheat_actual"][0] == pytest.approx(10.0)
+    for key in ("p_A", "mdot", "mdot_evap", "Q_evap"):
+        assert np.allclose(lut_result[key][0], direct[key][0], rtol=0.02), key
+
+
+@pytest.mark.slow  # the saturated valve in parallel with the bench physics takes about 50 s: pytest -m slow
 def test_limits_of_parallel_valves_direct_physics_and_luts_agree(direct_result, lut_result):
     _check(direct_result)
     for key in ("p_A", "mdot", "mdot_evap", "Q_evap"):

@@ -66,11 +66,19 @@ def test_html_pages_reference_only_existing_files(demo_run):
     assert "cycle/speed_sweep.nc" in top and "reports/condenser/index.html" in top
 
 
-def test_second_demo_run_skips_the_benches(demo_run, tmp_path):
+def test_second_demo_run_skips_the_benches(demo_run, tmp_path, monkeypatch, small_map_axes):
+    import dataclasses
+
+    from evtms.system import refrigerant
+
     out = demo_run[0]
+    full = refrigerant.map_settings  # the demo fixture's maps have the small axes: reused, not rebuilt
+    monkeypatch.setattr(refrigerant, "map_settings", lambda p: dataclasses.replace(full(p), axes=small_map_axes))
+    maps = {p: p.stat().st_mtime_ns for p in (out / "luts" / "cycle" / "maps").glob("*.nc")}
     res = runner.invoke(app, ["demo", "-o", str(out)])
     assert res.exit_code == 0, res.output
     assert f"0 LUTs computed, {2 * len(BENCHES)} reused" in res.stdout
+    assert len(maps) == 3 and {p: p.stat().st_mtime_ns for p in maps} == maps
 
 
 def test_plotted_data_equal_the_lut(thesis):
