@@ -1180,18 +1180,14 @@ def simulate(
     from evtms.cycle.topology import parse_values
     from evtms.system.drive_cycles import drive_cycle
     from evtms.system.params import load_system_params
-    from evtms.system.simulate import MODES, SCENARIOS, check_run_options
+    from evtms.system.simulate import SCENARIOS, check_run_options
 
     if (cycle is None) == (scenario is None):
         fail("give --cycle NAME|FILE.csv or --scenario NAME (one of them)")
     if scenario is not None and scenario not in SCENARIOS:
         fail(f"--scenario {scenario!r} is unknown; allowed: {', '.join(SCENARIOS)}")
-    if mode not in MODES:
-        fail(f"--mode {mode!r} is unknown; allowed: {', '.join(MODES)}")
     if model != "lut":
         fail(f"--model {model!r} is not available; allowed: lut")
-    if not (math.isfinite(precondition) and 0.0 <= precondition <= 86400.0):
-        fail(f"--precondition {precondition:g} is not allowed; allowed: 0 to 86400 s")
     if soak_cabin is not None and not (math.isfinite(soak_cabin) and -40.0 <= soak_cabin <= 90.0):
         fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
     sc = SCENARIOS[scenario] if scenario is not None else None

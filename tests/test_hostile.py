@@ -26,6 +26,8 @@ from typer.testing import CliRunner
 from evtms.cli import app
 
 runner = CliRunner()
+#: A simulate call whose other arguments are good.
+SIM = ["simulate", "--cycle", "wltc3b", "--t-amb", "30"]
 SMALL = ["--axis", "mdot=4,6g/s", "--axis", "fan=0.2,0.5", "--axis", "p_in=1,1.1MPa", "--axis", "T_in=340,350"]
 
 
@@ -348,58 +350,58 @@ CASES: list[Case] = [
     ),
     Case(
         "simulate-params-unknown-table",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--params", "n.toml", "-o", "o.nc"],
+        [*SIM, "--params", "n.toml", "-o", "o.nc"],
         "table [hvac] is unknown",
         [write("n.toml", "[hvac]\nx = 1\n")],
     ),
     Case(
         "simulate-params-string",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--params", "n.toml", "-o", "o.nc"],
+        [*SIM, "--params", "n.toml", "-o", "o.nc"],
         "[cabin] volume = 'big'",
         [write("n.toml", "[cabin]\nvolume = 'big'\n")],
     ),
     Case(
         "simulate-params-order",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--params", "n.toml", "-o", "o.nc"],
+        [*SIM, "--params", "n.toml", "-o", "o.nc"],
         "soc_min < soc_init",
         [write("n.toml", "[battery]\nsoc_min = 0.95\n")],
     ),
-    Case("simulate-dt-nan", ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--dt", "nan", "-o", "o.nc"], "--dt"),
+    Case("simulate-dt-nan", [*SIM, "--dt", "nan", "-o", "o.nc"], "--dt"),
     Case(
         "simulate-too-many-steps",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--dt", "0.001", "--precondition", "86400", "-o", "o.nc"],
+        [*SIM, "--dt", "0.001", "--precondition", "86400", "-o", "o.nc"],
         "steps",
     ),
     Case(
         "simulate-output-every",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--dt", "2", "--output-every", "3", "-o", "o.nc"],
+        [*SIM, "--dt", "2", "--output-every", "3", "-o", "o.nc"],
         "--output-every",
     ),
     Case(
         "simulate-precondition-fraction",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--precondition", "0.5", "-o", "o.nc"],
+        [*SIM, "--precondition", "0.5", "-o", "o.nc"],
         "--precondition 0.5",
     ),
     Case(
         "simulate-soak-nan",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--soak-cabin", "nan", "-o", "o.nc"],
+        [*SIM, "--soak-cabin", "nan", "-o", "o.nc"],
         "soak",
     ),
     Case("simulate-t-amb-words", ["simulate", "--cycle", "wltc3b", "--t-amb", "hot", "-o", "o.nc"], "--t-amb"),
     Case(
         "simulate-over-lut",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "-o", "luts/condenser.nc"],
+        [*SIM, "-o", "luts/condenser.nc"],
         "is the input",
     ),
-    Case("simulate-not-nc", ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "-o", "o.csv"], ".nc"),
+    Case("simulate-not-nc", [*SIM, "-o", "o.csv"], ".nc"),
     Case(
         "simulate-luts-is-a-file",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", "c.nc", "-o", "o.nc"],
+        [*SIM, "--luts", "c.nc", "-o", "o.nc"],
         "not a folder",
     ),
     Case(
         "simulate-wrong-lut",
-        ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", "luts", "-o", "o.nc"],
+        [*SIM, "--luts", "luts", "-o", "o.nc"],
         "the compressor LUT is needed",
         [link_as("condenser.nc", "compressor.nc")],
     ),

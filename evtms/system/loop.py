@@ -203,6 +203,8 @@ def run_loop(
     x = np.zeros(6)
     g_w = np.array([par[P_G_GLASS], par[P_G_DOORS], par[P_G_ROOF]])
     c_w = np.array([par[P_C_GLASS], par[P_C_DOORS], par[P_C_ROOF]])
+    alphas = np.empty(3)  # per step: wall temperature T_w' = alpha_w + beta_w T_air'
+    betas = np.empty(3)
     # Controller and mode memory.
     mode = OFF if forced < 0 else forced
     t_mode = -1e300
@@ -418,8 +420,6 @@ def run_loop(
         g_fresh = mdot_air * _CP_AIR * (1.0 - recirc)
         lhs = par[P_C_AIR] / dt + g_fresh
         rhs = par[P_C_AIR] / dt * Ta + g_fresh * T_amb + q_air
-        alphas = np.empty(3)
-        betas = np.empty(3)
         for k in range(3):
             cw = c_w[k] / dt
             den = cw + 2.0 * g_w[k]

@@ -179,13 +179,19 @@ _STATES = {
 }
 
 
-def step_edges(duration: float, dt: float) -> np.ndarray:
-    """Step boundaries [s] from 0 to ``duration`` every ``dt``; the last step is shortened."""
+def step_count(duration: float, dt: float) -> int:
+    """Steps of ``dt`` [s] that cover ``duration`` [s]; more than :data:`MAX_STEPS` is an input error."""
     n = math.ceil(duration / dt - 1e-9)
     if n > MAX_STEPS:
         raise EvtmsInputError(
             f"--dt {dt:g} s gives {n:,} steps over {duration:g} s; allowed: at most {MAX_STEPS:,} steps"
         )
+    return n
+
+
+def step_edges(duration: float, dt: float) -> np.ndarray:
+    """Step boundaries [s] from 0 to ``duration`` every ``dt``; the last step is shortened."""
+    n = step_count(duration, dt)
     edges = np.arange(n + 1) * dt
     edges[-1] = duration
     return edges
@@ -446,7 +452,7 @@ def check_run_options(
             )
         if cycle.speed[0] != 0.0:
             raise EvtmsInputError(f"--precondition needs a cycle that starts at standstill; {cycle.name} does not")
-    step_edges(cycle.duration + precondition, dt)  # bounds the steps before anything is allocated
+    step_count(cycle.duration + precondition, dt)  # bounds the steps before anything is allocated
     return every
 
 
@@ -484,7 +490,7 @@ def _consumption_split(out: np.ndarray, dts: np.ndarray) -> dict[str, float]:
 
 def _drive_means(cycle: DriveCycle, seg: dict, edges: np.ndarray, regen: np.ndarray) -> dict[str, np.ndarray]:
     """Per-step means of the e-drive's powers, with regeneration where the loop allowed it."""
-    names = ("P_wheel", "P_traction", "P_motor_el", "P_gear_loss", "P_loss", "P_friction")
+    names = ("P_wheel", "P_traction", "P_gear_loss", "P_loss", "P_friction")
     on = {k: _step_means(cycle.time, getattr(seg[True], k), edges) for k in names}
     off = {k: _step_means(cycle.time, getattr(seg[False], k), edges) for k in names}
     return {k: np.where(regen, on[k], off[k]) for k in names}
