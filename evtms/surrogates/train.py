@@ -1,0 +1,600 @@
+"""Training the mode models: LUT simulations -> per-mode step pairs -> two small networks per mode -> held-out check.
+
+:func:`train_surrogates` is what ``evtms surrogate train`` runs:
+
+1. data: every scenario of :func:`evtms.surrogates.design.design` is simulated
+   on the cycle maps (``model="lut"``, dt 1 s) keeping the loop's trace, and
+   :func:`evtms.system.mode_model.training_pairs` splits its steps by mode code;
+2. fit: per mode code, a ``power`` and a ``dynamics`` network
+   (:func:`fit_network`: inputs and outputs standardised, scikit-learn's
+   :class:`~sklearn.neural_network.MLPRegressor` with early stopping and a
+   fixed ``random_state``); the weights are copied into
+   :class:`~evtms.system.mode_model.Network`, so inference needs NumPy only;
+3. held-out check: on the held-out scenarios (other drive cycles and
+   ambients than training), the one-step error of each network, and, when
+   :func:`~evtms.system.simulate.simulate` offers ``model="surrogate"``, the
+   closed-loop error of the run on the networks against the LUT run (RMSE
+   and largest deviation of T_battery, T_cabin, T_coolant, SOC and P_hvac);
+4. the file: ``<out_dir>/mode_models.npz`` (:mod:`evtms.surrogates.io`),
+   written atomically; modes already in an existing file and not retrained
+   are kept.
+
+scikit-learn is needed here only (an optional extra); nothing in
+:mod:`evtms.system` imports it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import evtms
+from evtms.errors import EvtmsInputError
+from evtms.surrogates import design as D  # noqa: N812 - the design module, read as D.*
+from evtms.surrogates.io import FILE_NAME, load_mode_models, save_mode_models
+from evtms.system import loop as L  # noqa: N812 - the loop's index constants
+from evtms.system import mode_model as mm
+from evtms.system.params import SystemParams
+from evtms.system.refrigerant import Refrigerant, load_refrigerant
+from evtms.system.simulate import MODES as SIM_MODES
+from evtms.system.simulate import SimulationResult, simulate
+
+Progress = Callable[[int, int, str], None]
+#: Variables compared between the surrogate and the LUT run on held-out scenarios.
+ROLLOUT_VARIABLES = ("T_battery", "T_cabin", "T_coolant", "SOC", "P_hvac")
+#: One-step targets reported (name -> column in the dynamics targets, or the power target).
+ONE_STEP = {
+    "P_compressor": ("power", 0),
+    "dT_battery_dt": ("dynamics", mm.DYNAMICS_TARGETS.index("dT_battery_dt")),
+    "dT_cabin_dt": ("dynamics", mm.DYNAMICS_TARGETS.index("dT_cabin_dt")),
+    "dT_coolant_dt": ("dynamics", mm.DYNAMICS_TARGETS.index("dT_coolant_dt")),
+}
+#: Fewest training steps a mode needs to get networks.
+MIN_SAMPLES = 200
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """How each network is fitted.
+
+    Attributes
+    ----------
+    hidden : tuple of int
+        Hidden-layer widths (1-2 layers of 16-64 units).
+    activation : str
+        ``tanh`` or ``relu``.
+    max_iter : int
+        Most epochs (early stopping usually ends sooner).
+    max_samples : int
+        Most steps per mode fitted (a seeded random subset beyond).
+    alpha : float
+        L2 penalty [1].
+    """
+
+    hidden: tuple[int, ...] = (32, 32)
+    activation: str = "tanh"
+    max_iter: int = 120
+    max_samples: int = 12_000
+    alpha: float = 1e-6
+
+    @classmethod
+    def quick(cls) -> FitSettings:
+        """Tiny networks and few epochs (tests)."""
+        return cls(hidden=(16,), max_iter=40, max_samples=3000)
+
+
+@dataclass
+class FitInfo:
+    """What one fit did: samples, epochs, time [s] and the training loss (standardised)."""
+
+    n_samples: int
+    epochs: int
+    time_s: float
+    loss: float
+
+
+@dataclass
+class ModeReport:
+    """Per mode: data, fit and held-out errors.
+
+    Attributes
+    ----------
+    mode : str
+        Mode name; ``code`` its loop code.
+    n_train, n_fitted : int
+        Training steps of the mode, and how many were fitted (subset above ``max_samples``).
+    n_heldout : int
+        Held-out steps of the mode (one-step check).
+    fit_power, fit_dynamics : FitInfo
+    one_step : dict of str to float
+        RMSE on the held-out steps: ``P_compressor`` [W], ``dT_battery_dt``, ``dT_cabin_dt``, ``dT_coolant_dt`` [K/s].
+    rollout : dict of str to dict, or None
+        Closed-loop errors on the mode's held-out runs (forced mode), per
+        variable of :data:`ROLLOUT_VARIABLES`: ``rmse`` and ``max`` (largest
+        absolute deviation) [K, 1 for SOC, W for P_hvac]; ``out_of_range``
+        the share of steps flagged out of the training range. None when the
+        simulator cannot run the surrogate or the mode has no held-out run.
+    """
+
+    mode: str
+    code: int
+    n_train: int
+    n_fitted: int
+    n_heldout: int
+    fit_power: FitInfo
+    fit_dynamics: FitInfo
+    one_step: dict[str, float]
+    rollout: dict | None = None
+
+
+@dataclass
+class TrainReport:
+    """A training run.
+
+    Attributes
+    ----------
+    path : Path
+        Model file written.
+    modes : dict of str to ModeReport
+        Modes trained in this run.
+    skipped : dict of str to str
+        Modes without networks and why (too few steps).
+    auto : dict or None
+        Closed-loop errors of the held-out ``auto`` runs (every mode trained), as :attr:`ModeReport.rollout`.
+    kept : list of str
+        Modes kept from an existing file.
+    n_train_runs, n_heldout_runs : int
+    data_time_s, fit_time_s, eval_time_s, total_time_s : float
+        Wall times [s].
+    rollout_available : bool
+        Whether the simulator ran the surrogate (closed-loop check).
+    """
+
+    path: Path
+    modes: dict[str, ModeReport]
+    skipped: dict[str, str] = field(default_factory=dict)
+    auto: dict | None = None
+    kept: list[str] = field(default_factory=list)
+    n_train_runs: int = 0
+    n_heldout_runs: int = 0
+    data_time_s: float = 0.0
+    fit_time_s: float = 0.0
+    eval_time_s: float = 0.0
+    total_time_s: float = 0.0
+    rollout_available: bool = False
+
+    def to_dict(self) -> dict:
+        """Plain values (``--json``)."""
+        d = dataclasses.asdict(self)
+        d["path"] = str(self.path)
+        return d
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Simulator capabilities
+
+
+def _sim_params() -> set[str]:
+    return set(inspect.signature(simulate).parameters)
+
+
+def surrogate_available() -> bool:
+    """Whether :func:`simulate` runs the loop on mode models (``model="surrogate"``)."""
+    return {"model", "mode_models"} <= _sim_params()
+
+
+def forcible_modes() -> set[str]:
+    """Mode names :func:`simulate` can force."""
+    return {m for m in D.MODE_NAMES if m in SIM_MODES}
+
+
+def run_scenario(
+    sc: D.Scenario,
+    refrigerant: Refrigerant,
+    params: SystemParams | None = None,
+    *,
+    keep_trace: bool = True,
+    mode_models: mm.ModeModels | None = None,
+) -> SimulationResult:
+    """Simulate one scenario at dt 1 s (on the LUT maps, or on ``mode_models`` when given).
+
+    With ``keep_trace`` the result carries ``trace`` (the loop's states,
+    outputs, modes, step lengths and parameters).
+    """
+    kwargs = dict(
+        dt=1.0,
+        mode=sc.mode,
+        RH_amb=sc.RH_amb,
+        sun=sc.sun,
+        soak_cabin=sc.T_cabin0,
+        scenario=sc.name,
+    )
+    if mode_models is not None:
+        kwargs.update(model="surrogate", mode_models=mode_models)
+    return simulate(sc.drive_cycle(), sc.T_amb, refrigerant, sc.params(params), keep_trace=keep_trace, **kwargs)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Fitting
+
+
+def _scaling(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard deviation per column; a (near) constant column gets scale 1."""
+    mean = a.mean(axis=0)
+    std = a.std(axis=0)
+    flat = ~(std > 1e-12 * np.maximum(np.abs(mean), 1.0))
+    return mean, np.where(flat, 1.0, std)
+
+
+def fit_network(
+    X: np.ndarray,
+    Y: np.ndarray,
+    settings: FitSettings | None = None,
+    *,
+    seed: int = 0,
+) -> tuple[mm.Network, FitInfo]:
+    """Fit one network ``Y ~ f(X)`` on standardised inputs and outputs.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        Features ``(n, n_in)`` [feature units].
+    Y : numpy.ndarray
+        Targets ``(n, n_out)`` [target units].
+    settings : FitSettings, optional
+    seed : int
+        ``random_state`` of the initial weights, the validation split and the batches.
+
+    Returns
+    -------
+    Network, FitInfo
+        The network (training range: the columns' min and max) and what the fit did.
+    """
+    try:
+        from sklearn.exceptions import ConvergenceWarning
+        from sklearn.neural_network import MLPRegressor
+    except ImportError:
+        raise EvtmsInputError(
+            "surrogate training needs scikit-learn; install it with: python3 -m pip install scikit-learn"
+        ) from None
+    import warnings
+
+    s = settings or FitSettings()
+    X = np.asarray(X, np.float64)
+    Y = np.asarray(Y, np.float64)
+    if Y.ndim == 1:
+        Y = Y[:, None]
+    if X.shape[0] != Y.shape[0] or X.shape[0] < 10:
+        raise ValueError(f"fit_network: {X.shape[0]} inputs and {Y.shape[0]} targets; need the same number >= 10")
+    x_mean, x_scale = _scaling(X)
+    y_mean, y_scale = _scaling(Y)
+    Xn = (X - x_mean) / x_scale
+    Yn = (Y - y_mean) / y_scale
+    n = X.shape[0]
+    reg = MLPRegressor(
+        hidden_layer_sizes=s.hidden,
+        activation=s.activation,
+        solver="adam",
+        alpha=s.alpha,
+        batch_size=min(200, n),
+        learning_rate_init=2e-3,
+        max_iter=s.max_iter,
+        early_stopping=n >= 100,
+        validation_fraction=0.1,
+        n_iter_no_change=10,
+        tol=1e-6,
+        random_state=seed,
+    )
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        reg.fit(Xn, Yn[:, 0] if Yn.shape[1] == 1 else Yn)
+    elapsed = time.perf_counter() - t0
+    net = mm.Network(
+        activation=s.activation,
+        weights=[np.ascontiguousarray(w, np.float64) for w in reg.coefs_],
+        biases=[np.ascontiguousarray(b, np.float64) for b in reg.intercepts_],
+        x_mean=x_mean,
+        x_scale=x_scale,
+        y_mean=y_mean,
+        y_scale=y_scale,
+        x_min=X.min(axis=0),
+        x_max=X.max(axis=0),
+    )
+    return net, FitInfo(n_samples=n, epochs=int(reg.n_iter_), time_s=elapsed, loss=float(reg.loss_))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Data
+
+
+def _collect(
+    scenarios: list[D.Scenario],
+    refrigerant: Refrigerant,
+    params: SystemParams | None,
+    codes: set[int],
+    tick: Callable[[str], None],
+) -> tuple[dict[int, list[tuple[np.ndarray, ...]]], dict[str, SimulationResult]]:
+    """Step pairs by mode code (only ``codes``) of every scenario, and the LUT results by scenario name."""
+    pairs: dict[int, list[tuple[np.ndarray, ...]]] = {c: [] for c in codes}
+    results = {}
+    for sc in scenarios:
+        res = run_scenario(sc, refrigerant, params)
+        for code, p in mm.training_pairs(res.trace).items():
+            if code in pairs:
+                pairs[code].append(p)
+        res.trace = None  # type: ignore[attr-defined] - the records stay for the held-out comparison
+        results[sc.name] = res
+        tick(f"simulated {sc.name}")
+    return pairs, results
+
+
+def _stack(chunks: list[tuple[np.ndarray, ...]]) -> tuple[np.ndarray, ...]:
+    if not chunks:
+        return (np.zeros((0, len(mm.POWER_FEATURES))), np.zeros((0, 1)), np.zeros((0, len(mm.DYNAMICS_FEATURES))),
+                np.zeros((0, len(mm.DYNAMICS_TARGETS))))  # fmt: skip
+    return tuple(np.concatenate([c[i] for c in chunks]) for i in range(4))
+
+
+def _finite_rows(*arrays: np.ndarray) -> np.ndarray:
+    ok = np.ones(arrays[0].shape[0], bool)
+    for a in arrays:
+        ok &= np.all(np.isfinite(a.reshape(a.shape[0], -1)), axis=1)
+    return ok
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Held-out evaluation
+
+
+def rollout_errors(lut: SimulationResult, sur: SimulationResult) -> dict[str, np.ndarray]:
+    """Per variable of :data:`ROLLOUT_VARIABLES`, surrogate minus LUT on the common records (NaN-free)."""
+    out = {}
+    for v in ROLLOUT_VARIABLES:
+        a, b = np.asarray(lut.records[v], float), np.asarray(sur.records[v], float)
+        n = min(a.size, b.size)
+        d = b[:n] - a[:n]
+        out[v] = d[np.isfinite(d)]
+    return out
+
+
+def _summarise(diffs: list[dict[str, np.ndarray]], oor: list[float]) -> dict:
+    s: dict = {}
+    for v in ROLLOUT_VARIABLES:
+        d = np.concatenate([x[v] for x in diffs]) if diffs else np.zeros(0)
+        s[v] = {
+            "rmse": float(np.sqrt(np.mean(d**2))) if d.size else math.nan,
+            "max": float(np.max(np.abs(d))) if d.size else math.nan,
+        }
+    s["out_of_range"] = float(np.mean(oor)) if oor else math.nan
+    s["runs"] = len(diffs)
+    return s
+
+
+def _one_step(power: mm.Network, dyn: mm.Network, data: tuple[np.ndarray, ...]) -> dict[str, float]:
+    xp, yp, xd, yd = data
+    if yp.shape[0] == 0:
+        return {k: math.nan for k in ONE_STEP}
+    ep = power.predict(xp) - yp
+    ed = dyn.predict(xd) - yd
+    out = {}
+    for name, (head, col) in ONE_STEP.items():
+        e = (ep if head == "power" else ed)[:, col]
+        out[name] = float(np.sqrt(np.mean(e**2)))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The command
+
+
+def train_surrogates(
+    luts: str | Path | Refrigerant,
+    modes: list[str],
+    out_dir: str | Path,
+    *,
+    params: SystemParams | None = None,
+    progress: Progress | None = None,
+    seed: int = 0,
+    quick: bool = False,
+    settings: FitSettings | None = None,
+    runs_per_mode: int = 24,
+) -> TrainReport:
+    """Generate LUT simulations, fit the mode models of ``modes``, check them on held-out runs, write the file.
+
+    Parameters
+    ----------
+    luts : str, Path or Refrigerant
+        Folder of cycle LUTs (maps built and cached there when missing), or loaded maps.
+    modes : list of str
+        Mode names (:data:`evtms.surrogates.design.MODE_NAMES`) or ``all``.
+    out_dir : str or Path
+        Output folder; the file is ``<out_dir>/mode_models.npz``. Modes of an
+        existing file there that are not retrained are kept.
+    params : SystemParams, optional
+        Base parameters (each scenario sets its own setpoint, initial temperatures and SOC on top).
+    progress : callable, optional
+        ``progress(done, total, message)`` after each simulation and fit.
+    seed : int
+        Seed of the scenario design and of every fit.
+    quick : bool
+        Small design and tiny networks (tests; errors are not representative).
+    settings : FitSettings, optional
+        Network sizes and epochs (default :class:`FitSettings`, or :meth:`FitSettings.quick` with ``quick``).
+    runs_per_mode : int
+        Training simulations per mode.
+
+    Returns
+    -------
+    TrainReport
+
+    Raises
+    ------
+    EvtmsInputError
+        An unknown mode name, an existing model file that does not load, no
+        mode with enough training steps, or scikit-learn missing.
+    """
+    t_start = time.perf_counter()
+    for m in modes:
+        if m != "all" and m not in D.MODE_NAMES:
+            raise EvtmsInputError(f"--mode {m!r} is unknown; allowed: {', '.join(D.MODE_NAMES)}, all")
+    names = D.modes_for(list(modes))
+    if not names:
+        raise EvtmsInputError("--mode: no mode given; allowed: " + ", ".join(D.MODE_NAMES) + ", all")
+    settings = settings or (FitSettings.quick() if quick else FitSettings())
+    path = Path(out_dir) / FILE_NAME
+    existing = load_mode_models(path) if path.exists() else None
+    refrigerant = luts if isinstance(luts, Refrigerant) else load_refrigerant(luts, params)
+    forced = forcible_modes()
+    des = D.design(names, seed=seed, runs_per_mode=runs_per_mode, quick=quick, forced=forced)
+    with_rollout = surrogate_available()
+    total = len(des.train) + len(des.heldout) * (2 if with_rollout else 1) + 2 * len(names)
+    done = 0
+
+    def tick(message: str) -> None:
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, total, message)
+
+    codes = {mm.MODE_CODES[m] for m in names}
+    t0 = time.perf_counter()
+    train_pairs, _ = _collect(des.train, refrigerant, params, codes, tick)
+    held_pairs, held_lut = _collect(des.heldout, refrigerant, params, codes, tick)
+    data_time = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    reports: dict[str, ModeReport] = {}
+    skipped: dict[str, str] = {}
+    power: dict[int, mm.Network] = {}
+    dynamics: dict[int, mm.Network] = {}
+    for m in names:
+        code = mm.MODE_CODES[m]
+        xp, yp, xd, yd = _stack(train_pairs[code])
+        ok = _finite_rows(xp, yp, xd, yd)
+        xp, yp, xd, yd = xp[ok], yp[ok], xd[ok], yd[ok]
+        n_train = xp.shape[0]
+        if n_train < MIN_SAMPLES:
+            skipped[m] = f"{n_train} training steps in mode {m}; at least {MIN_SAMPLES} needed"
+            tick(f"skipped {m}")
+            tick(f"skipped {m}")
+            continue
+        if n_train > settings.max_samples:
+            sel = np.sort(rng.choice(n_train, settings.max_samples, replace=False))
+            xp, yp, xd, yd = xp[sel], yp[sel], xd[sel], yd[sel]
+        power[code], fit_p = fit_network(xp, yp, settings, seed=seed)
+        tick(f"fitted {m} power ({fit_p.epochs} epochs, {fit_p.time_s:.1f} s)")
+        dynamics[code], fit_d = fit_network(xd, yd, settings, seed=seed)
+        tick(f"fitted {m} dynamics ({fit_d.epochs} epochs, {fit_d.time_s:.1f} s)")
+        held = _stack(held_pairs[code])
+        ok = _finite_rows(*held)
+        held = tuple(a[ok] for a in held)
+        reports[m] = ModeReport(
+            mode=m,
+            code=code,
+            n_train=n_train,
+            n_fitted=xp.shape[0],
+            n_heldout=held[0].shape[0],
+            fit_power=fit_p,
+            fit_dynamics=fit_d,
+            one_step=_one_step(power[code], dynamics[code], held),
+        )
+    fit_time = time.perf_counter() - t0
+    if not reports:
+        raise EvtmsInputError("no mode model trained: " + "; ".join(skipped.values()))
+
+    kept: list[str] = []
+    attrs_scen: dict = {}
+    attrs_metrics: dict = {}
+    if existing is not None:
+        for name, code in mm.MODE_CODES.items():
+            if name not in reports and code in existing.codes():
+                power[code], dynamics[code] = existing.power[code], existing.dynamics[code]
+                kept.append(name)
+                attrs_scen[name] = existing.attrs.get("scenarios", {}).get(name, [])
+                attrs_metrics[name] = existing.attrs.get("metrics", {}).get(name, {})
+    models = mm.ModeModels(power=power, dynamics=dynamics)
+
+    t0 = time.perf_counter()
+    auto = None
+    if with_rollout:
+        diffs: dict[str, list] = {}
+        oor: dict[str, list] = {}
+        for sc in des.heldout:
+            target = sc.target
+            if target != "auto" and target not in reports:
+                tick(f"no model for {sc.name}")
+                continue
+            sur = run_scenario(sc, refrigerant, params, keep_trace=False, mode_models=models)
+            diffs.setdefault(target, []).append(rollout_errors(held_lut[sc.name], sur))
+            oor.setdefault(target, []).append(float(np.mean((sur.flags & L.F_SURROGATE_OOR) > 0)))
+            tick(f"surrogate {sc.name}")
+        for m, rep in reports.items():
+            if m in diffs and any(s.mode == m for s in des.heldout if s.target == m):
+                rep.rollout = _summarise(diffs[m], oor[m])
+        if "auto" in diffs:
+            auto = _summarise(diffs["auto"], oor["auto"])
+    eval_time = time.perf_counter() - t0
+
+    for m, rep in reports.items():
+        attrs_scen[m] = [s.to_dict() for s in des.train if s.target == m] + [
+            s.to_dict() for s in des.heldout if s.target == m
+        ]
+        attrs_metrics[m] = {
+            "n_train": rep.n_train,
+            "n_fitted": rep.n_fitted,
+            "n_heldout": rep.n_heldout,
+            "fit_power": dataclasses.asdict(rep.fit_power),
+            "fit_dynamics": dataclasses.asdict(rep.fit_dynamics),
+            "one_step_rmse": rep.one_step,
+            "rollout": rep.rollout,
+        }
+    if auto is not None:
+        attrs_metrics["auto"] = auto
+        attrs_scen["auto"] = [s.to_dict() for s in des.heldout if s.target == "auto"]
+    models.attrs = {
+        "evtms_version": evtms.__version__,
+        "seed": seed,
+        "quick": quick,
+        "fit_settings": dataclasses.asdict(settings),
+        "dt": 1.0,
+        "held_out_cycles": list(D.HELDOUT_CYCLES),
+        "held_out_ambients_degC": list(D.HELDOUT_AMBIENTS_C),
+        "scenarios": attrs_scen,
+        "metrics": _json_safe(attrs_metrics),
+        "kept_from_previous_file": kept,
+    }
+    save_mode_models(models, path)
+    return TrainReport(
+        path=path,
+        modes=reports,
+        skipped=skipped,
+        auto=auto,
+        kept=kept,
+        n_train_runs=len(des.train),
+        n_heldout_runs=len(des.heldout),
+        data_time_s=data_time,
+        fit_time_s=fit_time,
+        eval_time_s=eval_time,
+        total_time_s=time.perf_counter() - t_start,
+        rollout_available=with_rollout,
+    )
+
+
+def _json_safe(obj):  # noqa: ANN001, ANN202
+    """NaN -> None, recursively (JSON has no NaN)."""
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
