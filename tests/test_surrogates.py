@@ -1,0 +1,329 @@
+"""Mode-model training (issue 16): fitting, the model file, training pairs, scenario design, the training run.
+
+The simulations run on small synthetic cycle maps (as in ``test_simulate.py``)
+and short traces, so the whole module stays well under a minute.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from evtms.errors import EvtmsInputError
+from evtms.surrogates import design as D  # noqa: N812
+from evtms.surrogates.io import FILE_NAME, load_mode_models, save_mode_models
+from evtms.surrogates.train import FitSettings, fit_network, train_surrogates
+from evtms.system import mode_model as mm
+from evtms.system.drive_cycles import DriveCycle
+from evtms.system.maps import CycleMap
+from evtms.system.params import system_params_from_dict
+from evtms.system.refrigerant import Refrigerant
+from evtms.system.simulate import simulate
+
+pytest.importorskip("sklearn")
+
+
+def _map(name: str, axes: tuple[str, ...], nodes: list[list[float]], evap: float, chill: float) -> CycleMap:
+    grids = np.meshgrid(*[np.asarray(n, float) for n in nodes], indexing="ij")
+    speed = grids[0]
+    v = np.zeros((*speed.shape, 9))
+    W = 3000.0 * speed
+    q_e, q_c = evap * 6000.0 * speed, chill * 5000.0 * speed
+    v[..., 0] = 0.3e6 / (0.5 + speed)
+    v[..., 1] = 1.5e6
+    v[..., 2] = 0.05 * speed
+    v[..., 3], v[..., 4], v[..., 5] = q_e, 0.2 * q_e, q_c
+    v[..., 7], v[..., 8] = W, 0.9 * W
+    v[..., 6] = q_e + q_c + 0.9 * W
+    return CycleMap(name, axes, tuple(np.asarray(n, float) for n in nodes), v, 0)
+
+
+@pytest.fixture(scope="module")
+def refrigerant() -> Refrigerant:
+    sp, Ta, Tair, Tc = [0.1, 0.5, 1.0], [243.15, 323.15], [243.15, 343.15], [243.15, 343.15]
+    maps = {
+        "ac": _map(
+            "ac", ("speed", "blower", "T_amb", "T_air_in", "RH_air_in"), [sp, [0.1, 1], Ta, Tair, [0.0, 1.0]], 1, 0
+        ),
+        "chiller": _map("chiller", ("speed", "u_pump", "T_amb", "T_coolant_in"), [sp, [0.0, 1], Ta, Tc], 0, 1),
+        "ac+chiller": _map(
+            "ac+chiller",
+            ("speed", "blower", "u_pump", "T_amb", "T_air_in", "T_coolant_in"),
+            [sp, [0.1, 1], [0.0, 1], Ta, Tair, Tc],
+            0.6,
+            0.5,
+        ),
+    }
+    T = np.linspace(220.0, 370.0, 301)
+    p = 2.9e5 * np.exp(0.037 * (T - 273.15))
+    return Refrigerant(maps, T, p, 4e-4 * 1070.0)
+
+
+def _trip(seconds: int = 300) -> DriveCycle:
+    t = np.arange(seconds + 1.0)
+    v = 12.0 * np.clip(np.minimum(t, seconds - t) / 30.0, 0.0, 1.0)
+    return DriveCycle("trip", t, v, np.zeros_like(t), "test")
+
+
+def _random_network(rng: np.random.Generator, n_in: int, n_out: int, widths=(8, 5), activation="tanh") -> mm.Network:
+    sizes = [n_in, *widths, n_out]
+    return mm.Network(
+        activation,
+        [rng.normal(size=(a, b)) for a, b in zip(sizes[:-1], sizes[1:], strict=True)],
+        [rng.normal(size=b) for b in sizes[1:]],
+        x_mean=rng.normal(size=n_in),
+        x_scale=rng.uniform(0.5, 2.0, n_in),
+        y_mean=rng.normal(size=n_out),
+        y_scale=rng.uniform(0.5, 2.0, n_out),
+        x_min=-np.ones(n_in),
+        x_max=np.ones(n_in),
+    )
+
+
+def _models(seed: int = 0, modes=("bc", "cc")) -> mm.ModeModels:
+    rng = np.random.default_rng(seed)
+    codes = [mm.MODE_CODES[m] for m in modes]
+    return mm.ModeModels(
+        power={c: _random_network(rng, len(mm.POWER_FEATURES), 1) for c in codes},
+        dynamics={c: _random_network(rng, len(mm.DYNAMICS_FEATURES), 9, activation="relu") for c in codes},
+        attrs={"scenarios": {}, "metrics": {}},
+    )
+
+
+# --- fitting -------------------------------------------------------------------------------------------------
+
+
+def test_fit_recovers_a_linear_system():
+    """Targets an exact linear map of 17 features with very different scales: the fit recovers it on new points."""
+    rng = np.random.default_rng(1)
+    n_in, n_out = len(mm.DYNAMICS_FEATURES), 3
+    scales = 10.0 ** rng.uniform(-3, 5, n_in)
+    A = rng.normal(size=(n_in, n_out)) / scales[:, None]
+    c = np.array([1e-3, 5.0, -2e4])
+    X = rng.uniform(-1, 1, (3000, n_in)) * scales
+    X[:, 3] = 7.0  # a constant feature gets scale 1
+    net, info = fit_network(X, X @ A + c, FitSettings(hidden=(16,), max_iter=150, max_samples=3000), seed=0)
+    assert net.x_scale[3] == 1.0 and net.x_mean[3] == 7.0
+    assert np.array_equal(net.x_min, X.min(axis=0)) and np.array_equal(net.x_max, X.max(axis=0))
+    Xt = rng.uniform(-0.9, 0.9, (500, n_in)) * scales
+    Xt[:, 3] = 7.0
+    Yt = Xt @ A + c
+    err = net.predict(Xt) - Yt
+    assert np.all(np.sqrt(np.mean(err**2, axis=0)) < 0.05 * Yt.std(axis=0)), info
+    assert info.n_samples == 3000 and info.epochs >= 1
+
+
+def test_fit_is_reproducible():
+    rng = np.random.default_rng(2)
+    X = rng.normal(size=(300, 4))
+    Y = np.sin(X[:, :1])
+    a, _ = fit_network(X, Y, FitSettings.quick(), seed=3)
+    b, _ = fit_network(X, Y, FitSettings.quick(), seed=3)
+    assert all(np.array_equal(u, v) for u, v in zip(a.weights, b.weights, strict=True))
+
+
+# --- the file ----------------------------------------------------------------------------------------------------
+
+
+def test_round_trip_is_bit_exact(tmp_path):
+    models = _models()
+    models.attrs["metrics"] = {"bc": {"rmse": 0.1}}
+    path = save_mode_models(models, tmp_path / FILE_NAME)
+    assert [p.name for p in tmp_path.iterdir()] == [FILE_NAME]  # no temporary left
+    back = load_mode_models(path)
+    assert back.codes() == models.codes()
+    for heads in (("power", models.power, back.power), ("dynamics", models.dynamics, back.dynamics)):
+        for code, net in heads[1].items():
+            other = heads[2][code]
+            assert net.activation == other.activation
+            for u, v in zip(net.weights + net.biases, other.weights + other.biases, strict=True):
+                assert np.array_equal(u, v) and u.dtype == v.dtype
+            for name in ("x_mean", "x_scale", "x_min", "x_max", "y_mean", "y_scale"):
+                assert np.array_equal(getattr(net, name), getattr(other, name))
+    X = np.random.default_rng(0).normal(size=(50, len(mm.DYNAMICS_FEATURES)))
+    code = mm.MODE_CODES["bc"]
+    assert np.array_equal(models.dynamics[code].predict(X), back.dynamics[code].predict(X))
+    assert np.array_equal(models.packed()[0], back.packed()[0])
+    assert back.attrs["metrics"] == {"bc": {"rmse": 0.1}}
+    assert back.attrs["evtms_version"] == __import__("evtms").__version__ and "created" in back.attrs
+
+
+def _corrupt(tmp_path, change) -> str:
+    path = save_mode_models(_models(), tmp_path / "good.npz")
+    with np.load(path) as z:
+        data = {k: z[k] for k in z.files}
+    change(data)
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **data)
+    with pytest.raises(EvtmsInputError) as exc:
+        load_mode_models(bad)
+    msg = str(exc.value)
+    assert "bad.npz" in msg and "\n" not in msg
+    return msg
+
+
+def _set_attr(key, value):
+    def change(d):
+        a = json.loads(str(d["attrs"]))
+        a[key] = value
+        d["attrs"] = np.array(json.dumps(a))
+
+    return change
+
+
+@pytest.mark.parametrize(
+    "change, expected",
+    [
+        (lambda d: d.pop("net.bc.dynamics.W1"), "missing 'net.bc.dynamics.W1'"),
+        (lambda d: d.pop("net.cc.power.x_scale"), "missing 'net.cc.power.x_scale'"),
+        (lambda d: d.__setitem__("net.bc.power.W0", np.ones((5, 8))), "'net.bc.power.W0' has shape (5, 8)"),
+        (lambda d: d.__setitem__("net.bc.power.b1", np.ones(4)), "'net.bc.power.b1' has shape (4,)"),
+        (lambda d: d["net.cc.dynamics.W2"].__setitem__((0, 0), np.nan), "'net.cc.dynamics.W2' holds non-finite"),
+        (lambda d: d["net.bc.power.y_mean"].__setitem__(0, np.inf), "'net.bc.power.y_mean' holds non-finite"),
+        (lambda d: d["net.bc.power.x_scale"].__setitem__(2, 0.0), "'net.bc.power.x_scale' holds values <= 0"),
+        (
+            lambda d: d.__setitem__("net.bc.power.features", np.array(["T_bat", *mm.POWER_FEATURES[1:]])),
+            "'net.bc.power.features' does not match evtms.system.mode_model (position 0: 'T_bat'",
+        ),
+        (
+            lambda d: d.__setitem__("net.bc.dynamics.features", np.array(mm.POWER_FEATURES)),
+            "'net.bc.dynamics.features' does not match",
+        ),
+        (
+            lambda d: d.__setitem__("net.bc.power.target_units", np.array(["kW"])),
+            "'net.bc.power.target_units' does not match",
+        ),
+        (lambda d: d.__setitem__("net.bc.power.activation", np.array("gelu")), "'gelu'; allowed: relu, tanh"),
+        (_set_attr("evtms_version", "latest"), "evtms_version 'latest' is not a version"),
+        (_set_attr("evtms_version", 1), "evtms_version 1 is not a version"),
+        (lambda d: d.__setitem__("attrs", np.array("{not json")), "'attrs' is not valid JSON"),
+        (lambda d: d.__setitem__("modes", np.array(["bc", "xx"])), "mode 'xx' is unknown"),
+        (lambda d: d.__setitem__("format_version", np.array(7)), "this evtms reads version 1"),
+        (lambda d: d.__setitem__("format", np.array("something")), "'format' is 'something'"),
+    ],
+)
+def test_corrupted_files_are_refused(tmp_path, change, expected):
+    assert expected in _corrupt(tmp_path, change)
+
+
+def test_not_an_npz_file(tmp_path):
+    bad = tmp_path / "junk.npz"
+    bad.write_bytes(b"not a zip at all")
+    with pytest.raises(EvtmsInputError, match=r"model file '.*junk\.npz' is not a readable \.npz file"):
+        load_mode_models(bad)
+    with pytest.raises(EvtmsInputError, match="does not exist"):
+        load_mode_models(tmp_path / "missing.npz")
+
+
+def test_failed_write_leaves_the_old_file(tmp_path, monkeypatch):
+    path = save_mode_models(_models(seed=0), tmp_path / FILE_NAME)
+    before = path.read_bytes()
+
+    def boom(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(np, "savez", boom)
+    with pytest.raises(OSError, match="disk full"):
+        save_mode_models(_models(seed=1), path)
+    assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == [FILE_NAME]
+
+
+# --- training pairs ----------------------------------------------------------------------------------------------
+
+
+def test_training_pairs_split_by_mode(refrigerant):
+    """A warm battery and cabin at 30 degC in auto: cc+bc, then bc; every step lands in exactly one mode's pairs."""
+    p = system_params_from_dict({"controls": {"mode_hold": 0.0}})
+    r = simulate(_trip(400), 303.15, refrigerant, p, soak_cabin=300.15, T_init=309.0, keep_trace=True)
+    pairs = mm.training_pairs(r.trace)
+    modes = r.trace["modes"]
+    assert sorted(pairs) == [mm.MODE_CODES["bc"], mm.MODE_CODES["cc+bc"]]
+    assert sum(p[0].shape[0] for p in pairs.values()) == modes.size == r.trace["dts"].size
+    for code, (xp, yp, xd, yd) in pairs.items():
+        n = int(np.sum(modes == code))
+        assert xp.shape == (n, len(mm.POWER_FEATURES)) and yp.shape == (n, 1)
+        assert xd.shape == (n, len(mm.DYNAMICS_FEATURES)) and yd.shape == (n, len(mm.DYNAMICS_TARGETS))
+        assert np.array_equal(xd[:, :-1], xp)
+    # the dynamics target of the first step is the state's change over it
+    code0 = int(modes[0])
+    z = r.trace["states"][:, list(mm.STATE_COLUMNS)]
+    np.testing.assert_allclose(pairs[code0][3][0], (z[1] - z[0]) / r.trace["dts"][0], rtol=1e-12)
+    assert pairs[code0][0][0, mm.POWER_FEATURES.index("T_amb")] == 303.15
+
+
+# --- design ------------------------------------------------------------------------------------------------------
+
+
+def test_design_holds_out_cycles_and_ambients():
+    des = D.design(D.modes_for(["all"]), seed=4)
+    assert des.cycles("train").isdisjoint(des.cycles("heldout"))
+    assert des.cycles("heldout") == set(D.HELDOUT_CYCLES)
+    assert des.ambients("train").isdisjoint(des.ambients("heldout"))
+    held = {round(t - D.C0, 6) for t in des.ambients("heldout")}
+    assert held <= set(D.HELDOUT_AMBIENTS_C) and {-10.0, 30.0, 40.0} <= held
+    for sc in des.train:
+        lo, hi = D.RANGES[sc.target].T_amb
+        assert lo <= sc.T_amb - D.C0 <= hi
+        assert min(abs(sc.T_amb - D.C0 - h) for h in D.HELDOUT_AMBIENTS_C) >= D.AMBIENT_GAP
+    assert {s.target for s in des.train} == set(mm.MODE_CODES)
+    assert {s.mode for s in des.heldout if s.target != "auto"} == set(mm.MODE_CODES)
+    assert len({s.name for s in des.train + des.heldout}) == len(des.train) + len(des.heldout)
+    assert D.design(["bc"], seed=4) == D.design(["bc"], seed=4) != D.design(["bc"], seed=5)
+
+
+def test_cooling_modes_train_warm_heating_modes_cold():
+    des = D.design(["cc", "ch"], seed=0)
+    assert all(s.T_amb >= D.C0 + 20 for s in des.train + des.heldout if s.target == "cc")
+    assert all(s.T_amb <= D.C0 + 10 for s in des.train + des.heldout if s.target == "ch")
+
+
+def test_synthetic_cycle():
+    c = D.synthetic_cycle(3)
+    assert c.duration == 1200.0 and c.speed[0] == 0.0 == c.speed[-1]
+    assert np.all(c.speed >= 0) and c.speed.max() <= 130 / 3.6 + 1e-9 and c.distance > 1000
+    assert np.array_equal(c.speed, D.synthetic_cycle(3).speed)
+
+
+# --- a training run ----------------------------------------------------------------------------------------------
+
+
+def test_train_writes_a_checked_file_and_keeps_other_modes(refrigerant, tmp_path, monkeypatch):
+    monkeypatch.setattr(D, "synthetic_cycle", lambda seed, duration=300.0: _trip(300))
+    seen = []
+    rep = train_surrogates(refrigerant, ["bc"], tmp_path, quick=True, progress=lambda *a: seen.append(a))
+    assert rep.path == tmp_path / FILE_NAME and rep.path.is_file()
+    assert list(rep.modes) == ["bc"] and rep.modes["bc"].n_train >= 200
+    assert seen[-1][0] == seen[-1][1] and all(isinstance(m, str) for _, _, m in seen)
+    bc = rep.modes["bc"]
+    assert set(bc.one_step) == {"P_compressor", "dT_battery_dt", "dT_cabin_dt", "dT_coolant_dt"}
+    assert all(np.isfinite(v) for v in bc.one_step.values())
+    if rep.rollout_available:
+        assert bc.rollout["runs"] >= 1 and np.isfinite(bc.rollout["T_battery"]["rmse"])
+    m = load_mode_models(rep.path)
+    assert m.codes() == [mm.MODE_CODES["bc"]]
+    assert m.attrs["metrics"]["bc"]["n_train"] == bc.n_train
+    assert all(s["cycle"] not in D.HELDOUT_CYCLES for s in m.attrs["scenarios"]["bc"] if s["role"] == "train")
+    rep2 = train_surrogates(refrigerant, ["cc"], tmp_path, quick=True)
+    assert rep2.kept == ["bc"]
+    m2 = load_mode_models(rep2.path)
+    assert m2.codes() == sorted([mm.MODE_CODES["bc"], mm.MODE_CODES["cc"]])
+    assert np.array_equal(m2.packed()[0][: m.power[2].packed().size], m.power[2].packed())
+    assert set(m2.attrs["metrics"]) == {"bc", "cc"}
+
+
+def test_train_refuses_bad_input(refrigerant, tmp_path):
+    with pytest.raises(EvtmsInputError, match="--mode 'heat' is unknown; allowed: off, bh"):
+        train_surrogates(refrigerant, ["heat"], tmp_path)
+    (tmp_path / FILE_NAME).write_bytes(b"junk")
+    with pytest.raises(EvtmsInputError, match="is not a readable .npz file"):
+        train_surrogates(refrigerant, ["bc"], tmp_path, quick=True)
+    assert (tmp_path / FILE_NAME).read_bytes() == b"junk"
+
+
+def test_simulation_never_imports_sklearn():
+    code = "import sys, evtms.system.simulate, evtms.system.mode_model; assert 'sklearn' not in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True)
