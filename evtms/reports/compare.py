@@ -573,7 +573,8 @@ def run_compare(
         Steps of the study [s] (0.001-60 s).
     physics_dts : sequence of float, optional
         Steps at which physics joins the study [s] (default: those of ``dts``
-        of 1 s and more; a physics run takes minutes).
+        of 1 s and more, or the largest of ``dts`` when none is; a physics run
+        takes minutes, and its finest step is its study's reference).
     dt : float
         Step of the comparison table and trajectories [s].
     measured : mapping of str to numpy.ndarray, optional
@@ -703,7 +704,9 @@ def _check_request(cycles, t_ambs_K, approaches, mode_models, dts, physics_dts, 
     if len(set(approaches)) != len(approaches):
         raise EvtmsInputError(f"approaches {','.join(approaches)} name one twice")
     if "surrogate" in approaches and mode_models is None:
-        raise EvtmsInputError("the surrogate approach needs mode models (a file written by evtms's surrogate training)")
+        raise EvtmsInputError(
+            "the surrogate approach needs mode models (--surrogates FILE, from 'evtms surrogate train')"
+        )
     if not cycles or not t_ambs_K:
         raise EvtmsInputError("nothing to compare: give at least one drive cycle and one ambient")
     names = [c.name for c in cycles]
