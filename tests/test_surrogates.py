@@ -16,7 +16,7 @@ import pytest
 from evtms.errors import EvtmsInputError
 from evtms.surrogates import design as D  # noqa: N812
 from evtms.surrogates.io import FILE_NAME, load_mode_models, save_mode_models
-from evtms.surrogates.train import FitSettings, fit_network, train_surrogates
+from evtms.surrogates.train import FitSettings, compose_linear_skip, fit_network, train_surrogates
 from evtms.system import mode_model as mm
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.maps import CycleMap
@@ -115,6 +115,23 @@ def test_fit_recovers_a_linear_system():
     err = net.predict(Xt) - Yt
     assert np.all(np.sqrt(np.mean(err**2, axis=0)) < 0.05 * Yt.std(axis=0)), info
     assert info.n_samples == 3000 and info.epochs >= 1
+
+
+def test_linear_skip_is_exact():
+    """The composed ReLU network equals the linear part plus the scaled residual MLP to round-off."""
+    rng = np.random.default_rng(5)
+    sizes = [6, 7, 5, 3]
+    W = [rng.normal(size=(a, b)) for a, b in zip(sizes[:-1], sizes[1:], strict=True)]
+    B = [rng.normal(size=b) for b in sizes[1:]]
+    A, c = rng.normal(size=(6, 3)), rng.normal(size=3)
+    r_mean, r_scale = rng.normal(size=3), rng.uniform(0.1, 2.0, 3)
+    Wc, Bc = compose_linear_skip(W, B, A, c, r_mean, r_scale)
+    assert [w.shape for w in Wc] == [(6, 19), (19, 17), (17, 3)]
+    one = dict(x_mean=np.zeros(6), x_scale=np.ones(6), x_min=-np.ones(6), x_max=np.ones(6))
+    net = mm.Network("relu", Wc, Bc, y_mean=np.zeros(3), y_scale=np.ones(3), **one)
+    mlp = mm.Network("relu", W, B, y_mean=r_mean, y_scale=r_scale, **one)
+    X = rng.normal(size=(200, 6)) * 3
+    np.testing.assert_allclose(net.predict(X), X @ A + c + mlp.predict(X), rtol=1e-12, atol=1e-12)
 
 
 def test_fit_is_reproducible():
@@ -269,6 +286,9 @@ def test_design_holds_out_cycles_and_ambients():
         lo, hi = D.RANGES[sc.target].T_amb
         assert lo <= sc.T_amb - D.C0 <= hi
         assert min(abs(sc.T_amb - D.C0 - h) for h in D.HELDOUT_AMBIENTS_C) >= D.AMBIENT_GAP
+    for sc in des.heldout:  # held-out ambients lie inside the training range: generalisation, not extrapolation
+        lo, hi = D.RANGES[sc.target].T_amb if sc.target != "auto" else D.RANGES["off"].T_amb
+        assert lo + D.AMBIENT_GAP <= sc.T_amb - D.C0 <= hi - D.AMBIENT_GAP
     assert {s.target for s in des.train} == set(mm.MODE_CODES)
     assert {s.mode for s in des.heldout if s.target != "auto"} == set(mm.MODE_CODES)
     assert len({s.name for s in des.train + des.heldout}) == len(des.train) + len(des.heldout)
@@ -283,7 +303,7 @@ def test_cooling_modes_train_warm_heating_modes_cold():
 
 def test_synthetic_cycle():
     c = D.synthetic_cycle(3)
-    assert c.duration == 1200.0 and c.speed[0] == 0.0 == c.speed[-1]
+    assert c.duration == 1800.0 and c.speed[0] == 0.0 == c.speed[-1]
     assert np.all(c.speed >= 0) and c.speed.max() <= 130 / 3.6 + 1e-9 and c.distance > 1000
     assert np.array_equal(c.speed, D.synthetic_cycle(3).speed)
 

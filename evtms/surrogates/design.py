@@ -2,7 +2,7 @@
 
 A scenario is one run of :func:`evtms.system.simulate.simulate` on the LUT
 model: a drive cycle, an ambient, initial temperatures (battery and coolant,
-cabin soak), a cabin setpoint, sun, humidity, initial state of charge and a
+cabin soak), initial cabin humidity, a cabin setpoint, sun, humidity, initial state of charge and a
 mode (forced, or ``auto`` for the controller's own choice). Each mode trains
 on ambients in its physical range (cooling modes 20-45 degC, heating modes
 -20-10 degC, ``off`` anywhere), drawn by a seeded generator so that a design
@@ -78,8 +78,8 @@ RANGES: dict[str, ModeRanges] = {
     "bc": ModeRanges((20.0, 45.0), (303.15, 320.15), True, (-3.0, 20.0), (0.0, 900.0), (0.2, 0.7)),
     "cc": ModeRanges((20.0, 45.0), (-3.0, 10.0), False, (-3.0, 25.0), (0.0, 900.0), (0.2, 0.7)),
     "ch": ModeRanges((-20.0, 10.0), (0.0, 10.0), False, (0.0, 15.0), (0.0, 400.0), (0.3, 0.9)),
-    "ch+bh": ModeRanges((-20.0, 5.0), (-2.0, 5.0), False, (0.0, 10.0), (0.0, 400.0), (0.3, 0.9)),
-    "ch+bc": ModeRanges((-10.0, 15.0), (306.15, 318.15), True, (0.0, 10.0), (0.0, 400.0), (0.3, 0.9)),
+    "ch+bh": ModeRanges((-20.0, 10.0), (-2.0, 5.0), False, (0.0, 10.0), (0.0, 400.0), (0.3, 0.9)),
+    "ch+bc": ModeRanges((-20.0, 15.0), (306.15, 318.15), True, (0.0, 10.0), (0.0, 400.0), (0.3, 0.9)),
     "cc+bc": ModeRanges((20.0, 45.0), (306.15, 320.15), True, (-3.0, 25.0), (0.0, 900.0), (0.2, 0.7)),
 }
 #: Cabin setpoint range [degC] drawn per scenario (excites the blower and compressor commands).
@@ -88,6 +88,8 @@ T_SET_C = (18.0, 27.0)
 #: :data:`~evtms.system.mode_model.DYNAMICS_FEATURES` the cabin's solar gain is a
 #: hidden input, so every scenario runs without sun (the models hold for sun 0 only).
 SUN_FEATURE = "Q_sun" in DYNAMICS_FEATURES
+#: Initial cabin relative humidity range [1].
+RH_CABIN = (0.02, 0.8)
 #: Initial state of charge range [1].
 SOC_INIT = (0.35, 0.95)
 
@@ -120,6 +122,9 @@ class Scenario:
         Initial cabin air, wall and interior temperature [K] (None: the ambient).
     T_set : float
         Cabin setpoint [K].
+    RH_cabin0 : float
+        Initial cabin relative humidity [1] (recirculated air dries out while cooling; low values reach
+        the humidity floor the loop clamps at 0).
     soc_init : float
         Initial state of charge [1].
     """
@@ -135,6 +140,7 @@ class Scenario:
     T_battery0: float | None
     T_cabin0: float | None
     T_set: float
+    RH_cabin0: float
     soc_init: float
 
     def params(self, base: SystemParams | None = None) -> SystemParams:
@@ -144,7 +150,7 @@ class Scenario:
         cycle maps depend on (condenser fan, coolant flow) stay ``base``'s.
         """
         base = base or SystemParams()
-        cabin = dataclasses.replace(base.cabin, T_set=self.T_set)
+        cabin = dataclasses.replace(base.cabin, T_set=self.T_set, rh_cabin=self.RH_cabin0)
         battery = dataclasses.replace(base.battery, T_init=self.T_battery0, soc_init=self.soc_init)
         coolant = dataclasses.replace(base.coolant, T_init=self.T_battery0)
         return dataclasses.replace(base, cabin=cabin, battery=battery, coolant=coolant)
@@ -184,7 +190,7 @@ class Design:
         return {s.T_amb for s in (self.train if role == "train" else self.heldout)}
 
 
-def synthetic_cycle(seed: int, duration: float = 1200.0) -> DriveCycle:
+def synthetic_cycle(seed: int, duration: float = 1800.0) -> DriveCycle:
     """A random urban/extra-urban speed trace of ``duration`` [s] at 1 Hz.
 
     Stops of 5-60 s alternate with trips: accelerate at 0.4-2.5 m/s2 to
@@ -284,6 +290,7 @@ def design(
                     T_battery0=round(Tb, 3),
                     T_cabin0=round(T_amb + rng.uniform(*r.cabin), 3),
                     T_set=round(C0 + rng.uniform(*T_SET_C), 3),
+                    RH_cabin0=round(rng.uniform(*RH_CABIN), 3),
                     soc_init=round(rng.uniform(*SOC_INIT), 3),
                 )
             )
@@ -326,6 +333,7 @@ def heldout_scenarios(modes: list[str], *, quick: bool = False, forced: set[str]
                         T_battery0=round(Tb, 3),
                         T_cabin0=round(T_amb + 0.5 * (r.cabin[0] + r.cabin[1]), 3),
                         T_set=298.15,
+                        RH_cabin0=0.5,
                         soc_init=0.9,
                     )
                 )
@@ -346,6 +354,7 @@ def heldout_scenarios(modes: list[str], *, quick: bool = False, forced: set[str]
                         T_battery0=None,
                         T_cabin0=None,
                         T_set=298.15,
+                        RH_cabin0=0.5,
                         soc_init=0.9,
                     )
                 )

@@ -76,13 +76,17 @@ class FitSettings:
         Most steps per mode fitted (a seeded random subset beyond).
     alpha : float
         L2 penalty [1].
+    linear : bool
+        Fit a linear least-squares model first and the MLP (ReLU) on its residual, composed into one
+        network (:func:`compose_linear_skip`).
     """
 
     hidden: tuple[int, ...] = (32, 32)
     activation: str = "tanh"
-    max_iter: int = 120
+    max_iter: int = 200
     max_samples: int = 12_000
     alpha: float = 1e-6
+    linear: bool = True
 
     @classmethod
     def quick(cls) -> FitSettings:
@@ -242,6 +246,13 @@ def fit_network(
 ) -> tuple[mm.Network, FitInfo]:
     """Fit one network ``Y ~ f(X)`` on standardised inputs and outputs.
 
+    With ``settings.linear`` (default) the fit has two parts: a linear least-squares model of the
+    standardised data (the thermal network's derivatives are nearly linear in the states at given
+    commands), and an :class:`~sklearn.neural_network.MLPRegressor` with ReLU units on its
+    residual. Both go into one ReLU network exactly (:func:`compose_linear_skip`: ``x = relu(x) -
+    relu(-x)`` carries the inputs through the hidden layers), so inference stays a plain MLP.
+    Without it the MLP fits the standardised targets directly with ``settings.activation``.
+
     Parameters
     ----------
     X : numpy.ndarray
@@ -278,9 +289,18 @@ def fit_network(
     Xn = (X - x_mean) / x_scale
     Yn = (Y - y_mean) / y_scale
     n = X.shape[0]
+    activation = "relu" if s.linear else s.activation
+    if s.linear:
+        coef = np.linalg.lstsq(np.column_stack([Xn, np.ones(n)]), Yn, rcond=None)[0]
+        A, c = coef[:-1], coef[-1]
+        R = Yn - Xn @ A - c
+        r_mean, r_scale = _scaling(R)
+        target = (R - r_mean) / r_scale
+    else:
+        target = Yn
     reg = MLPRegressor(
         hidden_layer_sizes=s.hidden,
-        activation=s.activation,
+        activation=activation,
         solver="adam",
         alpha=s.alpha,
         batch_size=min(200, n),
@@ -295,12 +315,16 @@ def fit_network(
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        reg.fit(Xn, Yn[:, 0] if Yn.shape[1] == 1 else Yn)
+        reg.fit(Xn, target[:, 0] if target.shape[1] == 1 else target)
     elapsed = time.perf_counter() - t0
+    weights = [np.asarray(w, np.float64) for w in reg.coefs_]
+    biases = [np.asarray(b, np.float64) for b in reg.intercepts_]
+    if s.linear:
+        weights, biases = compose_linear_skip(weights, biases, A, c, r_mean, r_scale)
     net = mm.Network(
-        activation=s.activation,
-        weights=[np.ascontiguousarray(w, np.float64) for w in reg.coefs_],
-        biases=[np.ascontiguousarray(b, np.float64) for b in reg.intercepts_],
+        activation=activation,
+        weights=[np.ascontiguousarray(w) for w in weights],
+        biases=[np.ascontiguousarray(b) for b in biases],
         x_mean=x_mean,
         x_scale=x_scale,
         y_mean=y_mean,
@@ -309,6 +333,40 @@ def fit_network(
         x_max=X.max(axis=0),
     )
     return net, FitInfo(n_samples=n, epochs=int(reg.n_iter_), time_s=elapsed, loss=float(reg.loss_))
+
+
+def compose_linear_skip(
+    weights: list[np.ndarray],
+    biases: list[np.ndarray],
+    A: np.ndarray,
+    c: np.ndarray,
+    r_mean: np.ndarray,
+    r_scale: np.ndarray,
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """One ReLU network computing ``x A + c + r_mean + r_scale mlp(x)`` exactly.
+
+    ``weights``, ``biases``: a ReLU MLP with at least one hidden layer; ``A``
+    ``(n_in, n_out)`` and ``c`` the linear part. Every hidden layer gets
+    ``2 n_in`` more units holding ``relu(x)`` and ``relu(-x)`` (identity
+    weights; a ReLU of a non-negative value is itself), and the output layer
+    adds ``(relu(x) - relu(-x)) A = x A``.
+    """
+    if len(weights) < 2:
+        raise ValueError("compose_linear_skip needs at least one hidden layer")
+    n_in = weights[0].shape[0]
+    eye = np.eye(n_in)
+    pair = np.hstack([eye, -eye])
+    W: list[np.ndarray] = [np.hstack([weights[0], pair])]
+    B: list[np.ndarray] = [np.concatenate([biases[0], np.zeros(2 * n_in)])]
+    for w, b in zip(weights[1:-1], biases[1:-1], strict=True):
+        blk = np.zeros((w.shape[0] + 2 * n_in, w.shape[1] + 2 * n_in))
+        blk[: w.shape[0], : w.shape[1]] = w
+        blk[w.shape[0] :, w.shape[1] :] = np.eye(2 * n_in)
+        W.append(blk)
+        B.append(np.concatenate([b, np.zeros(2 * n_in)]))
+    W.append(np.vstack([weights[-1] * r_scale, A, -A]))
+    B.append(biases[-1] * r_scale + r_mean + c)
+    return W, B
 
 
 # ---------------------------------------------------------------------------------------------------------------
