@@ -338,6 +338,9 @@ def test_train_writes_a_checked_file_and_keeps_other_modes(refrigerant, tmp_path
 def test_train_refuses_bad_input(refrigerant, tmp_path):
     with pytest.raises(EvtmsInputError, match="--mode 'heat' is unknown; allowed: off, bh"):
         train_surrogates(refrigerant, ["heat"], tmp_path)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(EvtmsInputError, match="exists and is not a folder"):
+        train_surrogates(refrigerant, ["bc"], tmp_path / "file")
     (tmp_path / FILE_NAME).write_bytes(b"junk")
     with pytest.raises(EvtmsInputError, match="is not a readable .npz file"):
         train_surrogates(refrigerant, ["bc"], tmp_path, quick=True)
@@ -347,3 +350,13 @@ def test_train_refuses_bad_input(refrigerant, tmp_path):
 def test_simulation_never_imports_sklearn():
     code = "import sys, evtms.system.simulate, evtms.system.mode_model; assert 'sklearn' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_missing_sklearn_is_one_line_before_any_work(refrigerant, tmp_path, monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "sklearn" else real(name, *a))
+    with pytest.raises(EvtmsInputError, match=r"needs scikit-learn; install it with: python3 -m pip install"):
+        train_surrogates(refrigerant, ["bc"], tmp_path / "out")
+    assert not (tmp_path / "out").exists()

@@ -26,6 +26,7 @@ scikit-learn is needed here only (an optional extra); nothing in
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import inspect
 import math
 import time
@@ -56,6 +57,7 @@ ONE_STEP = {
     "dT_cabin_dt": ("dynamics", mm.DYNAMICS_TARGETS.index("dT_cabin_dt")),
     "dT_coolant_dt": ("dynamics", mm.DYNAMICS_TARGETS.index("dT_coolant_dt")),
 }
+SKLEARN_MISSING = "surrogate training needs scikit-learn; install it with: python3 -m pip install scikit-learn"
 #: Fewest training steps a mode needs to get networks.
 MIN_SAMPLES = 200
 
@@ -272,9 +274,7 @@ def fit_network(
         from sklearn.exceptions import ConvergenceWarning
         from sklearn.neural_network import MLPRegressor
     except ImportError:
-        raise EvtmsInputError(
-            "surrogate training needs scikit-learn; install it with: python3 -m pip install scikit-learn"
-        ) from None
+        raise EvtmsInputError(SKLEARN_MISSING) from None
     import warnings
 
     s = settings or FitSettings()
@@ -496,8 +496,9 @@ def train_surrogates(
     Raises
     ------
     EvtmsInputError
-        An unknown mode name, an existing model file that does not load, no
-        mode with enough training steps, or scikit-learn missing.
+        An unknown mode name, an output that is a file, an existing model
+        file that does not load, no mode with enough training steps, or
+        scikit-learn missing (all but too few steps before any simulation).
     """
     t_start = time.perf_counter()
     for m in modes:
@@ -507,6 +508,10 @@ def train_surrogates(
     if not names:
         raise EvtmsInputError("--mode: no mode given; allowed: " + ", ".join(D.MODE_NAMES) + ", all")
     settings = settings or (FitSettings.quick() if quick else FitSettings())
+    if importlib.util.find_spec("sklearn") is None:
+        raise EvtmsInputError(SKLEARN_MISSING)
+    if Path(out_dir).exists() and not Path(out_dir).is_dir():
+        raise EvtmsInputError(f"-o {out_dir}: exists and is not a folder")
     path = Path(out_dir) / FILE_NAME
     existing = load_mode_models(path) if path.exists() else None
     refrigerant = luts if isinstance(luts, Refrigerant) else load_refrigerant(luts, params)
