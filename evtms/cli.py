@@ -1169,7 +1169,20 @@ def simulate(
     precondition: Annotated[
         float, typer.Option("--precondition", help="Seconds of HVAC parked and plugged in before the cycle.")
     ] = 0.0,
-    model: Annotated[str, typer.Option("--model", help="Refrigerant-loop model: lut.")] = "lut",
+    model: Annotated[
+        str,
+        typer.Option(
+            "--model",
+            help="lut (cycle maps), physics (bench physics solved in the loop: the slow reference) or surrogate "
+            "(mode models of 'evtms surrogate train').",
+        ),
+    ] = "lut",
+    surrogates: Annotated[
+        Path,
+        typer.Option(
+            "--surrogates", help="Mode-model file or folder (evtms surrogate train -o), for --model surrogate."
+        ),
+    ] = Path("models"),
     json_out: Annotated[bool, _JSON] = False,
 ) -> None:
     """Simulate the vehicle's thermal system over a drive cycle and write the time series.
@@ -1186,8 +1199,10 @@ def simulate(
         fail("give --cycle NAME|FILE.csv or --scenario NAME (one of them)")
     if scenario is not None and scenario not in SCENARIOS:
         fail(f"--scenario {scenario!r} is unknown; allowed: {', '.join(SCENARIOS)}")
-    if model != "lut":
-        fail(f"--model {model!r} is not available; allowed: lut")
+    from evtms.system.simulate import MODELS
+
+    if model not in MODELS:
+        fail(f"--model {model!r} is unknown; allowed: {', '.join(MODELS)}")
     if soak_cabin is not None and not (math.isfinite(soak_cabin) and -40.0 <= soak_cabin <= 90.0):
         fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
     sc = SCENARIOS[scenario] if scenario is not None else None
@@ -1206,10 +1221,17 @@ def simulate(
         fail(f"--luts {str(luts)!r} is not a folder; allowed: a folder of cycle LUTs (or one to build them in)")
     if luts.is_dir():
         inputs += sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
+    mode_models = None
+    if model == "surrogate":
+        mode_models, surrogate_file = _mode_models(surrogates)
+        inputs.append(surrogate_file)
     output_file(output, inputs, (".nc",))
     refrigerant = _system_refrigerant(luts, system, quiet=json_out)
     from evtms.system.output import write_simulation
+    from evtms.system.simulate import check_model
     from evtms.system.simulate import simulate as run
+
+    check_model(model, mode, mode_models, refrigerant)
 
     results = [
         run(
@@ -1226,6 +1248,8 @@ def simulate(
             output_every=output_every,
             scenario=scenario or "",
             precondition=precondition,
+            model=model,
+            mode_models=mode_models,
         )
         for T in ambients
     ]
@@ -1245,6 +1269,19 @@ def simulate(
             f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
         )
     typer.echo(f"wrote {output} ({wall:.2f} s)")
+
+
+def _mode_models(path: Path):
+    """Mode models from a file or a folder holding the trainer's file; anything else is one line, exit 2."""
+    from evtms.surrogates.io import MODEL_FILE, load_mode_models
+
+    file = path / MODEL_FILE if path.is_dir() else path
+    if not file.is_file():
+        fail(
+            f"--surrogates {str(path)!r}: no mode-model file; "
+            f"train one with 'evtms surrogate train --mode all -o {path}'"
+        )
+    return load_mode_models(file), file
 
 
 def _system_refrigerant(luts: Path, system, quiet: bool):

@@ -53,13 +53,14 @@ OFF, BH, BC, CC, CH, CH_BH, CH_BC, CC_BC = range(8)
 MODE_NAMES = ("off", "BH", "BC", "CC", "CH", "CH+BH", "CH+BC", "CC+BC")
 
 # Flag bits of the output's ``flags``.
-F_POWER_LIMITED, F_REF_CLIPPED, F_SURROGATE_OOR, F_REGEN_CUT, F_FREEZE_CUTOFF, F_TRACTION_CUT = (
+F_POWER_LIMITED, F_REF_CLIPPED, F_SURROGATE_OOR, F_REGEN_CUT, F_FREEZE_CUTOFF, F_TRACTION_CUT, F_PHYSICS_FALLBACK = (
     1,
     2,
     4,
     8,
     16,
     32,
+    64,
 )
 FLAG_NAMES = (
     "power_limited",
@@ -68,7 +69,24 @@ FLAG_NAMES = (
     "regen_cut",
     "freeze_cutoff",
     "traction_cut",
+    "physics_fallback",
 )
+
+# Where the refrigerant loop's steady targets come from (``source``).
+SRC_MAPS, SRC_HELD, SRC_SURROGATE = 0, 1, 2
+# Map ids of ``held`` (and of the physics requests).
+MAP_AC, MAP_CHILLER, MAP_ACCH = 0, 1, 2
+
+# ``held``: the last refrigerant point the caller solved (SRC_HELD): map id, inputs, targets, fallback.
+H_MAP, H_X, H_Y, H_FALLBACK = 0, 1, 7, 16
+N_H = 17
+
+# ``mem``: controller memory at the start of the step the loop stopped at (resumable runs).
+(
+    M_SET, M_MODE, M_T_MODE, M_BC, M_CRIT, M_BH, M_CC, M_CH, M_BLOWER_AT_MIN, M_I_BLOWER, M_I_COMP, M_I_PTC,
+    M_BLOWER_WAS_ON, M_COMP_WAS_ON, M_PTC_WAS_ON, M_Q_PTC_PREV, M_T,
+    N_M,
+) = range(18)  # fmt: skip
 
 # Map output slots (evtms.system.maps.MAP_OUTPUTS order).
 Y_PS, Y_PD, Y_MDOT, Y_QEVAP, Y_QLAT, Y_QCH, Y_QCOND, Y_W, Y_WFLUID = range(9)
@@ -105,6 +123,10 @@ N_S = S_YF + N_Y
     O_Q_AIR_SOURCES, O_Q_SUN_INT, O_T_SUPPLY, O_P_DEFICIT, O_REGEN, O_P_GRID,
     N_O,
 ) = range(35)  # fmt: skip
+
+#: State columns a mode model carries (:data:`evtms.system.mode_model.STATE_NAMES` order).
+SURROGATE_STATES = (S_TB, S_TC, S_TA, S_TGLASS, S_TDOORS, S_TROOF, S_TINT, S_W, S_YF + Y_PS)
+_MLP_WIDTH = 512  # widest network layer the kernel evaluates
 
 _H_FG = 2.45e6  # latent heat of condensing water at cabin conditions [J/kg]
 _CP_AIR = 1006.0  # dry air [J/(kg K)]
@@ -181,18 +203,76 @@ def _pick_mode(bc, crit, bh, cc, ch):
 
 
 @jit
+def mlp_eval(net, offset, f, out, h0, h1):
+    """Evaluate the packed network at ``net[offset:]`` (:meth:`evtms.system.mode_model.Network.packed`).
+
+    ``f``: features [physical units]; ``out``: outputs [physical units];
+    ``h0``, ``h1``: scratch of at least the widest layer. Returns True when a
+    feature lies outside the network's training range.
+    """
+    n_layers = int(net[offset])
+    relu = net[offset + 1] == 0.0
+    w0 = offset + 2
+    n_in = int(net[w0])
+    n_out = int(net[w0 + n_layers])
+    p = w0 + n_layers + 1
+    x_mean, x_scale, x_min, x_max = p, p + n_in, p + 2 * n_in, p + 3 * n_in
+    y_mean, y_scale = p + 4 * n_in, p + 4 * n_in + n_out
+    p = y_scale + n_out
+    outside = False
+    for i in range(n_in):
+        v = f[i]
+        if v < net[x_min + i] or v > net[x_max + i]:
+            outside = True
+        h0[i] = (v - net[x_mean + i]) / net[x_scale + i]
+    width = n_in
+    for k in range(n_layers):
+        nxt = int(net[w0 + k + 1])
+        b = p + width * nxt
+        for j in range(nxt):
+            h1[j] = net[b + j]
+        for i in range(width):
+            hi = h0[i]
+            if hi != 0.0:
+                row = p + i * nxt
+                for j in range(nxt):
+                    h1[j] += hi * net[row + j]
+        last = k == n_layers - 1
+        for j in range(nxt):
+            v = h1[j]
+            if not last:
+                v = max(v, 0.0) if relu else math.tanh(v)
+            h0[j] = v
+        p = b + nxt
+        width = nxt
+    for j in range(n_out):
+        out[j] = net[y_mean + j] + net[y_scale + j] * h0[j]
+    return outside
+
+
+@jit
 def run_loop(
     par, dts, p_motor_el, soc_ocv, cell_T, cell_ocv, cell_r0, sat_T, sat_p,
     ac_knots, ac_starts, ac_table, ch_knots, ch_starts, ch_table, acch_knots, acch_starts, acch_table,
-    states, out, modes, flags,
+    states, out, modes, flags, start, source, mem, held, tol, net, net_index,
 ):  # fmt: skip
-    """Run the loop over ``dts.size`` steps; returns the number of steps done (fewer when SOC hits its floor).
+    """Run the loop from step ``start`` to ``dts.size``; returns the number of steps done (fewer when SOC hits
+    its floor), or ``-(n + 1)`` when step ``n`` needs a refrigerant point solved (``source`` SRC_HELD).
 
     ``states`` (steps + 1, N_S) holds the initial state in row 0 and is filled
     row by row; ``out`` (steps, N_O), ``modes`` and ``flags`` (steps) per step.
     ``p_motor_el`` (steps, 3): the step's mean motor electrical power [W]
     with regeneration and with it cut, and 1 where the car is plugged in
     (preconditioning: the grid, not the battery, feeds auxiliaries and HVAC).
+
+    ``source`` says where the refrigerant targets come from: SRC_MAPS the
+    cycle maps; SRC_HELD the caller's solved point in ``held``, reused while
+    every map input stays within ``tol`` of the point's inputs (else the loop
+    returns a request with the inputs in ``held``; the caller solves, fills
+    ``held[H_Y:]`` and calls again from that step); SRC_SURROGATE the mode
+    models packed in ``net`` (``net_index[mode, head]``: offset, -1 none)
+    replace the refrigerant loop and the thermal network. ``mem`` (N_M)
+    carries the controllers' memory between calls.
     """
     T_amb = par[P_T_AMB]
     w_amb = par[P_W_AMB]
@@ -205,18 +285,44 @@ def run_loop(
     c_w = np.array([par[P_C_GLASS], par[P_C_DOORS], par[P_C_ROOF]])
     alphas = np.empty(3)  # per step: wall temperature T_w' = alpha_w + beta_w T_air'
     betas = np.empty(3)
+    # Surrogate features, outputs and scratch.
+    feat = np.zeros(len(SURROGATE_STATES) + 8)
+    pred = np.zeros(len(SURROGATE_STATES))
+    h0 = np.empty(_MLP_WIDTH)
+    h1 = np.empty(_MLP_WIDTH)
     # Controller and mode memory.
-    mode = OFF if forced < 0 else forced
-    t_mode = -1e300
-    bc = crit = bh = cc = ch = False
-    blower_at_min = True
-    i_blower = i_comp = i_ptc = 0.0
-    blower_was_on = comp_was_on = ptc_was_on = False
-    q_ptc_prev = 0.0
-    t = 0.0
+    if mem[M_SET] > 0.0:
+        mode = int(mem[M_MODE])
+        t_mode = mem[M_T_MODE]
+        bc, crit, bh, cc, ch = mem[M_BC] > 0.0, mem[M_CRIT] > 0.0, mem[M_BH] > 0.0, mem[M_CC] > 0.0, mem[M_CH] > 0.0
+        blower_at_min = mem[M_BLOWER_AT_MIN] > 0.0
+        i_blower, i_comp, i_ptc = mem[M_I_BLOWER], mem[M_I_COMP], mem[M_I_PTC]
+        blower_was_on, comp_was_on = mem[M_BLOWER_WAS_ON] > 0.0, mem[M_COMP_WAS_ON] > 0.0
+        ptc_was_on = mem[M_PTC_WAS_ON] > 0.0
+        q_ptc_prev = mem[M_Q_PTC_PREV]
+        t = mem[M_T]
+    else:
+        mode = OFF if forced < 0 else forced
+        t_mode = -1e300
+        bc = crit = bh = cc = ch = False
+        blower_at_min = True
+        i_blower = i_comp = i_ptc = 0.0
+        blower_was_on = comp_was_on = ptc_was_on = False
+        q_ptc_prev = 0.0
+        t = 0.0
     n_steps = dts.size
-    for n in range(n_steps):
+    for n in range(start, n_steps):
         dt = dts[n]
+        # The step's starting memory: a request returns here, and the step reruns from it.
+        mem[M_SET] = 1.0
+        mem[M_MODE] = mode
+        mem[M_T_MODE] = t_mode
+        mem[M_BC], mem[M_CRIT], mem[M_BH], mem[M_CC], mem[M_CH] = bc, crit, bh, cc, ch
+        mem[M_BLOWER_AT_MIN] = blower_at_min
+        mem[M_I_BLOWER], mem[M_I_COMP], mem[M_I_PTC] = i_blower, i_comp, i_ptc
+        mem[M_BLOWER_WAS_ON], mem[M_COMP_WAS_ON], mem[M_PTC_WAS_ON] = blower_was_on, comp_was_on, ptc_was_on
+        mem[M_Q_PTC_PREV] = q_ptc_prev
+        mem[M_T] = t
         s0 = states[n]
         soc, v_rc, Tb, Tc, Ta = s0[S_SOC], s0[S_VRC], s0[S_TB], s0[S_TC], s0[S_TA]
         w_cab = s0[S_W]
@@ -311,37 +417,79 @@ def run_loop(
         elif mode != OFF:
             u_pump = par[P_PUMP_IDLE]
         # (b) refrigerant target and filter ---------------------------------------
-        for k in range(N_Y):
-            y[k] = 0.0
-        if speed > 0.0:
-            clipped = 0
-            if mode == CC:
-                rh_mix = min(max(relative_humidity(T_mix, w_mix, p_atm), 0.0), 1.0)
-                x[0], x[1], x[2], x[3], x[4] = speed, blower, T_amb, T_mix, rh_mix
-                clipped = map_interp(ac_knots, ac_starts, ac_table, x[:5], y)
-            elif mode == CC_BC:
-                x[0], x[1], x[2], x[3], x[4], x[5] = speed, blower, u_pump, T_amb, T_mix, Tc
-                clipped = map_interp(acch_knots, acch_starts, acch_table, x, y)
-            else:
-                x[0], x[1], x[2], x[3] = speed, u_pump, T_amb, Tc
-                clipped = map_interp(ch_knots, ch_starts, ch_table, x[:4], y)
-            if clipped:
-                flag |= F_REF_CLIPPED
-        else:
-            T_ref = Tc if (mode == BC or mode == CH_BC or mode == BH) else T_mix
-            p_eq = np.interp(T_ref, sat_T, sat_p)
-            y[Y_PS] = p_eq
-            y[Y_PD] = p_eq
-        decay = math.exp(-dt / par[P_TAU])
-        mean_f = par[P_TAU] / dt * (1.0 - decay)
         s1 = states[n + 1]
         o = out[n]
-        for k in range(N_Y):
-            yf = s0[S_YF + k]
-            s1[S_YF + k] = y[k] + (yf - y[k]) * decay
-            y[k] = y[k] + (yf - y[k]) * mean_f  # from here on: the interval mean
+        surrogate = source == SRC_SURROGATE
+        n_z = len(SURROGATE_STATES)
+        if surrogate:
+            # The mode model replaces the loop's refrigerant and thermal network: no heat flows, no filter.
+            for k in range(N_Y):
+                y[k] = np.nan
+                s1[S_YF + k] = np.nan
+            for k in range(n_z):
+                feat[k] = s0[SURROGATE_STATES[k]]
+            feat[n_z], feat[n_z + 1], feat[n_z + 2] = speed, blower, u_pump
+            feat[n_z + 3], feat[n_z + 4], feat[n_z + 5], feat[n_z + 6] = p_ptc, p_heater, T_amb, w_amb
+            p_comp = 0.0
+            at = net_index[mode, 0]
+            if at < 0:
+                flag |= F_SURROGATE_OOR
+            else:
+                if mlp_eval(net, at, feat, pred, h0, h1):
+                    flag |= F_SURROGATE_OOR
+                if speed > 0.0:
+                    p_comp = max(pred[0], 0.0)
+        else:
+            for k in range(N_Y):
+                y[k] = 0.0
+            if speed > 0.0:
+                clipped = 0
+                if mode == CC:
+                    map_id, nx = MAP_AC, 5
+                    rh_mix = min(max(relative_humidity(T_mix, w_mix, p_atm), 0.0), 1.0)
+                    x[0], x[1], x[2], x[3], x[4] = speed, blower, T_amb, T_mix, rh_mix
+                elif mode == CC_BC:
+                    map_id, nx = MAP_ACCH, 6
+                    x[0], x[1], x[2], x[3], x[4], x[5] = speed, blower, u_pump, T_amb, T_mix, Tc
+                else:
+                    map_id, nx = MAP_CHILLER, 4
+                    x[0], x[1], x[2], x[3] = speed, u_pump, T_amb, Tc
+                if source == SRC_HELD:
+                    # Physics: reuse the caller's solved point while every input stays within its tolerance.
+                    fresh = held[H_MAP] == map_id
+                    for k in range(nx):
+                        if abs(x[k] - held[H_X + k]) > tol[map_id, k]:
+                            fresh = False
+                    if not fresh:
+                        held[H_MAP] = map_id
+                        for k in range(6):
+                            held[H_X + k] = x[k] if k < nx else np.nan
+                        return -(n + 1)
+                    for k in range(N_Y):
+                        y[k] = held[H_Y + k]
+                    if held[H_FALLBACK] > 0.0:
+                        flag |= F_PHYSICS_FALLBACK
+                elif mode == CC:
+                    clipped = map_interp(ac_knots, ac_starts, ac_table, x[:5], y)
+                elif mode == CC_BC:
+                    clipped = map_interp(acch_knots, acch_starts, acch_table, x, y)
+                else:
+                    clipped = map_interp(ch_knots, ch_starts, ch_table, x[:4], y)
+                if clipped:
+                    flag |= F_REF_CLIPPED
+            else:
+                T_ref = Tc if (mode == BC or mode == CH_BC or mode == BH) else T_mix
+                p_eq = np.interp(T_ref, sat_T, sat_p)
+                y[Y_PS] = p_eq
+                y[Y_PD] = p_eq
+            decay = math.exp(-dt / par[P_TAU])
+            mean_f = par[P_TAU] / dt * (1.0 - decay)
+            for k in range(N_Y):
+                yf = s0[S_YF + k]
+                s1[S_YF + k] = y[k] + (yf - y[k]) * decay
+                y[k] = y[k] + (yf - y[k]) * mean_f  # from here on: the interval mean
+            p_comp = y[Y_W] / par[P_DRIVE_EFF]
         q_evap, q_lat, q_chill = y[Y_QEVAP], y[Y_QLAT], y[Y_QCH]
-        p_comp = y[Y_W] / par[P_DRIVE_EFF]
         p_fan = par[P_FAN_POWER] if speed > 0.0 else 0.0
         p_blower = par[P_BLOWER_POWER] * blower**3
         p_pump = par[P_PUMP_REF] * (u_pump * par[P_PUMP_NMAX] / 1000.0) ** 3
@@ -399,56 +547,71 @@ def run_loop(
         q_gen = R * current * current + v_rc_mean * current - e_rc / dt
         s1[S_SOC] = soc - current * dt / par[P_CAP_AS]
         s1[S_VRC] = v_rc_new
-        # (d) thermal network, backward Euler ----------------------------------------
-        cb, cc_ = par[P_C_BAT] / dt, par[P_C_COOL] / dt
-        gbc, gba = par[P_G_BC], par[P_G_BA]
-        a11 = cb + gbc + gba
-        a22 = cc_ + gbc
-        # Solved for the changes (not the temperatures): smaller numbers, ledgers closer to round-off.
-        r1 = q_gen - gbc * (Tb - Tc) - gba * (Tb - T_amb)
-        r2_ = gbc * (Tb - Tc) + p_heater - q_chill
-        det = a11 * a22 - gbc * gbc
-        Tb_new = Tb + (r1 * a22 + gbc * r2_) / det
-        Tc_new = Tc + (a11 * r2_ + gbc * r1) / det
-        s1[S_TB] = Tb_new
-        s1[S_TC] = Tc_new
-        # Cabin: wall w and interior eliminated, T_w' = alpha_w + beta_w T_air'.
-        q_sun = par[P_Q_SUN]
-        c_int = par[P_C_INT]
-        q_sun_int = q_sun if c_int > 0.0 else 0.0
-        q_air = par[P_Q_OCC] + (q_sun - q_sun_int) + p_ptc - (q_evap - q_lat)
-        g_fresh = mdot_air * _CP_AIR * (1.0 - recirc)
-        lhs = par[P_C_AIR] / dt + g_fresh
-        rhs = par[P_C_AIR] / dt * Ta + g_fresh * T_amb + q_air
-        for k in range(3):
-            cw = c_w[k] / dt
-            den = cw + 2.0 * g_w[k]
-            alphas[k] = (cw * s0[S_TGLASS + k] + g_w[k] * T_amb) / den
-            betas[k] = g_w[k] / den
-            lhs += g_w[k] * (1.0 - betas[k])
-            rhs += g_w[k] * alphas[k]
-        alpha_i = 0.0
-        beta_i = 0.0
-        if c_int > 0.0:
-            ci = c_int / dt
-            g_i = par[P_G_INT]
-            alpha_i = (ci * s0[S_TINT] + q_sun_int) / (ci + g_i)
-            beta_i = g_i / (ci + g_i)
-            lhs += g_i * (1.0 - beta_i)
-            rhs += g_i * alpha_i
-        Ta_new = rhs / lhs
-        s1[S_TA] = Ta_new
-        for k in range(3):
-            s1[S_TGLASS + k] = alphas[k] + betas[k] * Ta_new
-        s1[S_TINT] = alpha_i + beta_i * Ta_new if c_int > 0.0 else Ta_new
-        # Cabin humidity ratio: fresh air, occupants, condensate.
-        m_air = par[P_M_AIR] / dt
-        g_w_fresh = mdot_air * (1.0 - recirc)
-        w_new = (m_air * w_cab + g_w_fresh * w_amb + par[P_MOIST] - q_lat / _H_FG) / (m_air + g_w_fresh)
-        s1[S_W] = max(w_new, 0.0)
+        # (d) thermal network: the mode model, or backward Euler ---------------------
+        if surrogate:
+            feat[n_z + 3], feat[n_z + 4], feat[n_z + 7] = p_ptc, p_heater, q_gen
+            at = net_index[mode, 1]
+            if at >= 0 and mlp_eval(net, at, feat, pred, h0, h1):
+                flag |= F_SURROGATE_OOR
+            for k in range(n_z):
+                rate = pred[k] if at >= 0 else 0.0
+                s1[SURROGATE_STATES[k]] = s0[SURROGATE_STATES[k]] + dt * rate
+            s1[S_W] = max(s1[S_W], 0.0)
+            if at < 0:
+                flag |= F_SURROGATE_OOR
+            q_air = np.nan
+            q_sun_int = np.nan
+            y[Y_PS] = 0.5 * (s0[S_YF + Y_PS] + s1[S_YF + Y_PS])
+        else:
+            cb, cc_ = par[P_C_BAT] / dt, par[P_C_COOL] / dt
+            gbc, gba = par[P_G_BC], par[P_G_BA]
+            a11 = cb + gbc + gba
+            a22 = cc_ + gbc
+            # Solved for the changes (not the temperatures): smaller numbers, ledgers closer to round-off.
+            r1 = q_gen - gbc * (Tb - Tc) - gba * (Tb - T_amb)
+            r2_ = gbc * (Tb - Tc) + p_heater - q_chill
+            det = a11 * a22 - gbc * gbc
+            Tb_new = Tb + (r1 * a22 + gbc * r2_) / det
+            Tc_new = Tc + (a11 * r2_ + gbc * r1) / det
+            s1[S_TB] = Tb_new
+            s1[S_TC] = Tc_new
+            # Cabin: wall w and interior eliminated, T_w' = alpha_w + beta_w T_air'.
+            q_sun = par[P_Q_SUN]
+            c_int = par[P_C_INT]
+            q_sun_int = q_sun if c_int > 0.0 else 0.0
+            q_air = par[P_Q_OCC] + (q_sun - q_sun_int) + p_ptc - (q_evap - q_lat)
+            g_fresh = mdot_air * _CP_AIR * (1.0 - recirc)
+            lhs = par[P_C_AIR] / dt + g_fresh
+            rhs = par[P_C_AIR] / dt * Ta + g_fresh * T_amb + q_air
+            for k in range(3):
+                cw = c_w[k] / dt
+                den = cw + 2.0 * g_w[k]
+                alphas[k] = (cw * s0[S_TGLASS + k] + g_w[k] * T_amb) / den
+                betas[k] = g_w[k] / den
+                lhs += g_w[k] * (1.0 - betas[k])
+                rhs += g_w[k] * alphas[k]
+            alpha_i = 0.0
+            beta_i = 0.0
+            if c_int > 0.0:
+                ci = c_int / dt
+                g_i = par[P_G_INT]
+                alpha_i = (ci * s0[S_TINT] + q_sun_int) / (ci + g_i)
+                beta_i = g_i / (ci + g_i)
+                lhs += g_i * (1.0 - beta_i)
+                rhs += g_i * alpha_i
+            Ta_new = rhs / lhs
+            s1[S_TA] = Ta_new
+            for k in range(3):
+                s1[S_TGLASS + k] = alphas[k] + betas[k] * Ta_new
+            s1[S_TINT] = alpha_i + beta_i * Ta_new if c_int > 0.0 else Ta_new
+            # Cabin humidity ratio: fresh air, occupants, condensate.
+            m_air = par[P_M_AIR] / dt
+            g_w_fresh = mdot_air * (1.0 - recirc)
+            w_new = (m_air * w_cab + g_w_fresh * w_amb + par[P_MOIST] - q_lat / _H_FG) / (m_air + g_w_fresh)
+            s1[S_W] = max(w_new, 0.0)
         # Supply air (diagnostic), no colder than the evaporating refrigerant.
         T_supply = np.nan
-        if mdot_air > 0.0:
+        if mdot_air > 0.0 and not surrogate:
             T_supply = T_mix + (p_ptc - (q_evap - q_lat)) / (mdot_air * _CP_AIR)
             T_floor = np.interp(y[Y_PS], sat_p, sat_T)
             if speed > 0.0 and T_supply < T_floor:

@@ -10,13 +10,28 @@ equalised-pressure state when the compressor is off and the supply-air floor.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from evtms.system.maps import CycleMap, MapSettings, load_maps
+from evtms.errors import EvtmsInputError
+from evtms.system import loop as L  # noqa: N812 - the loop's constants, read as L.*
+from evtms.system.maps import MAPS, CycleMap, MapSettings, _map_values, _operating_inputs, _solve, load_maps, map_interp
 from evtms.system.params import SystemParams
+
+#: Map names by the loop's map id.
+MAP_NAMES = {L.MAP_AC: "ac", L.MAP_CHILLER: "chiller", L.MAP_ACCH: "ac+chiller"}
+#: Physics model: how far a map input may drift from the last solved point before the cycle is solved again.
+PHYSICS_TOLERANCE = {
+    "speed": 0.02,
+    "blower": 0.02,
+    "u_pump": 0.02,
+    "T_amb": 0.1,
+    "T_air_in": 0.25,
+    "RH_air_in": 0.02,
+    "T_coolant_in": 0.25,
+}
 
 
 @dataclass(frozen=True)
@@ -37,9 +52,61 @@ class Refrigerant:
     sat_T: np.ndarray
     sat_p: np.ndarray
     coolant_mdot_max: float
+    settings: MapSettings = field(default_factory=MapSettings)
+    folder: Path | None = None
+    #: Direct-physics solves by map id, reused across runs: a list of (inputs, targets, fallback).
+    memo: dict = field(default_factory=dict, compare=False, repr=False)
 
     def packed(self) -> tuple[np.ndarray, ...]:
         return tuple(a for name in ("ac", "chiller", "ac+chiller") for a in self.maps[name].packed())
+
+    def tolerances(self) -> np.ndarray:
+        """``(3, 6)`` input tolerances of the physics model by map id and axis (:data:`PHYSICS_TOLERANCE`)."""
+        tol = np.zeros((3, 6))
+        for map_id, name in MAP_NAMES.items():
+            for k, axis in enumerate(MAPS[name].axes):
+                tol[map_id, k] = PHYSICS_TOLERANCE[axis]
+        return tol
+
+    def check_physics(self) -> None:
+        """Refuse the physics model where it would not describe the LUTs' components (made with other parameters)."""
+        from evtms.cycle import load_cycle_luts
+        from evtms.cycle.api import parameter_conflicts
+        from evtms.params import Parameters
+
+        if self.folder is None:
+            raise EvtmsInputError("--model physics needs the cycle LUTs' folder (--luts)")
+        conflicts = parameter_conflicts(load_cycle_luts(self.folder, "cabin+chiller"), Parameters())
+        if conflicts:
+            raise EvtmsInputError(
+                f"--model physics solves with the default component parameters, but the LUTs in {self.folder} "
+                f"were made with others ({', '.join(conflicts[:4])}); rebuild them with the defaults"
+            )
+
+    def solve_direct(self, map_id: int, x: np.ndarray) -> tuple[np.ndarray, bool, bool]:
+        """Steady targets (:data:`evtms.system.maps.MAP_OUTPUTS`) of the bench physics at the map inputs ``x``.
+
+        Returns ``(y, fallback, solved)``: a point the cycle cannot solve
+        takes the LUT map's value and ``fallback`` True; a point within
+        :data:`PHYSICS_TOLERANCE` of one solved before (this run or an earlier
+        one on this object) is reused, ``solved`` False.
+        """
+        name = MAP_NAMES[map_id]
+        axes = MAPS[name].axes
+        x = np.asarray(x[: len(axes)], float)
+        tol = self.tolerances()[map_id, : len(axes)]
+        for xs, ys, fb in self.memo.get(map_id, ()):
+            if np.all(np.abs(xs - x) <= tol):
+                return ys, fb, False
+        inputs = _operating_inputs(name, {a: np.array([v]) for a, v in zip(axes, x, strict=True)}, self.settings)
+        values, valid, _ = _map_values(_solve(None, MAPS[name].topology, inputs))
+        y = values[0].copy()
+        fallback = not bool(valid[0])
+        if fallback:
+            y = np.zeros(L.N_Y)
+            map_interp(*self.maps[name].packed(), x, y)
+        self.memo.setdefault(map_id, []).append((x.copy(), y, fallback))
+        return y, fallback, True
 
 
 def map_settings(params: SystemParams) -> MapSettings:
@@ -74,4 +141,6 @@ def load_refrigerant(
         sat_T=np.ascontiguousarray(sat.T, float),
         sat_p=np.ascontiguousarray(sat.p, float),
         coolant_mdot_max=settings.coolant_flow_max * settings.coolant_density,
+        settings=settings,
+        folder=Path(luts_folder),
     )

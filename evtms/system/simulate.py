@@ -22,6 +22,7 @@ import numpy as np
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
 from evtms.system.drive_cycles import DriveCycle
+from evtms.system.mode_model import ModeModels
 from evtms.system.params import WALLS, SystemParams
 from evtms.system.refrigerant import Refrigerant
 from evtms.system.tables import battery_cell_tables
@@ -30,7 +31,19 @@ from evtms.system.vehicle import drive_segments
 P_ATM = 101325.0  # [Pa]
 #: Most time steps one simulation may take (a week at 1 s; bounds memory: ~0.5 kB per step).
 MAX_STEPS = 2_000_000
-MODES = {"auto": -1, "off": L.OFF, "bh": L.BH, "bc": L.BC, "cc": L.CC, "ch": L.CH}
+MODES = {
+    "auto": -1,
+    "off": L.OFF,
+    "bh": L.BH,
+    "bc": L.BC,
+    "cc": L.CC,
+    "ch": L.CH,
+    "ch+bh": L.CH_BH,
+    "ch+bc": L.CH_BC,
+    "cc+bc": L.CC_BC,
+}
+#: How the refrigerant loop (and, for surrogates, the thermal plant) is computed.
+MODELS = ("lut", "physics", "surrogate")
 
 
 @dataclass(frozen=True)
@@ -98,6 +111,8 @@ class SimulationResult:
     ledgers: dict[str, float]
     summary: dict
     attrs: dict = field(default_factory=dict)
+    #: The loop's own arrays (``states``, ``out``, ``modes``, ``dts``, ``par``) when asked for (training data).
+    trace: dict | None = None
 
 
 #: Output variable -> (units, long_name); states at the record time, powers the mean over its interval.
@@ -302,6 +317,9 @@ def simulate(
     output_every: float | None = None,
     scenario: str = "",
     precondition: float = 0.0,
+    model: str = "lut",
+    mode_models: ModeModels | None = None,
+    keep_trace: bool = False,
 ) -> SimulationResult:
     """Simulate the vehicle's thermal system over a drive cycle.
 
@@ -336,6 +354,16 @@ def simulate(
         Record spacing [s], a whole multiple of ``dt`` (default max(1 s, dt)).
     scenario : str
         Name recorded in the output.
+    model : str
+        ``lut`` (the cycle maps), ``physics`` (the bench physics solved in the
+        loop whenever a map input drifts beyond
+        :data:`evtms.system.refrigerant.PHYSICS_TOLERANCE`; slow, the
+        reference) or ``surrogate`` (``mode_models`` replace the refrigerant
+        loop and the thermal network; heat-flow records are NaN).
+    mode_models : ModeModels, optional
+        The mode models of ``model='surrogate'``.
+    keep_trace : bool
+        Keep the loop's arrays in :attr:`SimulationResult.trace`.
 
     Returns
     -------
@@ -344,6 +372,7 @@ def simulate(
     wall0 = time.perf_counter()
     params = params or SystemParams()
     every = check_run_options(cycle, dt, mode, output_every, precondition)
+    check_model(model, mode, mode_models, refrigerant)
     m = round(every / dt)
     if precondition:
         cycle = _with_precondition(cycle, precondition)
@@ -367,7 +396,7 @@ def simulate(
         refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), states, out, modes, flags,
     )  # fmt: skip
     loop0 = time.perf_counter()
-    done = L.run_loop(*args)
+    done, solves = _run_loop(args, model, refrigerant, mode_models)
     loop_time = time.perf_counter() - loop0
     termination = "end of cycle" if done == n else "soc_min"
     edges, dts = edges[: done + 1], dts[:done]
@@ -402,6 +431,9 @@ def simulate(
         "steps": int(done),
         "precondition_s": float(precondition),
         "precondition_grid_kWh": float(np.sum(out[:, L.O_P_GRID] * dts) / 3.6e6),
+        "model": model,
+        "physics_solves": int(solves),
+        "surrogate_out_of_range_fraction": float(np.mean((flags & L.F_SURROGATE_OOR) > 0)) if done else 0.0,
     }
     attrs = {
         "scenario": scenario,
@@ -413,12 +445,61 @@ def simulate(
         "RH_amb": RH_amb,
         "sun": sun if params.cabin.sun is None else params.cabin.sun,
         "mode_request": mode,
+        "model": model,
         "termination": termination,
         "parameters": params.to_json(),
         "ledgers": json.dumps(ledger),
     }
     records["time"] = t_rec - precondition
-    return SimulationResult(records, rec_mode, rec_flags, ledger, summary, attrs)
+    trace = {"states": states, "out": out, "modes": modes, "dts": dts, "par": par} if keep_trace else None
+    return SimulationResult(records, rec_mode, rec_flags, ledger, summary, attrs, trace)
+
+
+def _run_loop(args: tuple, model: str, refrigerant: Refrigerant, mode_models: ModeModels | None) -> tuple[int, int]:
+    """Run the compiled loop for ``model``; returns the steps done and the number of direct-physics solves.
+
+    With ``physics`` the loop stops wherever the refrigerant's inputs left the
+    tolerance of the point it holds; the cycle is solved there (or a nearby
+    earlier solve reused) and the loop resumes at that step.
+    """
+    mem = np.zeros(L.N_M)
+    held = np.full(L.N_H, np.nan)
+    tol = refrigerant.tolerances()
+    net, index = np.zeros(1), np.full((8, 2), -1, np.int64)
+    source = {"lut": L.SRC_MAPS, "physics": L.SRC_HELD, "surrogate": L.SRC_SURROGATE}[model]
+    if model == "surrogate":
+        net, index = mode_models.packed()
+    solves = 0
+    start = 0
+    while True:
+        done = L.run_loop(*args, start, source, mem, held, tol, net, index)
+        if done >= 0:
+            return done, solves
+        start = -done - 1
+        y, fallback, solved = refrigerant.solve_direct(int(held[L.H_MAP]), held[L.H_X : L.H_X + 6])
+        held[L.H_Y : L.H_Y + L.N_Y] = y
+        held[L.H_FALLBACK] = float(fallback)
+        solves += int(solved)
+
+
+def check_model(model: str, mode: str, mode_models: ModeModels | None, refrigerant: Refrigerant) -> None:
+    """Refuse a model that cannot run this simulation (one line, before any work)."""
+    if model not in MODELS:
+        raise EvtmsInputError(f"--model {model!r} is unknown; allowed: {', '.join(MODELS)}")
+    if model == "physics":
+        refrigerant.check_physics()
+    if model == "surrogate":
+        if mode_models is None:
+            raise EvtmsInputError(
+                "--model surrogate needs mode models (--surrogates FILE, from 'evtms surrogate train')"
+            )
+        needed = sorted(set(MODES.values()) - {-1}) if mode == "auto" else [MODES[mode]]
+        missing = [L.MODE_NAMES[c] for c in needed if c not in mode_models.codes()]
+        if missing:
+            raise EvtmsInputError(
+                f"--model surrogate: the mode models lack mode(s) {', '.join(missing)} that --mode {mode} can use; "
+                "train them with 'evtms surrogate train --mode all'"
+            )
 
 
 def check_run_options(
