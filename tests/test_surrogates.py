@@ -289,6 +289,9 @@ def test_design_holds_out_cycles_and_ambients():
     for sc in des.heldout:  # held-out ambients lie inside the training range: generalisation, not extrapolation
         lo, hi = D.RANGES[sc.target].T_amb if sc.target != "auto" else D.RANGES["off"].T_amb
         assert lo + D.AMBIENT_GAP <= sc.T_amb - D.C0 <= hi - D.AMBIENT_GAP
+    for m in mm.MODE_CODES:  # training ambients reach past every held-out one on both sides
+        T = [s.T_amb for s in des.train if s.target == m]
+        assert all(min(T) < s.T_amb < max(T) for s in des.heldout if s.target == m)
     assert {s.target for s in des.train} == set(mm.MODE_CODES)
     assert {s.mode for s in des.heldout if s.target != "auto"} == set(mm.MODE_CODES)
     assert len({s.name for s in des.train + des.heldout}) == len(des.train) + len(des.heldout)

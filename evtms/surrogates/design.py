@@ -5,8 +5,8 @@ model: a drive cycle, an ambient, initial temperatures (battery and coolant,
 cabin soak), initial cabin humidity, a cabin setpoint, sun, humidity, initial state of charge and a
 mode (forced, or ``auto`` for the controller's own choice). Each mode trains
 on ambients in its physical range (cooling modes 20-45 degC, heating modes
--20-10 degC, ``off`` anywhere), drawn by a seeded generator so that a design
-is reproducible.
+-20-10 degC, ``off`` anywhere), one per equal slice of the range (both
+ends covered), drawn by a seeded generator so that a design is reproducible.
 
 Generalisation is measured on scenarios the networks never saw: the held-out
 drive cycles (:data:`HELDOUT_CYCLES`, the regulation cycles of the comparison
@@ -223,6 +223,21 @@ def _train_ambient(rng: np.random.Generator, lo_c: float, hi_c: float) -> float:
     raise RuntimeError(f"no training ambient in {lo_c}..{hi_c} degC away from the held-out ones")  # pragma: no cover
 
 
+def _train_ambients(rng: np.random.Generator, lo_c: float, hi_c: float, n: int) -> list[float]:
+    """``n`` ambients [K], one per equal slice of ``[lo_c, hi_c]`` degC (so both ends are covered), shuffled.
+
+    A slice that lies within :data:`AMBIENT_GAP` of a held-out ambient draws from the whole range instead.
+    """
+    edges = np.linspace(lo_c, hi_c, n + 1)
+    out = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        try:
+            out.append(_train_ambient(rng, a, b))
+        except RuntimeError:
+            out.append(_train_ambient(rng, lo_c, hi_c))
+    return [out[i] for i in rng.permutation(n)]
+
+
 def modes_for(names: list[str]) -> list[str]:
     """Mode names a ``--mode`` list stands for (``all``: every code of :data:`~evtms.system.mode_model.MODE_CODES`)."""
     out: list[str] = []
@@ -267,8 +282,9 @@ def design(
     synth = 0
     for m in modes:
         r = RANGES[m]
+        ambients = _train_ambients(rng, *r.T_amb, n_runs)
         for k in range(n_runs):
-            T_amb = _train_ambient(rng, *r.T_amb)
+            T_amb = ambients[k]
             lo, hi = r.battery
             Tb = rng.uniform(lo, hi) + (0.0 if r.battery_absolute else T_amb)
             if quick or k % 3 != 2:
