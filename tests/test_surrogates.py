@@ -363,3 +363,10 @@ def test_missing_sklearn_is_one_line_before_any_work(refrigerant, tmp_path, monk
     with pytest.raises(EvtmsInputError, match=r"needs scikit-learn; install it with: python3 -m pip install"):
         train_surrogates(refrigerant, ["bc"], tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def test_report_is_json(refrigerant, tmp_path, monkeypatch):
+    monkeypatch.setattr(D, "synthetic_cycle", lambda seed, duration=300.0: _trip(300))
+    rep = train_surrogates(refrigerant, ["ch"], tmp_path, quick=True)
+    d = json.loads(json.dumps(rep.to_dict(), allow_nan=False))
+    assert d["path"] == str(tmp_path / FILE_NAME) and d["modes"]["ch"]["n_train"] == rep.modes["ch"].n_train

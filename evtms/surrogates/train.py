@@ -177,10 +177,10 @@ class TrainReport:
     rollout_available: bool = False
 
     def to_dict(self) -> dict:
-        """Plain values (``--json``)."""
+        """Plain values for ``--json`` (NaN as None)."""
         d = dataclasses.asdict(self)
         d["path"] = str(self.path)
-        return d
+        return _json_safe(d)
 
 
 # ---------------------------------------------------------------------------------------------------------------
