@@ -1094,6 +1094,131 @@ def report_range(
     typer.echo(f"wrote {output}")
 
 
+def _float_list(option: str, text: str, most: int = 20) -> list[float]:
+    """Comma-separated numbers of an option; anything else is one line, exit 2."""
+    items = [t.strip() for t in text.split(",")]
+    if not items or len(items) > most:
+        fail(f"{option} {text!r}: give 1 to {most} comma-separated numbers")
+    try:
+        values = [float(t) for t in items]
+    except ValueError:
+        fail(f"{option} {text!r}: not comma-separated numbers")
+    if not all(math.isfinite(v) for v in values):
+        fail(f"{option} {text!r}: numbers must be finite")
+    return values
+
+
+@report_app.command("compare")
+def report_compare(
+    cycle: Annotated[str, typer.Option("--cycle", help="Drive cycles, comma-separated: built-in names or CSV files.")],
+    t_amb: Annotated[str, typer.Option("--t-amb", help="Ambient temperatures [degC], comma-separated.")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Output folder (created if missing).")],
+    approaches: Annotated[
+        str, typer.Option("--approaches", help="Approaches to compare, comma-separated: physics, lut, surrogate.")
+    ] = "physics,lut,surrogate",
+    surrogates: Annotated[
+        Path, typer.Option("--surrogates", help="Mode-model file or folder (evtms surrogate train -o).")
+    ] = Path("models"),
+    luts: Annotated[Path, typer.Option("--luts", help="Cycle LUT folder (evtms bench all --grid cycle).")] = Path(
+        "luts"
+    ),
+    params: Annotated[Path | None, typer.Option("--params", help="System TOML, as evtms simulate.")] = None,
+    dt: Annotated[float, typer.Option("--dt", help="Step of the comparison table and trajectories [s].")] = 1.0,
+    dts: Annotated[str, typer.Option("--dts", help="Steps of the step-size study [s].")] = "0.01,0.1,1,10",
+    physics_dts: Annotated[
+        str | None,
+        typer.Option("--physics-dts", help="Steps at which physics joins the study [s] (slow); default: --dts >= 1 s."),
+    ] = None,
+    no_steps: Annotated[bool, typer.Option("--no-steps", help="Skip the step-size study.")] = False,
+    measured: Annotated[
+        Path | None,
+        typer.Option(
+            "--measured",
+            help="CSV of measured time,T_cabin,T_battery,SOC,P_hvac (any subset; s, K, 1, W): the reference where "
+            "given; needs one cycle and one ambient.",
+        ),
+    ] = None,
+    repeat: Annotated[int, typer.Option("--repeat", help="Runs of lut and surrogate per scenario, median time.")] = 3,
+    sun: Annotated[float, typer.Option("--sun", help="Solar irradiance [W/m2].")] = 0.0,
+    soak_cabin: Annotated[
+        float | None, typer.Option("--soak-cabin", help="Initial cabin air, walls and interior [degC].")
+    ] = None,
+    fmt: Annotated[str, typer.Option("--format", help="Figure format: png or svg.")] = "png",
+    json_out: Annotated[bool, _JSON] = False,
+) -> None:
+    """Physics, LUT and surrogate models side by side: time per simulation, error, trajectories, step size.
+
+    Example: evtms report compare --cycle wltc3b,nedc --t-amb -10,30,40 -o compare/
+    """
+    from evtms.cycle.topology import parse_values
+    from evtms.reports.compare import APPROACHES, compare_summary, read_measured, run_compare, write_compare
+    from evtms.system.drive_cycles import drive_cycle
+    from evtms.system.params import load_system_params
+
+    chosen = [a.strip() for a in approaches.split(",")]
+    for a in chosen:
+        if a not in APPROACHES:
+            fail(f"--approaches {a!r} is unknown; allowed: {', '.join(APPROACHES)}")
+    if fmt not in ("png", "svg"):
+        fail(f"--format {fmt!r} is unknown; allowed: png, svg")
+    if not 1 <= repeat <= 20:
+        fail(f"--repeat {repeat} is not allowed; allowed: 1 to 20")
+    if not (math.isfinite(sun) and 0.0 <= sun <= 1500.0):
+        fail(f"--sun {sun:g} is not allowed; allowed: 0 to 1500 W/m2")
+    if soak_cabin is not None and not (math.isfinite(soak_cabin) and -40.0 <= soak_cabin <= 90.0):
+        fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
+    ambients = parse_values("T_amb", t_amb, 20)
+    step_list = _float_list("--dts", dts)
+    physics_steps = _float_list("--physics-dts", physics_dts) if physics_dts is not None else None
+    names = [c.strip() for c in cycle.split(",")]
+    if len(names) > 20:
+        fail(f"--cycle: {len(names)} cycles; at most 20")
+    cycles = [drive_cycle(c) for c in names]
+    inputs = [Path(c.source) for c in cycles if Path(c.source).is_file()]
+    if params is not None:
+        inputs.append(input_file(params, "params file"))
+    system = load_system_params(params)
+    reference = None
+    if measured is not None:
+        reference = read_measured(input_file(measured, "measured file"))
+        inputs.append(measured)
+    mode_models = None
+    if "surrogate" in chosen:
+        mode_models, surrogate_file = _mode_models(surrogates)
+        inputs.append(surrogate_file)
+    if luts.is_dir():
+        inputs += sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
+    output_folder(output, inputs)
+    refrigerant = _system_refrigerant(luts, system, quiet=json_out)
+
+    def progress(done: int, total: int, message: str) -> None:
+        if not json_out:
+            typer.echo(f"[{done}/{total}] {message}", err=True)
+
+    result = run_compare(
+        cycles,
+        ambients,
+        refrigerant,
+        params=system,
+        approaches=tuple(chosen),
+        mode_models=mode_models,
+        dts=tuple(step_list),
+        physics_dts=None if physics_steps is None else tuple(physics_steps),
+        dt=dt,
+        measured=reference,
+        measured_source=str(measured) if measured is not None else "",
+        repeat=repeat,
+        step_study=not no_steps,
+        simulate_options={"sun": sun, "soak_cabin": None if soak_cabin is None else soak_cabin + 273.15},
+        progress=progress,
+    )
+    files = write_compare(result, output, fmt)
+    if json_out:
+        print_json({**compare_summary(result), "files": [str(f) for f in files]})
+        return
+    typer.echo(f"wrote {len(files)} files and {output / 'index.html'}")
+
+
 @app.command()
 def demo(
     output: Annotated[Path, typer.Option("--output", "-o", help="Output folder (created if missing).")] = Path("out"),

@@ -114,7 +114,11 @@ def test_a_user_trace(luts, tmp_path):
         (["--cycle", "wltc3b", "--scenario", "cold", "--t-amb", "3"], "one of them"),
         (["--scenario", "desert"], "--scenario 'desert' is unknown"),
         (["--cycle", "wltc3b", "--t-amb", "30", "--mode", "heat"], "--mode 'heat' is unknown"),
-        (["--cycle", "wltc3b", "--t-amb", "30", "--model", "surrogate"], "--model 'surrogate'"),
+        (["--cycle", "wltc3b", "--t-amb", "30", "--model", "neural"], "--model 'neural' is unknown"),
+        (
+            ["--cycle", "wltc3b", "--t-amb", "30", "--model", "surrogate", "--surrogates", "nosuch"],
+            "--surrogates 'nosuch': no mode-model file",
+        ),
         (["--cycle", "wltc3b", "--t-amb", "90"], "T_amb = 90 degC is not allowed"),
         (["--cycle", "wltc3b", "--t-amb", "30", "--precondition", "-5"], "--precondition"),
         (["--cycle", "wltc3b", "--t-amb", "30", "--dt", "0.3", "--output-every", "1"], "--output-every"),
