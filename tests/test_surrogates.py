@@ -7,6 +7,7 @@ and short traces, so the whole module stays well under a minute.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -151,6 +152,9 @@ def test_round_trip_is_bit_exact(tmp_path):
     models.attrs["metrics"] = {"bc": {"rmse": 0.1}}
     path = save_mode_models(models, tmp_path / FILE_NAME)
     assert [p.name for p in tmp_path.iterdir()] == [FILE_NAME]  # no temporary left
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
     back = load_mode_models(path)
     assert back.codes() == models.codes()
     for heads in (("power", models.power, back.power), ("dynamics", models.dynamics, back.dynamics)):
