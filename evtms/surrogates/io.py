@@ -31,6 +31,7 @@ FORMAT = "evtms-mode-models"
 FORMAT_VERSION = 1
 #: Name of the model file in the output folder.
 FILE_NAME = "mode_models.npz"
+MODEL_FILE = FILE_NAME  # the name evtms.cli reads
 #: Largest model file read [bytes].
 MAX_FILE_BYTES = 200 * 1024 * 1024
 _VERSION = re.compile(r"^\d+\.\d+(\.\d+)?([.+-]?[0-9A-Za-z.+-]+)?$")
