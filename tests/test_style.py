@@ -46,7 +46,8 @@ FORBIDDEN_IMPORTS = {
     "luts": ("fluid", "hx", "benches", "cycle", "reports", "cli", "demo", "params"),
     "benches": ("cycle", "system", "reports", "cli", "demo"),
     "cycle": ("system", "reports", "cli", "demo"),
-    "system": ("reports", "cli", "demo"),
+    "system": ("surrogates", "reports", "cli", "demo"),
+    "surrogates": ("reports", "cli", "demo"),
     "reports": ("cli", "demo"),
 }
 

@@ -90,7 +90,10 @@ def _models(seed: int = 0, modes=("bc", "cc")) -> mm.ModeModels:
     codes = [mm.MODE_CODES[m] for m in modes]
     return mm.ModeModels(
         power={c: _random_network(rng, len(mm.POWER_FEATURES), 1) for c in codes},
-        dynamics={c: _random_network(rng, len(mm.DYNAMICS_FEATURES), 9, activation="relu") for c in codes},
+        dynamics={
+            c: _random_network(rng, len(mm.DYNAMICS_FEATURES), len(mm.DYNAMICS_TARGETS), activation="relu")
+            for c in codes
+        },
         attrs={"scenarios": {}, "metrics": {}},
     )
 

@@ -125,7 +125,19 @@ N_S = S_YF + N_Y
 ) = range(35)  # fmt: skip
 
 #: State columns a mode model carries (:data:`evtms.system.mode_model.STATE_NAMES` order).
-SURROGATE_STATES = (S_TB, S_TC, S_TA, S_TGLASS, S_TDOORS, S_TROOF, S_TINT, S_W, S_YF + Y_PS)
+SURROGATE_STATES = (
+    S_TB,
+    S_TC,
+    S_TA,
+    S_TGLASS,
+    S_TDOORS,
+    S_TROOF,
+    S_TINT,
+    S_W,
+    S_YF + Y_PS,
+    S_YF + Y_QEVAP,
+    S_YF + Y_QCH,
+)
 _MLP_WIDTH = 512  # widest network layer the kernel evaluates
 
 _H_FG = 2.45e6  # latent heat of condensing water at cabin conditions [J/kg]
@@ -286,7 +298,7 @@ def run_loop(
     alphas = np.empty(3)  # per step: wall temperature T_w' = alpha_w + beta_w T_air'
     betas = np.empty(3)
     # Surrogate features, outputs and scratch.
-    feat = np.zeros(len(SURROGATE_STATES) + 8)
+    feat = np.zeros(len(SURROGATE_STATES) + 9)
     pred = np.zeros(len(SURROGATE_STATES))
     h0 = np.empty(_MLP_WIDTH)
     h1 = np.empty(_MLP_WIDTH)
@@ -430,6 +442,7 @@ def run_loop(
                 feat[k] = s0[SURROGATE_STATES[k]]
             feat[n_z], feat[n_z + 1], feat[n_z + 2] = speed, blower, u_pump
             feat[n_z + 3], feat[n_z + 4], feat[n_z + 5], feat[n_z + 6] = p_ptc, p_heater, T_amb, w_amb
+            feat[n_z + 7] = par[P_Q_SUN]
             p_comp = 0.0
             at = net_index[mode, 0]
             if at < 0:
@@ -549,7 +562,7 @@ def run_loop(
         s1[S_VRC] = v_rc_new
         # (d) thermal network: the mode model, or backward Euler ---------------------
         if surrogate:
-            feat[n_z + 3], feat[n_z + 4], feat[n_z + 7] = p_ptc, p_heater, q_gen
+            feat[n_z + 3], feat[n_z + 4], feat[n_z + 8] = p_ptc, p_heater, q_gen
             at = net_index[mode, 1]
             if at >= 0 and mlp_eval(net, at, feat, pred, h0, h1):
                 flag |= F_SURROGATE_OOR
@@ -561,7 +574,10 @@ def run_loop(
                 flag |= F_SURROGATE_OOR
             q_air = np.nan
             q_sun_int = np.nan
-            y[Y_PS] = 0.5 * (s0[S_YF + Y_PS] + s1[S_YF + Y_PS])
+            # Filtered suction pressure and heat flows: the step's mean of the model's states.
+            for k in (Y_PS, Y_QEVAP, Y_QCH):
+                y[k] = 0.5 * (s0[S_YF + k] + s1[S_YF + k])
+            q_evap, q_chill = y[Y_QEVAP], y[Y_QCH]
         else:
             cb, cc_ = par[P_C_BAT] / dt, par[P_C_COOL] / dt
             gbc, gba = par[P_G_BC], par[P_G_BA]

@@ -5,8 +5,11 @@ refrigerant loop and the thermal network: battery, coolant, cabin air, walls,
 interior, humidity) by two small feed-forward networks, trained by
 :mod:`evtms.surrogates` on the LUT simulator's steps:
 
-- ``power``: the state at ``t_n`` and the step's actuator commands and
-  ambient -> the compressor's electrical power over the step [W];
+- ``power``: the state at ``t_n`` (temperatures of battery, coolant, cabin
+  air, walls and interior, cabin humidity, and the refrigerant loop's
+  filtered suction pressure, evaporator and chiller heat flows) and the
+  step's actuator commands, ambient and solar gain -> the compressor's
+  electrical power over the step [W];
 - ``dynamics``: the same plus the battery's heat generation of the step ->
   the state's mean rate of change over the step, ``(z_n+1 - z_n)/dt`` [unit/s].
 
@@ -38,10 +41,11 @@ MODE_CODES = {
 #: The loop's state columns a mode model carries, with units.
 STATE_NAMES = (
     "T_battery", "T_coolant", "T_cabin", "T_glass", "T_doors", "T_roof", "T_interior", "w_cabin", "p_suction",
+    "Q_evaporator", "Q_chiller",
 )  # fmt: skip
 STATE_COLUMNS = L.SURROGATE_STATES
 COMMAND_NAMES = ("compressor_speed", "blower", "u_pump", "P_ptc", "P_heater")
-AMBIENT_NAMES = ("T_amb", "w_amb")
+AMBIENT_NAMES = ("T_amb", "w_amb", "Q_sun")
 POWER_FEATURES = STATE_NAMES + COMMAND_NAMES + AMBIENT_NAMES
 DYNAMICS_FEATURES = POWER_FEATURES + ("Q_battery_gen",)
 POWER_TARGETS = ("P_compressor",)
@@ -50,6 +54,9 @@ UNITS = {
     **{s: "K" for s in STATE_NAMES[:7]},
     "w_cabin": "kg kg-1",
     "p_suction": "Pa",
+    "Q_evaporator": "W",
+    "Q_chiller": "W",
+    "Q_sun": "W",
     "compressor_speed": "1",
     "blower": "1",
     "u_pump": "1",
@@ -62,6 +69,8 @@ UNITS = {
     **{f"d{s}_dt": "K s-1" for s in STATE_NAMES[:7]},
     "dw_cabin_dt": "kg kg-1 s-1",
     "dp_suction_dt": "Pa s-1",
+    "dQ_evaporator_dt": "W s-1",
+    "dQ_chiller_dt": "W s-1",
 }
 ACTIVATIONS = {"relu": 0, "tanh": 1}
 HEADS = ("power", "dynamics")
@@ -183,7 +192,7 @@ def training_pairs(trace: dict) -> dict[int, tuple[np.ndarray, np.ndarray, np.nd
     z0 = states[:n][:, STATE_COLUMNS]
     z1 = states[1 : n + 1][:, STATE_COLUMNS]
     commands = out[:, [L.O_SPEED_CMD, L.O_BLOWER, L.O_U_PUMP, L.O_P_PTC, L.O_P_HEATER]]
-    ambient = np.broadcast_to([par[L.P_T_AMB], par[L.P_W_AMB]], (n, 2))
+    ambient = np.broadcast_to([par[L.P_T_AMB], par[L.P_W_AMB], par[L.P_Q_SUN]], (n, 3))
     x_power = np.column_stack([z0, commands, ambient])
     x_dyn = np.column_stack([x_power, out[:, L.O_Q_GEN]])
     y_power = out[:, [L.O_P_COMPRESSOR]]

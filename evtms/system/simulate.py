@@ -404,6 +404,8 @@ def simulate(
     regen = out[:, L.O_REGEN] > 0.5
     drive = _drive_means(cycle, seg, edges, regen)
     ledger = ledgers(par, states, out, dts, drive)
+    if model == "surrogate":  # a mode model conserves no heat: only the electrical and vehicle ledgers apply
+        ledger = {k: v for k, v in ledger.items() if k in ("vehicle", "battery_electrical", "system")}
     records, rec_mode, rec_flags, t_rec = _records(cycle, par, states, out, modes, flags, dts, drive, m)
     E = np.sum(out[:, L.O_EMF] * out[:, L.O_I] * dts)
     distance_km = float(_distance(cycle, edges[-1:])[0] / 1e3)
