@@ -67,16 +67,6 @@ def thesis(fluid, params):
     return get
 
 
-@pytest.fixture(scope="session")
-def cycle_luts_dir(tmp_path_factory, params):
-    """Every bench's LUT on the 'cycle' grid preset, as 'evtms bench all --grid cycle' writes them."""
-    from evtms.demo import ensure_luts
-
-    folder = tmp_path_factory.mktemp("cycle_luts")
-    ensure_luts(folder, "cycle", params, workers=2)
-    return folder
-
-
 #: Cycle-map axes of 2-3 nodes (maps in seconds instead of the full axes' half minute).
 SMALL_MAP_AXES = {
     "speed": [0.1, 0.4, 1.0],
@@ -94,21 +84,151 @@ def small_map_axes():
     return SMALL_MAP_AXES
 
 
-@pytest.fixture(scope="session")
-def demo_run(tmp_path_factory, cycle_luts_dir):
-    """One full 'evtms demo' into a fresh folder that already holds the cycle LUTs (the demo reuses
-    up-to-date LUTs: it computes the thesis ones, solves, draws), shared by the tests."""
-    import shutil
+#: What the collected tests need of the background job (set at collection).
+_NEEDS = {"cycle_luts": False, "demo": False}
 
+#: The background job: the cycle LUTs (``evtms.demo.ensure_luts``, as 'evtms bench all --grid cycle'
+#: writes them), a marker when they are complete, then (if asked) 'evtms demo' into a fresh folder
+#: holding a copy of them, with its result as JSON.
+_BACKGROUND = """
+import json
+import os
+import shutil
+import sys
+from pathlib import Path
+
+from evtms.demo import ensure_luts
+from evtms.params import Parameters
+
+os.nice(10)  # the tests run first: timing checks (e.g. 'evtms --help' under 1 s) keep their CPU
+luts, done, demo = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
+ensure_luts(luts, "cycle", Parameters(), workers=2)
+if demo:
+    out = Path(demo)
+    (out / "luts" / "cycle").mkdir(parents=True)
+    for f in sorted(luts.glob("*.nc")):  # before the tests may add map caches to the folder
+        shutil.copy2(f, out / "luts" / "cycle" / f.name)
+done.touch()
+if demo:
     from evtms.demo import run_demo
-
-    out = tmp_path_factory.mktemp("demo")
-    shutil.copytree(cycle_luts_dir, out / "luts" / "cycle")
-    messages = []
     from evtms.system.maps import MapSettings
 
-    result = run_demo(out, workers=2, notify=messages.append, map_settings=MapSettings(axes=SMALL_MAP_AXES))
-    return out, result, messages
+    messages = []
+    axes = json.loads(sys.argv[4])
+    r = run_demo(out, workers=2, notify=messages.append, map_settings=MapSettings(axes=axes))
+    result = {"index": str(r.index), "computed": r.computed, "reused": r.reused, "timings": r.timings}
+    (out.parent / "demo.json").write_text(json.dumps({"result": result, "messages": messages}))
+"""
+
+
+@pytest.hookimpl(trylast=True)  # after -m / -k deselection: only the tests that will run count
+def pytest_collection_modifyitems(session, config, items):
+    """Modules that use the cycle LUTs run last (module order and the order within a module kept).
+
+    Building the cycle LUTs takes about 1.5 min of both cores, while most of the suite runs on one
+    core. The build (and then the demo) starts with the session in a child process
+    (``_background``) and overlaps the modules that do not need it, instead of blocking the first
+    one that does.
+    """
+    # Per module using the LUTs: how many of its tests run before the first one that needs them.
+    before: dict[str, int] = {}
+    seen: dict[str, int] = {}
+    for item in items:
+        name = item.module.__name__
+        if "cycle_luts_dir" in item.fixturenames:
+            before.setdefault(name, seen.get(name, 0))
+        seen[name] = seen.get(name, 0) + 1
+        _NEEDS["demo"] = _NEEDS["demo"] or "demo_run" in item.fixturenames
+    _NEEDS["cycle_luts"] = bool(before)
+    # Modules without the LUTs first, then those that can run longest before they need them
+    # (e.g. test_topology's direct solves). sort is stable: a module stays in one piece, in order.
+    items.sort(key=lambda item: (item.module.__name__ in before, -before.get(item.module.__name__, 0)))
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _background(private_cache, tmp_path_factory):
+    """Start the background job if a collected test needs the cycle LUTs; stop it at the end."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+    import tempfile
+
+    if not _NEEDS["cycle_luts"]:
+        yield None
+        return
+    luts = tmp_path_factory.mktemp("cycle_luts")
+    work = tmp_path_factory.mktemp("background")
+    demo = work / "demo" if _NEEDS["demo"] else ""
+    log = tempfile.TemporaryFile()
+    # Its own process group: a session that ends early stops the job and its workers.
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _BACKGROUND, str(luts), str(work / "luts.done"), str(demo), json.dumps(SMALL_MAP_AXES)],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
+    )
+    yield {"proc": proc, "luts": luts, "done": work / "luts.done", "demo": demo, "log": log}
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGTERM)
+        proc.wait()
+    log.close()
+
+
+def _background_failed(job, what):
+    job["log"].seek(0)
+    pytest.fail(f"{what} failed in the background job:\n{job['log'].read().decode(errors='replace')}", pytrace=False)
+
+
+@pytest.fixture(scope="session")
+def cycle_luts_dir(_background, tmp_path_factory, params):
+    """Every bench's LUT on the 'cycle' grid preset, as 'evtms bench all --grid cycle' writes them
+    (``evtms.demo.ensure_luts(folder, "cycle", Parameters(), workers=2)``, started with the session)."""
+    import time
+
+    if _background is None:  # requested by name at run time only: build it here
+        from evtms.demo import ensure_luts
+
+        folder = tmp_path_factory.mktemp("cycle_luts")
+        ensure_luts(folder, "cycle", params, workers=2)
+        return folder
+    while not _background["done"].exists() and _background["proc"].poll() is None:
+        time.sleep(0.1)
+    if not _background["done"].exists():
+        _background_failed(_background, "building the cycle LUTs")
+    return _background["luts"]
+
+
+@pytest.fixture(scope="session")
+def demo_run(_background, tmp_path_factory, cycle_luts_dir):
+    """One full 'evtms demo' into a fresh folder that already holds the cycle LUTs (the demo reuses
+    up-to-date LUTs: it computes the thesis ones, solves, draws), shared by the tests. It runs in
+    the background job (while other tests run) as
+    ``run_demo(out, workers=2, notify=messages.append, map_settings=MapSettings(axes=SMALL_MAP_AXES))``."""
+    import json
+    from pathlib import Path
+
+    from evtms.demo import DemoResult
+
+    if _background is None or not _background["demo"]:  # requested by name at run time only
+        import shutil
+
+        from evtms.demo import run_demo
+        from evtms.system.maps import MapSettings
+
+        out = tmp_path_factory.mktemp("demo")
+        shutil.copytree(cycle_luts_dir, out / "luts" / "cycle")
+        messages = []
+        result = run_demo(out, workers=2, notify=messages.append, map_settings=MapSettings(axes=SMALL_MAP_AXES))
+        return out, result, messages
+    if _background["proc"].wait() != 0:
+        _background_failed(_background, "the demo")
+    out = _background["demo"]
+    saved = json.loads((out.parent / "demo.json").read_text())
+    r = saved["result"]
+    result = DemoResult(index=Path(r["index"]), computed=r["computed"], reused=r["reused"], timings=r["timings"])
+    return out, result, saved["messages"]
 
 
 @pytest.fixture(scope="session")
