@@ -174,6 +174,23 @@ def markdown(result: dict) -> str:
     return "\n".join(lines) + "\n\n" + head + "\n\n" + "\n".join(perf)
 
 
+def model_speed(cycle, refrigerant, mode_models, repeat: int) -> dict:
+    """Loop time of the LUT and surrogate models, WLTC at 30 degC, dt 0.1 and 1 s (median of ``repeat``)."""
+    from evtms.system.simulate import simulate
+
+    res = {}
+    for model in ("lut", "surrogate"):
+        for dt in (0.1, 1.0):
+            kw = {"dt": dt, "model": model, "mode_models": mode_models}
+            simulate(cycle, 303.15, refrigerant, **kw)  # compile / load the cached machine code
+            runs = [simulate(cycle, 303.15, refrigerant, **kw).summary for _ in range(repeat)]
+            res[f"{model}_loop_dt{dt:g}_s"] = statistics.median(r["loop_time_s"] for r in runs)
+            res[f"{model}_call_dt{dt:g}_s"] = statistics.median(r["wall_time_s"] for r in runs)
+    widths = {h: [w.shape[1] for w in getattr(mode_models, h)[3].weights] for h in ("power", "dynamics")}
+    res["cc_network_widths"] = widths
+    return res
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("luts", type=Path)
@@ -181,6 +198,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=20)
     ap.add_argument("--sweep", type=int, default=64)
     ap.add_argument("--markdown", type=Path, help="Also read a --json result from this file and print README tables.")
+    ap.add_argument("--surrogates", type=Path, help="Mode-model file: also time the surrogate against the LUT loop.")
     args = ap.parse_args()
     if args.markdown:
         print(markdown(json.loads(args.markdown.read_text())))
@@ -190,11 +208,15 @@ def main() -> None:
 
     refrigerant = load_refrigerant(args.luts)
     cycle = drive_cycle("wltc3b")
-    result = {
-        "machine": machine(),
-        "step_size": step_study(cycle, refrigerant),
-        "performance": performance(cycle, refrigerant, args.luts, args.repeat, args.sweep),
-    }
+    result = {"machine": machine()}
+    if args.surrogates:
+        from evtms.surrogates.io import load_mode_models
+
+        result["models"] = model_speed(cycle, refrigerant, load_mode_models(args.surrogates), args.repeat)
+        print(json.dumps(result, indent=1, default=str))
+        return
+    result["step_size"] = step_study(cycle, refrigerant)
+    result["performance"] = performance(cycle, refrigerant, args.luts, args.repeat, args.sweep)
     if args.json:
         print(json.dumps(result, indent=1, default=str))
         return

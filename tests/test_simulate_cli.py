@@ -8,6 +8,7 @@ its errors are what a user gets.
 from __future__ import annotations
 
 import json
+import math
 import os
 
 import numpy as np
@@ -147,3 +148,76 @@ def test_bad_params_file(luts, tmp_path):
     with xr.open_dataset(out) as ds:
         used = json.loads(ds.attrs["parameters"])
     assert used["cabin"]["volume"] == 2.5 and used["controls"]["tau_refrigerant"] == 20.0
+
+
+def _short_trace(tmp_path, seconds: int = 20):
+    trace = tmp_path / "short.csv"
+    rows = "".join(f"{t},{min(2.0 * t, 30.0)}\n" for t in range(seconds + 1))
+    trace.write_text("time_s,speed_kmh\n" + rows)
+    return trace
+
+
+def test_physics_model_runs_the_bench_physics_in_the_loop(luts, tmp_path):
+    trace = _short_trace(tmp_path)
+    out = {}
+    for model in ("lut", "physics"):
+        r = run("simulate", "--cycle", trace, "--t-amb", "35", "--luts", luts, "--model", model, "-o",
+                tmp_path / f"{model}.nc", "--json")  # fmt: skip
+        assert r.exit_code == 0, r.output
+        out[model] = json.loads(r.stdout)
+    assert out["lut"]["physics_solves"] == 0 and out["physics"]["model"] == "physics"
+    # The cabin asks for cooling from the start: the cycle is solved by the bench physics, a few times.
+    assert 1 <= out["physics"]["physics_solves"] <= 20
+    # Both cool the cabin from 35 degC; they differ by the LUTs and these tests' coarse maps (2-3 nodes an axis).
+    for model in out:
+        assert out[model]["T_cabin_end_degC"] < 33.0
+    assert out["physics"]["T_cabin_end_degC"] == pytest.approx(out["lut"]["T_cabin_end_degC"], abs=1.5)
+    assert out["physics"]["hvac_energy_kWh"] == pytest.approx(out["lut"]["hvac_energy_kWh"], rel=0.25)
+    with xr.open_dataset(tmp_path / "physics.nc") as ds:
+        assert ds.attrs["model"] == "physics"
+
+
+def test_train_surrogates_then_simulate_and_compare_with_them(luts, tmp_path):
+    models = tmp_path / "models"
+    r = run("surrogate", "train", "--quick", "--mode", "all", "--runs-per-mode", "3", "--luts", luts, "-o", models,
+            "--json")  # fmt: skip
+    assert r.exit_code == 0, r.output
+    report = json.loads(r.stdout)
+    assert (models / "mode_models.npz").is_file() and report["path"] == str(models / "mode_models.npz")
+    trace = _short_trace(tmp_path, 120)
+    r = run("simulate", "--cycle", trace, "--t-amb", "30", "--luts", luts, "--model", "surrogate", "--surrogates",
+            models, "-o", tmp_path / "s.nc", "--json")  # fmt: skip
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.stdout)
+    assert summary["model"] == "surrogate" and 0.0 <= summary["surrogate_out_of_range_fraction"] <= 1.0
+    assert math.isfinite(summary["T_cabin_end_degC"]) and math.isfinite(summary["soc_end"])
+    r = run("report", "compare", "--cycle", trace, "--t-amb", "30", "--approaches", "lut,surrogate", "--surrogates",
+            models, "--luts", luts, "--dts", "1,10", "--repeat", "1", "-o", tmp_path / "cmp", "--json")  # fmt: skip
+    assert r.exit_code == 0, r.output
+    result = json.loads(r.stdout)
+    assert {row["approach"] for row in result["table"]} == {"lut", "surrogate"}
+    assert (tmp_path / "cmp" / "index.html").is_file() and (tmp_path / "cmp" / "compare.csv").is_file()
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["surrogate", "train", "--mode", "cooling", "-o", "m"], "cooling"),
+        (["surrogate", "train", "--runs-per-mode", "0", "-o", "m"], "--runs-per-mode 0 is not allowed"),
+        (["report", "compare", "--cycle", "wltc3b", "--t-amb", "30", "--approaches", "lut,neural", "-o", "c"],
+         "--approaches 'neural' is unknown"),
+        (["report", "compare", "--cycle", "wltc3b", "--t-amb", "30", "--approaches", "lut", "--dts", "1,x", "-o", "c"],
+         "--dts '1,x'"),
+        (["report", "compare", "--cycle", "wltc3b", "--t-amb", "30", "--approaches", "surrogate", "--surrogates",
+          "none", "-o", "c"], "--surrogates 'none': no mode-model file"),
+        (["report", "compare", "--cycle", "wltc3b", "--t-amb", "30", "--approaches", "lut", "--measured", "no.csv",
+          "-o", "c"], "no.csv"),
+    ],
+)  # fmt: skip
+def test_bad_surrogate_and_compare_input_is_one_line(luts, tmp_path, monkeypatch, args, message):
+    monkeypatch.chdir(tmp_path)
+    r = run(*args, "--luts", luts)
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], r.stderr
+    assert not (tmp_path / "m").exists() and not (tmp_path / "c").exists()
