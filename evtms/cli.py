@@ -1134,7 +1134,14 @@ def surrogate_train(
         fail(f"--runs-per-mode {runs_per_mode} is not allowed; allowed: 1 to 500")
     if not 0 <= seed < 2**32:
         fail(f"--seed {seed} is not allowed; allowed: 0 to 2**32 - 1")
+    from evtms.surrogates.design import MODE_NAMES
+
     modes = [m.strip() for m in mode.split(",") if m.strip()]
+    for m in modes:
+        if m not in (*MODE_NAMES, "all"):
+            fail(f"--mode {m!r} is unknown; allowed: {', '.join(MODE_NAMES)}, all")
+    if not modes:
+        fail("--mode is empty; allowed: a comma-separated list of modes, or all")
     inputs = [input_file(params, "params file")] if params is not None else []
     system = load_system_params(params)
     if luts.is_dir():
@@ -1231,7 +1238,14 @@ def report_compare(
     Example: evtms report compare --cycle wltc3b,nedc --t-amb -10,30,40 -o compare/
     """
     from evtms.cycle.topology import parse_values
-    from evtms.reports.compare import APPROACHES, compare_summary, read_measured, run_compare, write_compare
+    from evtms.reports.compare import (
+        APPROACHES,
+        check_request,
+        compare_summary,
+        read_measured,
+        run_compare,
+        write_compare,
+    )
     from evtms.system.drive_cycles import drive_cycle
     from evtms.system.params import load_system_params
 
@@ -1266,6 +1280,9 @@ def report_compare(
     if "surrogate" in chosen:
         mode_models, surrogate_file = _mode_models(surrogates)
         inputs.append(surrogate_file)
+    check_request(
+        cycles, ambients, chosen, mode_models, step_list, physics_steps, dt, reference, repeat
+    )  # before the maps are built
     if luts.is_dir():
         inputs += sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
     output_folder(output, inputs)

@@ -20,27 +20,12 @@ from evtms.surrogates.io import FILE_NAME, load_mode_models, save_mode_models
 from evtms.surrogates.train import FitSettings, compose_linear_skip, fit_network, train_surrogates
 from evtms.system import mode_model as mm
 from evtms.system.drive_cycles import DriveCycle
-from evtms.system.maps import CycleMap
 from evtms.system.params import system_params_from_dict
 from evtms.system.refrigerant import Refrigerant
 from evtms.system.simulate import simulate
+from tests.test_simulate import _map  # the synthetic cycle maps that close their balance
 
 pytest.importorskip("sklearn")
-
-
-def _map(name: str, axes: tuple[str, ...], nodes: list[list[float]], evap: float, chill: float) -> CycleMap:
-    grids = np.meshgrid(*[np.asarray(n, float) for n in nodes], indexing="ij")
-    speed = grids[0]
-    v = np.zeros((*speed.shape, 9))
-    W = 3000.0 * speed
-    q_e, q_c = evap * 6000.0 * speed, chill * 5000.0 * speed
-    v[..., 0] = 0.3e6 / (0.5 + speed)
-    v[..., 1] = 1.5e6
-    v[..., 2] = 0.05 * speed
-    v[..., 3], v[..., 4], v[..., 5] = q_e, 0.2 * q_e, q_c
-    v[..., 7], v[..., 8] = W, 0.9 * W
-    v[..., 6] = q_e + q_c + 0.9 * W
-    return CycleMap(name, axes, tuple(np.asarray(n, float) for n in nodes), v, 0)
 
 
 @pytest.fixture(scope="module")

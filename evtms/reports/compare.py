@@ -611,7 +611,7 @@ def run_compare(
     """
     approaches = tuple(approaches)
     tolerance = tolerance or StepTolerance()
-    _check_request(cycles, t_ambs_K, approaches, mode_models, dts, physics_dts, dt, measured, repeat)
+    check_request(cycles, t_ambs_K, approaches, mode_models, dts, physics_dts, dt, measured, repeat)
     dts = tuple(sorted({float(d) for d in dts}))
     if physics_dts is None:
         physics_dts = tuple(d for d in dts if d >= 1.0) or (max(dts),)
@@ -694,7 +694,8 @@ def run_compare(
     )
 
 
-def _check_request(cycles, t_ambs_K, approaches, mode_models, dts, physics_dts, dt, measured, repeat) -> None:
+def check_request(cycles, t_ambs_K, approaches, mode_models, dts, physics_dts, dt, measured, repeat) -> None:
+    """Refuse a comparison that cannot run (one line each), before any map or simulation work."""
     allowed = ", ".join(APPROACHES)
     if not approaches:
         raise EvtmsInputError(f"no approach to compare; allowed: {allowed}")
