@@ -88,6 +88,18 @@ T_SET_C = (18.0, 27.0)
 #: :data:`~evtms.system.mode_model.DYNAMICS_FEATURES` the cabin's solar gain is a
 #: hidden input, so every scenario runs without sun (the models hold for sun 0 only).
 SUN_FEATURE = "Q_sun" in DYNAMICS_FEATURES
+#: Share of training scenarios without sun (night, garage, overcast): sun 0 must lie inside the training range.
+NO_SUN_SHARE = 0.3
+
+
+def _sun(rng: np.random.Generator, span: tuple[float, float]) -> float:
+    """A scenario's irradiance [W/m2]: 0 for :data:`NO_SUN_SHARE` of them, else uniform over ``span``."""
+    draw = rng.uniform(*span)  # drawn either way: the other draws do not depend on the share
+    if not SUN_FEATURE or rng.random() < NO_SUN_SHARE:
+        return 0.0
+    return round(draw, 1)
+
+
 #: Initial cabin relative humidity range [1].
 RH_CABIN = (0.02, 0.8)
 #: Initial state of charge range [1].
@@ -302,7 +314,7 @@ def design(
                     cycle=cycle,
                     T_amb=T_amb,
                     RH_amb=round(rng.uniform(*r.RH), 3),
-                    sun=round(rng.uniform(*r.sun), 1) if SUN_FEATURE else 0.0,
+                    sun=_sun(rng, r.sun),
                     T_battery0=round(Tb, 3),
                     T_cabin0=round(T_amb + rng.uniform(*r.cabin), 3),
                     T_set=round(C0 + rng.uniform(*T_SET_C), 3),

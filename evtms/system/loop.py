@@ -234,7 +234,9 @@ def mlp_eval(net, offset, f, out, h0, h1):
     outside = False
     for i in range(n_in):
         v = f[i]
-        if v < net[x_min + i] or v > net[x_max + i]:
+        # A margin of 1e-6 of the feature's scale: a state the model holds at 0 drifts by round-off.
+        margin = 1e-6 * net[x_scale + i]
+        if v < net[x_min + i] - margin or v > net[x_max + i] + margin:
             outside = True
         h0[i] = (v - net[x_mean + i]) / net[x_scale + i]
     width = n_in

@@ -93,7 +93,8 @@ class Network:
     y_mean, y_scale : numpy.ndarray
         Output de-standardisation, ``y = y_mean + y_scale y_n`` [target units].
     x_min, x_max : numpy.ndarray
-        Training range of each input [feature units]; outside it a step is flagged.
+        Training range of each input [feature units]; a step with an input
+        further than ``1e-6 x_scale`` outside it is flagged.
     """
 
     activation: str
