@@ -198,3 +198,21 @@ def test_training_pairs_are_the_loop_steps_split_by_mode(refrigerant):
     col = STATE_NAMES.index("T_cabin")
     step = pairs[code][3][k, col] * dts[10]
     assert step == pytest.approx(states[11, L.S_TA] - states[10, L.S_TA], rel=1e-12, abs=1e-15)
+
+
+def test_surrogate_holds_a_state_its_mode_never_moved_and_keeps_flows_non_negative(refrigerant):
+    n_p, n_d = len(POWER_FEATURES), len(DYNAMICS_FEATURES)
+    rates = np.zeros(len(STATE_NAMES))
+    rates[STATE_NAMES.index("T_coolant")] = 1e-2  # predicted, but the coolant never moved in training
+    rates[STATE_NAMES.index("Q_chiller")] = -5.0  # would go below zero
+    rates[STATE_NAMES.index("T_battery")] = 1e-3
+    dyn = _constant(n_d, rates)
+    lo, hi = dyn.x_min.copy(), dyn.x_max.copy()
+    k = STATE_NAMES.index("T_coolant")
+    lo[k] = hi[k] = 303.15
+    models = ModeModels({L.OFF: _constant(n_p, [0.0])}, {L.OFF: dataclasses.replace(dyn, x_min=lo, x_max=hi)})
+    r = simulate(parked(300.0), 303.15, refrigerant, mode="off", model="surrogate", mode_models=models)
+    np.testing.assert_array_equal(r.records["T_coolant"], 303.15)
+    np.testing.assert_allclose(r.records["T_battery"][-1], 303.15 + 0.3, atol=1e-9)
+    assert np.all(r.records["Q_chiller"][1:] >= 0.0)
+    assert not np.any(r.flags & L.F_SURROGATE_OOR)

@@ -568,10 +568,18 @@ def run_loop(
             at = net_index[mode, 1]
             if at >= 0 and mlp_eval(net, at, feat, pred, h0, h1):
                 flag |= F_SURROGATE_OOR
+            if at >= 0:
+                n_layers, n_in = int(net[at]), int(net[at + 2])
+                x_min = at + 3 + n_layers + 2 * n_in
             for k in range(n_z):
-                rate = pred[k] if at >= 0 else 0.0
+                rate = 0.0
+                # A state constant throughout the mode's training is held: the data say nothing of its rate.
+                if at >= 0 and net[x_min + k] != net[x_min + n_in + k]:
+                    rate = pred[k]
                 s1[SURROGATE_STATES[k]] = s0[SURROGATE_STATES[k]] + dt * rate
-            s1[S_W] = max(s1[S_W], 0.0)
+            # Physical bounds the networks do not know: humidity, pressure and the loop's cooling flows are >= 0.
+            for k in (S_W, S_YF + Y_PS, S_YF + Y_QEVAP, S_YF + Y_QCH):
+                s1[k] = max(s1[k], 0.0)
             if at < 0:
                 flag |= F_SURROGATE_OOR
             q_air = np.nan
