@@ -7,6 +7,7 @@ and short traces, so the whole module stays well under a minute.
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -328,6 +329,27 @@ def test_train_writes_a_checked_file_and_keeps_other_modes(refrigerant, tmp_path
     assert m2.codes() == sorted([mm.MODE_CODES["bc"], mm.MODE_CODES["cc"]])
     assert np.array_equal(m2.packed()[0][: m.power[2].packed().size], m.power[2].packed())
     assert set(m2.attrs["metrics"]) == {"bc", "cc"}
+
+
+def test_a_fit_that_runs_away_in_closed_loop_is_refit_and_the_best_kept(refrigerant, tmp_path, monkeypatch):
+    from evtms.surrogates import train as train_module
+
+    monkeypatch.setattr(D, "synthetic_cycle", lambda seed, duration=300.0: _trip(300))
+    errors = iter([math.inf, 0.4 * train_module.STABLE_ROLLOUT_K + 1.0, 0.5 * train_module.STABLE_ROLLOUT_K])
+    seeds = []
+    real_fit = train_module.fit_network
+    monkeypatch.setattr(train_module, "_training_rollout_error", lambda *a: next(errors))
+
+    def fit(*args, seed, **kwargs):
+        seeds.append(seed)
+        return real_fit(*args, seed=seed, **kwargs)
+
+    monkeypatch.setattr(train_module, "fit_network", fit)
+    rep = train_surrogates(refrigerant, ["bc"], tmp_path, quick=True, seed=7)
+    bc = rep.modes["bc"]
+    # inf (diverged), then above the limit, then within it: three fits with three seeds, the last kept.
+    assert bc.fit_attempts == 3 and bc.train_rollout_rmse_K == 0.5 * train_module.STABLE_ROLLOUT_K
+    assert seeds == [7, 7, 1007, 1007, 2007, 2007]
 
 
 def test_train_refuses_bad_input(refrigerant, tmp_path):

@@ -121,6 +121,12 @@ class ModeReport:
     fit_power, fit_dynamics : FitInfo
     one_step : dict of str to float
         RMSE on the held-out steps: ``P_compressor`` [W], ``dT_battery_dt``, ``dT_cabin_dt``, ``dT_coolant_dt`` [K/s].
+    fit_attempts : int
+        Fits made: a fit whose closed-loop run on the mode's own training
+        scenarios strays more than :data:`STABLE_ROLLOUT_K` from the LUT runs
+        is redone with another seed (at most :data:`FIT_ATTEMPTS`), the best kept.
+    train_rollout_rmse_K : float
+        That check's worst RMSE of T_battery, T_cabin, T_coolant [K] (inf: a run left finite numbers).
     rollout : dict of str to dict, or None
         Closed-loop errors on the mode's held-out runs (forced mode), per
         variable of :data:`ROLLOUT_VARIABLES`: ``rmse`` and ``max`` (largest
@@ -138,6 +144,8 @@ class ModeReport:
     fit_dynamics: FitInfo
     one_step: dict[str, float]
     rollout: dict | None = None
+    fit_attempts: int = 1
+    train_rollout_rmse_K: float = math.nan
 
 
 @dataclass
@@ -436,6 +444,38 @@ def _summarise(diffs: list[dict[str, np.ndarray]], oor: list[float]) -> dict:
     return s
 
 
+#: Closed-loop check of a fit on the mode's own training runs: worst RMSE [K] accepted, refits, runs used.
+STABLE_ROLLOUT_K = 1.0
+FIT_ATTEMPTS = 3
+ROLLOUT_CHECK_RUNS = 6
+
+
+def _training_rollout_error(
+    code: int,
+    power: mm.Network,
+    dyn: mm.Network,
+    scenarios: list[D.Scenario],
+    lut: dict[str, SimulationResult],
+    refrigerant: Refrigerant,
+    params: SystemParams | None,
+) -> float:
+    """Worst RMSE [K] of T_battery, T_cabin, T_coolant of the fitted mode against its LUT runs (inf: non-finite)."""
+    if not scenarios or not surrogate_available():
+        return math.nan
+    models = mm.ModeModels({code: power}, {code: dyn})
+    worst = 0.0
+    for sc in scenarios:
+        sur = run_scenario(sc, refrigerant, params, keep_trace=False, mode_models=models)
+        for v in ("T_battery", "T_cabin", "T_coolant"):
+            a, b = np.asarray(lut[sc.name].records[v], float), np.asarray(sur.records[v], float)
+            n = min(a.size, b.size)
+            d = b[:n] - a[:n]
+            if not np.all(np.isfinite(d)):
+                return math.inf
+            worst = max(worst, float(np.sqrt(np.mean(d**2))))
+    return worst
+
+
 def _one_step(power: mm.Network, dyn: mm.Network, data: tuple[np.ndarray, ...]) -> dict[str, float]:
     xp, yp, xd, yd = data
     if yp.shape[0] == 0:
@@ -529,7 +569,7 @@ def train_surrogates(
 
     codes = {mm.MODE_CODES[m] for m in names}
     t0 = time.perf_counter()
-    train_pairs, _ = _collect(des.train, refrigerant, params, codes, tick)
+    train_pairs, train_lut = _collect(des.train, refrigerant, params, codes, tick)
     held_pairs, held_lut = _collect(des.heldout, refrigerant, params, codes, tick)
     data_time = time.perf_counter() - t0
 
@@ -553,10 +593,22 @@ def train_surrogates(
         if n_train > settings.max_samples:
             sel = np.sort(rng.choice(n_train, settings.max_samples, replace=False))
             xp, yp, xd, yd = xp[sel], yp[sel], xd[sel], yd[sel]
-        power[code], fit_p = fit_network(xp, yp, settings, seed=seed)
+        # A fit that is good step by step can still run away in closed loop: check it on the mode's own training
+        # scenarios (forced runs; no held-out data) and refit with another seed when it does, keeping the best.
+        forced_runs = [sc for sc in des.train if sc.target == m and sc.mode == m][:ROLLOUT_CHECK_RUNS]
+        best = None
+        for attempt in range(FIT_ATTEMPTS):
+            fit_seed = seed + 1000 * attempt
+            p_net, fit_p = fit_network(xp, yp, settings, seed=fit_seed)
+            d_net, fit_d = fit_network(xd, yd, settings, seed=fit_seed)
+            err = _training_rollout_error(code, p_net, d_net, forced_runs, train_lut, refrigerant, params)
+            if best is None or err < best[0]:
+                best = (err, p_net, fit_p, d_net, fit_d, attempt + 1)
+            if not with_rollout or err <= STABLE_ROLLOUT_K:
+                break
+        err, power[code], fit_p, dynamics[code], fit_d, attempts = best
         tick(f"fitted {m} power ({fit_p.epochs} epochs, {fit_p.time_s:.1f} s)")
-        dynamics[code], fit_d = fit_network(xd, yd, settings, seed=seed)
-        tick(f"fitted {m} dynamics ({fit_d.epochs} epochs, {fit_d.time_s:.1f} s)")
+        tick(f"fitted {m} dynamics ({fit_d.epochs} epochs, {fit_d.time_s:.1f} s; {attempts} fit(s))")
         held = _stack(held_pairs[code])
         ok = _finite_rows(*held)
         held = tuple(a[ok] for a in held)
@@ -569,6 +621,8 @@ def train_surrogates(
             fit_power=fit_p,
             fit_dynamics=fit_d,
             one_step=_one_step(power[code], dynamics[code], held),
+            fit_attempts=attempts,
+            train_rollout_rmse_K=err,
         )
     fit_time = time.perf_counter() - t0
     if not reports:
