@@ -182,3 +182,30 @@ def staged_folder(folder: str | Path) -> Iterator[Path]:
             os.replace(f, folder / f.name)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+def read_small_text(
+    path: str | Path, what: str, max_bytes: int, expected: str, hint: str, encoding: str = "utf-8"
+) -> str:
+    """The text of a small input file (CSV traces, measurements), checked before it is read.
+
+    Raises :class:`EvtmsInputError` ``"<path>: <rule>"`` when the file cannot
+    be read, is not a regular file (``give <expected>``), is larger than
+    ``max_bytes`` or is not text in ``encoding`` (``not UTF-8 text (<hint>)``).
+    ``what`` names the file (``drive cycle``).
+    """
+    where = str(path)
+    try:
+        st = os.stat(path)
+    except OSError as exc:
+        raise EvtmsInputError(f"{where}: cannot read the {what} ({exc.strerror or exc})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise EvtmsInputError(f"{where}: not a regular file; give {expected}")
+    if st.st_size > max_bytes:
+        raise EvtmsInputError(f"{where}: {st.st_size:,} bytes is above the limit of {max_bytes:,} for a {what}")
+    try:
+        return Path(path).read_bytes().decode(encoding)
+    except UnicodeDecodeError:
+        raise EvtmsInputError(f"{where}: not UTF-8 text ({hint})") from None
+    except OSError as exc:
+        raise EvtmsInputError(f"{where}: cannot read the {what} ({exc.strerror or exc})") from None

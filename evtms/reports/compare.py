@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from evtms.errors import EvtmsInputError
+from evtms.paths import read_small_text
 from evtms.system import loop as L  # noqa: N812 - flag bits L.F_*
 from evtms.system.drive_cycles import DriveCycle
 
@@ -313,25 +314,16 @@ def read_measured(path: str | Path) -> dict[str, np.ndarray]:
         value that is not finite, a time that does not start at 0 or does not
         increase, a temperature or SOC out of range, no rows.
     """
-    import os
-    import stat
-
     path = Path(path)
     where = str(path)
-    try:
-        st = os.stat(path)
-    except OSError as exc:
-        raise _fail(where, f"cannot read the measured file ({exc.strerror or exc})") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise _fail(where, "not a regular file; give a CSV file of measured values")
-    if st.st_size > MAX_MEASURED_BYTES:
-        raise _fail(where, f"{st.st_size:,} bytes is above the limit of {MAX_MEASURED_BYTES:,} for a measured file")
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise _fail(where, "not UTF-8 text (a CSV file with a header such as time,T_cabin,SOC)") from None
-    except OSError as exc:
-        raise _fail(where, f"cannot read the measured file ({exc.strerror or exc})") from None
+    text = read_small_text(
+        path,
+        "measured file",
+        MAX_MEASURED_BYTES,
+        "a CSV file of measured values",
+        "a CSV file with a header such as time,T_cabin,SOC",
+        encoding="utf-8-sig",
+    )
     allowed = ", ".join(MEASURED_VARIABLES)
     header: list[str] | None = None
     rows: list[list[float]] = []

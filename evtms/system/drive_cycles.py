@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from evtms.errors import EvtmsInputError
+from evtms.paths import read_small_text
 
 #: Built-in cycles: name -> file in ``data/drive_cycles``.
 BUILTIN = {
@@ -95,20 +96,13 @@ def read_drive_cycle(path: str | Path, name: str | None = None) -> DriveCycle:
     """
     path = Path(path)
     where = str(path)
-    try:
-        st = path.stat()
-    except OSError as exc:
-        raise _fail(where, f"cannot read the drive cycle ({exc.strerror or exc})") from None
-    if not path.is_file():
-        raise _fail(where, "not a regular file; give a CSV drive cycle or one of " + ", ".join(BUILTIN))
-    if st.st_size > MAX_FILE_BYTES:
-        raise _fail(where, f"{st.st_size:,} bytes is above the limit of {MAX_FILE_BYTES:,} for a drive cycle")
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except UnicodeDecodeError:
-        raise _fail(where, "not UTF-8 text (a CSV drive cycle: time_s,speed_kmh[,grade])") from None
-    except OSError as exc:
-        raise _fail(where, f"cannot read the drive cycle ({exc.strerror or exc})") from None
+    text = read_small_text(
+        path,
+        "drive cycle",
+        MAX_FILE_BYTES,
+        "a CSV drive cycle or one of " + ", ".join(BUILTIN),
+        "a CSV drive cycle: time_s,speed_kmh[,grade]",
+    )
     rows: list[tuple[float, ...]] = []
     header: list[str] | None = None
     for number, raw in enumerate(text.splitlines(), start=1):
