@@ -28,6 +28,7 @@ from evtms.cli import app
 runner = CliRunner()
 #: A simulate call whose other arguments are good.
 SIM = ["simulate", "--cycle", "wltc3b", "--t-amb", "30"]
+CMP = ["report", "compare", "--cycle", "wltc3b", "--approaches", "lut"]
 SMALL = ["--axis", "mdot=4,6g/s", "--axis", "fan=0.2,0.5", "--axis", "p_in=1,1.1MPa", "--axis", "T_in=340,350"]
 
 
@@ -411,6 +412,38 @@ CASES: list[Case] = [
         "c.nc",
     ),
     Case("report-range-not-a-sweep", ["report", "range", "s.nc", "-o", "r.png"], "s.nc"),
+    Case(
+        "simulate-surrogates-garbage",
+        [*SIM, "--model", "surrogate", "--surrogates", "m.npz", "-o", "o.nc"],
+        "m.npz",
+        [write("m.npz", b"PK\x03\x04 not a zip")],
+    ),
+    Case(
+        "simulate-surrogates-not-models",
+        [*SIM, "--model", "surrogate", "--surrogates", "m.npz", "-o", "o.nc"],
+        "m.npz",
+        [write("m.npz", b"")],
+    ),
+    Case("surrogate-train-over-a-file", ["surrogate", "train", "--mode", "bc", "-o", "c.nc"], "c.nc"),
+    Case("surrogate-train-unknown-mode", ["surrogate", "train", "--mode", "bc,heat", "-o", "m"], "heat"),
+    Case(
+        "compare-measured-celsius",
+        [*CMP, "--t-amb", "30", "--measured", "m.csv", "-o", "cmp"],
+        "m.csv",
+        [write("m.csv", "time,T_cabin\n0,25.0\n1,25.1\n")],
+    ),
+    Case(
+        "compare-measured-two-scenarios",
+        [*CMP, "--t-amb", "30,35", "--measured", "m.csv", "-o", "cmp"],
+        "one",
+        [write("m.csv", "time,T_cabin\n0,300.0\n1,300.1\n")],
+    ),
+    Case(
+        "compare-t-amb-words",
+        [*CMP, "--t-amb", "hot", "-o", "cmp"],
+        "--t-amb",
+    ),
+    Case("compare-output-is-a-file", [*CMP, "--t-amb", "30", "-o", "c.nc"], "is a file"),
 ]
 
 
