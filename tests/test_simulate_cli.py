@@ -158,7 +158,7 @@ def _short_trace(tmp_path, seconds: int = 20):
 
 
 def test_physics_model_runs_the_bench_physics_in_the_loop(luts, tmp_path):
-    trace = _short_trace(tmp_path)
+    trace = _short_trace(tmp_path, 8)
     out = {}
     for model in ("lut", "physics"):
         r = run("simulate", "--cycle", trace, "--t-amb", "35", "--luts", luts, "--model", model, "-o",
@@ -167,11 +167,11 @@ def test_physics_model_runs_the_bench_physics_in_the_loop(luts, tmp_path):
         out[model] = json.loads(r.stdout)
     assert out["lut"]["physics_solves"] == 0 and out["physics"]["model"] == "physics"
     # The cabin asks for cooling from the start: the cycle is solved by the bench physics, a few times.
-    assert 1 <= out["physics"]["physics_solves"] <= 20
+    assert 1 <= out["physics"]["physics_solves"] <= 8
     # Both cool the cabin from 35 degC; they differ by the LUTs and these tests' coarse maps (2-3 nodes an axis).
     for model in out:
-        assert out[model]["T_cabin_end_degC"] < 33.0
-    assert out["physics"]["T_cabin_end_degC"] == pytest.approx(out["lut"]["T_cabin_end_degC"], abs=1.5)
+        assert out[model]["T_cabin_end_degC"] < 34.5
+    assert out["physics"]["T_cabin_end_degC"] == pytest.approx(out["lut"]["T_cabin_end_degC"], abs=1.0)
     assert out["physics"]["hvac_energy_kWh"] == pytest.approx(out["lut"]["hvac_energy_kWh"], rel=0.25)
     with xr.open_dataset(tmp_path / "physics.nc") as ds:
         assert ds.attrs["model"] == "physics"
