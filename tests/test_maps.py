@@ -188,14 +188,14 @@ def test_fill_rule_lower_speed_then_higher_then_ambient():
 
 
 def test_a_map_without_a_valid_node_is_an_input_error(cycle_luts_dir, small, monkeypatch):
-    real = maps_module._solve
+    real = maps_module.solve_nodes
 
     def failing(luts, topology, inputs):
         res = real(luts, topology, inputs)
         res["status"] = np.full(res["status"].size, 1, np.int8)
         return res
 
-    monkeypatch.setattr(maps_module, "_solve", failing)
+    monkeypatch.setattr(maps_module, "solve_nodes", failing)
     with pytest.raises(EvtmsInputError, match="none of its 24 operating points solved") as err:
         build_map("chiller", cycle_luts_dir, small, workers=1)
     assert "\n" not in str(err.value)

@@ -523,7 +523,7 @@ def map_axes(name: str, luts_folder: str | Path, settings: MapSettings | None = 
     return out
 
 
-def _operating_inputs(name: str, axes: Mapping[str, np.ndarray], settings: MapSettings) -> dict[str, np.ndarray]:
+def operating_inputs(name: str, axes: Mapping[str, np.ndarray], settings: MapSettings) -> dict[str, np.ndarray]:
     """Flat operating inputs (:class:`OperatingPoints` keywords) of every node, C order of the grid."""
     spec = MAPS[name]
     mesh = np.meshgrid(*[axes[a] for a in spec.axes], indexing="ij")
@@ -549,7 +549,7 @@ _RESULT_KEYS = ("p_A", "p_B", "mdot", "Q_evap", "Q_latent", "Q_chiller", "Q_cond
 _WORKER_LUTS: dict[tuple[str, str], dict] = {}
 
 
-def _solve(luts: dict, topology: str, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+def solve_nodes(luts: dict, topology: str, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     from evtms.cycle.api import run_cycle
     from evtms.cycle.solver import OperatingPoints
 
@@ -564,10 +564,10 @@ def _solve_in_worker(folder: str, topology: str, inputs: dict[str, np.ndarray]) 
     key = (folder, topology)
     if key not in _WORKER_LUTS:
         _WORKER_LUTS[key] = load_cycle_luts(folder, topology)
-    return _solve(_WORKER_LUTS[key], topology, inputs)
+    return solve_nodes(_WORKER_LUTS[key], topology, inputs)
 
 
-def _map_values(res: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, float]:
+def map_values(res: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, float]:
     """Node values ``(n, 9)``, valid mask and the largest relative balance residual of the valid nodes."""
     from evtms.cycle.solver import VALID_CYCLE_FLAGS
 
@@ -699,7 +699,7 @@ def _plan(name: str, folder: Path, settings: MapSettings) -> _Plan:
         "lut_files": luts,
     }
     key = hashlib.sha256(json.dumps(provenance, sort_keys=True).encode()).hexdigest()
-    return _Plan(name, axes, _operating_inputs(name, axes, settings), key, provenance)
+    return _Plan(name, axes, operating_inputs(name, axes, settings), key, provenance)
 
 
 def _build(plans: Sequence[_Plan], folder: Path, progress: Progress | None, workers: int | None) -> dict[str, CycleMap]:
@@ -743,7 +743,7 @@ def _build(plans: Sequence[_Plan], folder: Path, progress: Progress | None, work
             topo = p.provenance["topology"]
             if topo not in luts:
                 luts[topo] = load_cycle_luts(folder, topo)
-            take(p, a, b, _solve(luts[topo], topo, piece(p, a, b)))
+            take(p, a, b, solve_nodes(luts[topo], topo, piece(p, a, b)))
     seconds = time.perf_counter() - t0
 
     maps = {}
@@ -751,7 +751,7 @@ def _build(plans: Sequence[_Plan], folder: Path, progress: Progress | None, work
         res = {k: np.concatenate([r[k] for r in results[p.name]]) for k in _RESULT_KEYS}
         spec = MAPS[p.name]
         shape = tuple(p.axes[a].size for a in spec.axes)
-        flat, valid, balance = _map_values(res)
+        flat, valid, balance = map_values(res)
         if not valid.any():
             raise EvtmsInputError(
                 f"cycle map {p.name!r}: none of its {p.size:,} operating points solved on the LUTs in {folder} "

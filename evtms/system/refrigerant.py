@@ -17,7 +17,16 @@ import numpy as np
 
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's constants, read as L.*
-from evtms.system.maps import MAPS, CycleMap, MapSettings, _map_values, _operating_inputs, _solve, load_maps, map_interp
+from evtms.system.maps import (
+    MAPS,
+    CycleMap,
+    MapSettings,
+    load_maps,
+    map_interp,
+    map_values,
+    operating_inputs,
+    solve_nodes,
+)
 from evtms.system.params import SystemParams
 
 #: Map names by the loop's map id.
@@ -98,8 +107,8 @@ class Refrigerant:
         for xs, ys, fb in self.memo.get(map_id, ()):
             if np.all(np.abs(xs - x) <= tol):
                 return ys, fb, False
-        inputs = _operating_inputs(name, {a: np.array([v]) for a, v in zip(axes, x, strict=True)}, self.settings)
-        values, valid, _ = _map_values(_solve(None, MAPS[name].topology, inputs))
+        inputs = operating_inputs(name, {a: np.array([v]) for a, v in zip(axes, x, strict=True)}, self.settings)
+        values, valid, _ = map_values(solve_nodes(None, MAPS[name].topology, inputs))
         y = values[0].copy()
         fallback = not bool(valid[0])
         if fallback:
