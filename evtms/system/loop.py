@@ -215,6 +215,14 @@ def _pick_mode(bc, crit, bh, cc, ch):
 
 
 @jit
+def _input_block(net, offset):
+    """Where the packed network at ``net[offset:]`` keeps its input statistics (``x_mean``, ``x_scale``, ``x_min``,
+    ``x_max``, each ``n_in`` long, in that order), and ``n_in``."""
+    n_layers = int(net[offset])
+    return offset + 3 + n_layers, int(net[offset + 2])
+
+
+@jit
 def mlp_eval(net, offset, f, out, h0, h1):
     """Evaluate the packed network at ``net[offset:]`` (:meth:`evtms.system.mode_model.Network.packed`).
 
@@ -225,9 +233,8 @@ def mlp_eval(net, offset, f, out, h0, h1):
     n_layers = int(net[offset])
     relu = net[offset + 1] == 0.0
     w0 = offset + 2
-    n_in = int(net[w0])
+    p, n_in = _input_block(net, offset)
     n_out = int(net[w0 + n_layers])
-    p = w0 + n_layers + 1
     x_mean, x_scale, x_min, x_max = p, p + n_in, p + 2 * n_in, p + 3 * n_in
     y_mean, y_scale = p + 4 * n_in, p + 4 * n_in + n_out
     p = y_scale + n_out
@@ -568,13 +575,14 @@ def run_loop(
             at = net_index[mode, 1]
             if at >= 0 and mlp_eval(net, at, feat, pred, h0, h1):
                 flag |= F_SURROGATE_OOR
+            x_min = x_max = 0
             if at >= 0:
-                n_layers, n_in = int(net[at]), int(net[at + 2])
-                x_min = at + 3 + n_layers + 2 * n_in
+                x_mean, n_in = _input_block(net, at)
+                x_min, x_max = x_mean + 2 * n_in, x_mean + 3 * n_in
             for k in range(n_z):
                 rate = 0.0
                 # A state constant throughout the mode's training is held: the data say nothing of its rate.
-                if at >= 0 and net[x_min + k] != net[x_min + n_in + k]:
+                if at >= 0 and net[x_min + k] != net[x_max + k]:
                     rate = pred[k]
                 s1[SURROGATE_STATES[k]] = s0[SURROGATE_STATES[k]] + dt * rate
             # Physical bounds the networks do not know: humidity, pressure and the loop's cooling flows are >= 0.
