@@ -63,7 +63,8 @@ class Refrigerant:
     coolant_mdot_max: float
     settings: MapSettings = field(default_factory=MapSettings)
     folder: Path | None = None
-    #: Direct-physics solves by map id, reused across runs: a list of (inputs, targets, fallback).
+    #: Direct-physics solves by map id, reused across runs: a list of (inputs, targets, fallback); and under
+    #: ``"lut_parameters"`` the outcome of :meth:`check_physics` (the LUT headers are read once per object).
     memo: dict = field(default_factory=dict, compare=False, repr=False)
 
     def packed(self) -> tuple[np.ndarray, ...]:
@@ -85,7 +86,10 @@ class Refrigerant:
 
         if self.folder is None:
             raise EvtmsInputError("--model physics needs the cycle LUTs' folder (--luts)")
-        conflicts = parameter_conflicts(load_cycle_luts(self.folder, "cabin+chiller"), Parameters())
+        if "lut_parameters" not in self.memo:
+            luts = load_cycle_luts(self.folder, "cabin+chiller")
+            self.memo["lut_parameters"] = parameter_conflicts(luts, Parameters())
+        conflicts = self.memo["lut_parameters"]
         if conflicts:
             raise EvtmsInputError(
                 f"--model physics solves with the default component parameters, but the LUTs in {self.folder} "
