@@ -1127,25 +1127,18 @@ def surrogate_train(
     Example: evtms surrogate train --mode all -o models/ && evtms simulate --cycle wltc3b --t-amb 30 --model
     surrogate --surrogates models/ -o run.nc
     """
-    from evtms.surrogates.train import train_surrogates
+    from evtms.surrogates.train import check_modes, train_surrogates
     from evtms.system.params import load_system_params
 
     if not 1 <= runs_per_mode <= 500:
         fail(f"--runs-per-mode {runs_per_mode} is not allowed; allowed: 1 to 500")
     if not 0 <= seed < 2**32:
         fail(f"--seed {seed} is not allowed; allowed: 0 to 2**32 - 1")
-    from evtms.surrogates.design import MODE_NAMES
-
     modes = [m.strip() for m in mode.split(",") if m.strip()]
-    for m in modes:
-        if m not in (*MODE_NAMES, "all"):
-            fail(f"--mode {m!r} is unknown; allowed: {', '.join(MODE_NAMES)}, all")
-    if not modes:
-        fail("--mode is empty; allowed: a comma-separated list of modes, or all")
+    check_modes(modes)  # before any LUT or map work
     inputs = [input_file(params, "params file")] if params is not None else []
     system = load_system_params(params)
-    if luts.is_dir():
-        inputs += sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
+    inputs += _luts_inputs(luts)
     output_folder(output, inputs)
     refrigerant = _system_refrigerant(luts, system, quiet=json_out)
     with _ProgressBar(json_out or not sys.stderr.isatty()) as bar:
@@ -1259,8 +1252,7 @@ def report_compare(
         fail(f"--repeat {repeat} is not allowed; allowed: 1 to 20")
     if not (math.isfinite(sun) and 0.0 <= sun <= 1500.0):
         fail(f"--sun {sun:g} is not allowed; allowed: 0 to 1500 W/m2")
-    if soak_cabin is not None and not (math.isfinite(soak_cabin) and -40.0 <= soak_cabin <= 90.0):
-        fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
+    _check_soak(soak_cabin)
     ambients = parse_values("T_amb", t_amb, 20)
     step_list = _float_list("--dts", dts)
     physics_steps = _float_list("--physics-dts", physics_dts) if physics_dts is not None else None
@@ -1283,8 +1275,7 @@ def report_compare(
     check_request(
         cycles, ambients, chosen, mode_models, step_list, physics_steps, dt, reference, repeat
     )  # before the maps are built
-    if luts.is_dir():
-        inputs += sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
+    inputs += _luts_inputs(luts)
     output_folder(output, inputs)
     refrigerant = _system_refrigerant(luts, system, quiet=json_out)
 
@@ -1425,8 +1416,7 @@ def simulate(
 
     if model not in MODELS:
         fail(f"--model {model!r} is unknown; allowed: {', '.join(MODELS)}")
-    if soak_cabin is not None and not (math.isfinite(soak_cabin) and -40.0 <= soak_cabin <= 90.0):
-        fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
+    _check_soak(soak_cabin)
     sc = SCENARIOS[scenario] if scenario is not None else None
     if t_amb is None and (sc is None or sc.T_amb is None):
         fail("give --t-amb DEGC (this cycle or scenario has no ambient of its own)")
@@ -1439,10 +1429,7 @@ def simulate(
     check_run_options(trace, dt, mode, output_every, precondition)
     if Path(trace.source).is_file():
         inputs.append(Path(trace.source))
-    if luts.exists() and not luts.is_dir():
-        fail(f"--luts {str(luts)!r} is not a folder; allowed: a folder of cycle LUTs (or one to build them in)")
-    if luts.is_dir():
-        inputs += sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
+    inputs += _luts_inputs(luts)
     mode_models = None
     if model == "surrogate":
         mode_models, surrogate_file = _mode_models(surrogates)
@@ -1491,6 +1478,21 @@ def simulate(
             f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
         )
     typer.echo(f"wrote {output} ({wall:.2f} s)")
+
+
+def _check_soak(soak_cabin: float | None) -> None:
+    """--soak-cabin [degC], when given, within -40 to 90 degC."""
+    if soak_cabin is not None and not (math.isfinite(soak_cabin) and -40.0 <= soak_cabin <= 90.0):
+        fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
+
+
+def _luts_inputs(luts: Path) -> list[Path]:
+    """The cycle LUTs and maps in ``luts`` (inputs an output may not overwrite); a file there is one line, exit 2."""
+    if luts.exists() and not luts.is_dir():
+        fail(f"--luts {str(luts)!r} is not a folder; allowed: a folder of cycle LUTs (or one to build them in)")
+    if not luts.is_dir():
+        return []
+    return sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
 
 
 def _mode_models(path: Path):

@@ -22,7 +22,7 @@ import numpy as np
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
 from evtms.system.drive_cycles import DriveCycle
-from evtms.system.mode_model import ModeModels
+from evtms.system.mode_model import MODE_CODES, ModeModels
 from evtms.system.params import WALLS, SystemParams
 from evtms.system.refrigerant import Refrigerant
 from evtms.system.tables import battery_cell_tables
@@ -31,17 +31,8 @@ from evtms.system.vehicle import drive_segments
 P_ATM = 101325.0  # [Pa]
 #: Most time steps one simulation may take (a week at 1 s; bounds memory: ~0.5 kB per step).
 MAX_STEPS = 2_000_000
-MODES = {
-    "auto": -1,
-    "off": L.OFF,
-    "bh": L.BH,
-    "bc": L.BC,
-    "cc": L.CC,
-    "ch": L.CH,
-    "ch+bh": L.CH_BH,
-    "ch+bc": L.CH_BC,
-    "cc+bc": L.CC_BC,
-}
+#: ``--mode``: auto, or a forced mode by name (:data:`evtms.system.mode_model.MODE_CODES`).
+MODES = {"auto": -1, **MODE_CODES}
 #: How the refrigerant loop (and, for surrogates, the thermal plant) is computed.
 MODELS = ("lut", "physics", "surrogate")
 
