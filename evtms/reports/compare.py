@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import csv
 import html
-import inspect
 import json
 import math
 import re
@@ -490,13 +489,7 @@ def _default_simulator(
     """:func:`evtms.system.simulate.simulate` with the approach as ``model``."""
     from evtms.system.simulate import simulate
 
-    accepted = inspect.signature(simulate).parameters
-    if "model" not in accepted:
-        if model != "lut":
-            raise NotImplementedError(f"simulate() of this evtms has no model option (only the lut model), not {model}")
-        return simulate(cycle, T_amb, refrigerant, params, dt=dt, **options)
-    extra = {"mode_models": mode_models} if "mode_models" in accepted and mode_models is not None else {}
-    return simulate(cycle, T_amb, refrigerant, params, dt=dt, model=model, **extra, **options)
+    return simulate(cycle, T_amb, refrigerant, params, dt=dt, model=model, mode_models=mode_models, **options)
 
 
 def _reduce(approach: str, cycle: str, T_amb: float, dt: float, results: list) -> Run:

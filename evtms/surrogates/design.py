@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from evtms.system.drive_cycles import KMH, DriveCycle, drive_cycle
-from evtms.system.mode_model import DYNAMICS_FEATURES, MODE_CODES
+from evtms.system.mode_model import MODE_CODES
 from evtms.system.params import SystemParams
 
 C0 = 273.15  # [K] at 0 degC
@@ -84,10 +84,6 @@ RANGES: dict[str, ModeRanges] = {
 }
 #: Cabin setpoint range [degC] drawn per scenario (excites the blower and compressor commands).
 T_SET_C = (18.0, 27.0)
-#: Whether the networks see the sun: without a sun feature (``Q_sun``) in
-#: :data:`~evtms.system.mode_model.DYNAMICS_FEATURES` the cabin's solar gain is a
-#: hidden input, so every scenario runs without sun (the models hold for sun 0 only).
-SUN_FEATURE = "Q_sun" in DYNAMICS_FEATURES
 #: Share of training scenarios without sun (night, garage, overcast): sun 0 must lie inside the training range.
 NO_SUN_SHARE = 0.3
 
@@ -95,7 +91,7 @@ NO_SUN_SHARE = 0.3
 def _sun(rng: np.random.Generator, span: tuple[float, float]) -> float:
     """A scenario's irradiance [W/m2]: 0 for :data:`NO_SUN_SHARE` of them, else uniform over ``span``."""
     draw = rng.uniform(*span)  # drawn either way: the other draws do not depend on the share
-    if not SUN_FEATURE or rng.random() < NO_SUN_SHARE:
+    if rng.random() < NO_SUN_SHARE:
         return 0.0
     return round(draw, 1)
 
@@ -260,9 +256,7 @@ def modes_for(names: list[str]) -> list[str]:
     return out
 
 
-def design(
-    modes: list[str], *, seed: int = 0, runs_per_mode: int = 24, quick: bool = False, forced: set[str] | None = None
-) -> Design:
+def design(modes: list[str], *, seed: int = 0, runs_per_mode: int = 24, quick: bool = False) -> Design:
     """Training and held-out scenarios for ``modes`` (names of :data:`MODE_NAMES`).
 
     Parameters
@@ -278,17 +272,12 @@ def design(
     quick : bool
         A small design (3 training runs per mode on short synthetic traces,
         one held-out cycle) for tests.
-    forced : set of str, optional
-        Modes :func:`~evtms.system.simulate.simulate` can force (default:
-        all); a mode it cannot force is trained from ``auto`` runs in its
-        ranges.
 
     Returns
     -------
     Design
     """
     rng = np.random.default_rng(seed)
-    forced = set(MODE_NAMES) if forced is None else forced
     n_runs = 3 if quick else runs_per_mode
     train: list[Scenario] = []
     synth = 0
@@ -304,7 +293,7 @@ def design(
                 cycle = f"synthetic-{seed * 1000 + synth}"
             else:
                 cycle = TRAIN_CYCLES[(k // 3) % len(TRAIN_CYCLES)]
-            run_mode = m if (m in forced and (quick or k % 3 != 1)) else "auto"
+            run_mode = m if (quick or k % 3 != 1) else "auto"
             train.append(
                 Scenario(
                     name=f"train-{m}-{k:02d}",
@@ -322,20 +311,18 @@ def design(
                     soc_init=round(rng.uniform(*SOC_INIT), 3),
                 )
             )
-    return Design(train=train, heldout=heldout_scenarios(modes, quick=quick, forced=forced), seed=seed)
+    return Design(train=train, heldout=heldout_scenarios(modes, quick=quick), seed=seed)
 
 
-def heldout_scenarios(modes: list[str], *, quick: bool = False, forced: set[str] | None = None) -> list[Scenario]:
+def heldout_scenarios(modes: list[str], *, quick: bool = False) -> list[Scenario]:
     """Held-out runs: each mode forced on :data:`HELDOUT_CYCLES` at the held-out ambients of its range.
 
     Initial conditions are fixed (no draw): the middle of the mode's ranges,
     the default setpoint 25 degC, SOC 0.9, RH 0.4, sun 300 W/m2 in cooling
-    modes and 0 otherwise (0 throughout without :data:`SUN_FEATURE`). A mode that cannot be forced is held out in
-    ``auto`` runs at the same conditions. When every mode is trained, the
+    modes and 0 otherwise. When every mode is trained, the
     controller's own choice (``auto``, target ``auto``) is held out too on the
     same cycles at :data:`AUTO_AMBIENTS_C`, starting at the ambient.
     """
-    forced = set(MODE_NAMES) if forced is None else forced
     cycles = HELDOUT_CYCLES[1:] if quick else HELDOUT_CYCLES
     out = []
     for m in modes:
@@ -353,11 +340,11 @@ def heldout_scenarios(modes: list[str], *, quick: bool = False, forced: set[str]
                         name=f"heldout-{m}-{c}-{a:g}C",
                         role="heldout",
                         target=m,
-                        mode=m if m in forced else "auto",
+                        mode=m,
                         cycle=c,
                         T_amb=T_amb,
                         RH_amb=0.4,
-                        sun=300.0 if (m in COOLING and SUN_FEATURE) else 0.0,
+                        sun=300.0 if m in COOLING else 0.0,
                         T_battery0=round(Tb, 3),
                         T_cabin0=round(T_amb + 0.5 * (r.cabin[0] + r.cabin[1]), 3),
                         T_set=298.15,
@@ -378,7 +365,7 @@ def heldout_scenarios(modes: list[str], *, quick: bool = False, forced: set[str]
                         cycle=c,
                         T_amb=T_amb,
                         RH_amb=0.4,
-                        sun=300.0 if (a > 20 and SUN_FEATURE) else 0.0,
+                        sun=300.0 if a > 20 else 0.0,
                         T_battery0=None,
                         T_cabin0=None,
                         T_set=298.15,

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
-import inspect
 import math
 import time
 from collections.abc import Callable
@@ -44,7 +43,6 @@ from evtms.system import loop as L  # noqa: N812 - the loop's index constants
 from evtms.system import mode_model as mm
 from evtms.system.params import SystemParams
 from evtms.system.refrigerant import Refrigerant, load_refrigerant
-from evtms.system.simulate import MODES as SIM_MODES
 from evtms.system.simulate import SimulationResult, simulate
 
 Progress = Callable[[int, int, str], None]
@@ -167,8 +165,6 @@ class TrainReport:
     n_train_runs, n_heldout_runs : int
     data_time_s, fit_time_s, eval_time_s, total_time_s : float
         Wall times [s].
-    rollout_available : bool
-        Whether the simulator ran the surrogate (closed-loop check).
     """
 
     path: Path
@@ -182,7 +178,6 @@ class TrainReport:
     fit_time_s: float = 0.0
     eval_time_s: float = 0.0
     total_time_s: float = 0.0
-    rollout_available: bool = False
 
     def to_dict(self) -> dict:
         """Plain values for ``--json`` (NaN as None)."""
@@ -193,20 +188,6 @@ class TrainReport:
 
 # ---------------------------------------------------------------------------------------------------------------
 # Simulator capabilities
-
-
-def _sim_params() -> set[str]:
-    return set(inspect.signature(simulate).parameters)
-
-
-def surrogate_available() -> bool:
-    """Whether :func:`simulate` runs the loop on mode models (``model="surrogate"``)."""
-    return {"model", "mode_models"} <= _sim_params()
-
-
-def forcible_modes() -> set[str]:
-    """Mode names :func:`simulate` can force."""
-    return {m for m in D.MODE_NAMES if m in SIM_MODES}
 
 
 def run_scenario(
@@ -460,7 +441,7 @@ def _training_rollout_error(
     params: SystemParams | None,
 ) -> float:
     """Worst RMSE [K] of T_battery, T_cabin, T_coolant of the fitted mode against its LUT runs (inf: non-finite)."""
-    if not scenarios or not surrogate_available():
+    if not scenarios:
         return math.nan
     models = mm.ModeModels({code: power}, {code: dyn})
     worst = 0.0
@@ -491,6 +472,17 @@ def _one_step(power: mm.Network, dyn: mm.Network, data: tuple[np.ndarray, ...]) 
 
 # ---------------------------------------------------------------------------------------------------------------
 # The command
+
+
+def check_modes(modes: list[str]) -> list[str]:
+    """The mode names ``modes`` stand for (``all``: every one); an unknown or no mode is an input error."""
+    for m in modes:
+        if m != "all" and m not in D.MODE_NAMES:
+            raise EvtmsInputError(f"--mode {m!r} is unknown; allowed: {', '.join(D.MODE_NAMES)}, all")
+    names = D.modes_for(list(modes))
+    if not names:
+        raise EvtmsInputError("--mode: no mode given; allowed: " + ", ".join(D.MODE_NAMES) + ", all")
+    return names
 
 
 def train_surrogates(
@@ -541,12 +533,7 @@ def train_surrogates(
         scikit-learn missing (all but too few steps before any simulation).
     """
     t_start = time.perf_counter()
-    for m in modes:
-        if m != "all" and m not in D.MODE_NAMES:
-            raise EvtmsInputError(f"--mode {m!r} is unknown; allowed: {', '.join(D.MODE_NAMES)}, all")
-    names = D.modes_for(list(modes))
-    if not names:
-        raise EvtmsInputError("--mode: no mode given; allowed: " + ", ".join(D.MODE_NAMES) + ", all")
+    names = check_modes(modes)
     settings = settings or (FitSettings.quick() if quick else FitSettings())
     if importlib.util.find_spec("sklearn") is None:
         raise EvtmsInputError(SKLEARN_MISSING)
@@ -555,10 +542,8 @@ def train_surrogates(
     path = Path(out_dir) / FILE_NAME
     existing = load_mode_models(path) if path.exists() else None
     refrigerant = luts if isinstance(luts, Refrigerant) else load_refrigerant(luts, params)
-    forced = forcible_modes()
-    des = D.design(names, seed=seed, runs_per_mode=runs_per_mode, quick=quick, forced=forced)
-    with_rollout = surrogate_available()
-    total = len(des.train) + len(des.heldout) * (2 if with_rollout else 1) + 2 * len(names)
+    des = D.design(names, seed=seed, runs_per_mode=runs_per_mode, quick=quick)
+    total = len(des.train) + 2 * len(des.heldout) + 2 * len(names)
     done = 0
 
     def tick(message: str) -> None:
@@ -604,7 +589,7 @@ def train_surrogates(
             err = _training_rollout_error(code, p_net, d_net, forced_runs, train_lut, refrigerant, params)
             if best is None or err < best[0]:
                 best = (err, p_net, fit_p, d_net, fit_d, attempt + 1)
-            if not with_rollout or err <= STABLE_ROLLOUT_K:
+            if not err > STABLE_ROLLOUT_K:  # NaN: no forced training run to check against, keep the fit
                 break
         err, power[code], fit_p, dynamics[code], fit_d, attempts = best
         tick(f"fitted {m} power ({fit_p.epochs} epochs, {fit_p.time_s:.1f} s)")
@@ -642,23 +627,22 @@ def train_surrogates(
 
     t0 = time.perf_counter()
     auto = None
-    if with_rollout:
-        diffs: dict[str, list] = {}
-        oor: dict[str, list] = {}
-        for sc in des.heldout:
-            target = sc.target
-            if target != "auto" and target not in reports:
-                tick(f"no model for {sc.name}")
-                continue
-            sur = run_scenario(sc, refrigerant, params, keep_trace=False, mode_models=models)
-            diffs.setdefault(target, []).append(rollout_errors(held_lut[sc.name], sur))
-            oor.setdefault(target, []).append(float(np.mean((sur.flags & L.F_SURROGATE_OOR) > 0)))
-            tick(f"surrogate {sc.name}")
-        for m, rep in reports.items():
-            if m in diffs and any(s.mode == m for s in des.heldout if s.target == m):
-                rep.rollout = _summarise(diffs[m], oor[m])
-        if "auto" in diffs:
-            auto = _summarise(diffs["auto"], oor["auto"])
+    diffs: dict[str, list] = {}
+    oor: dict[str, list] = {}
+    for sc in des.heldout:
+        target = sc.target
+        if target != "auto" and target not in reports:
+            tick(f"no model for {sc.name}")
+            continue
+        sur = run_scenario(sc, refrigerant, params, keep_trace=False, mode_models=models)
+        diffs.setdefault(target, []).append(rollout_errors(held_lut[sc.name], sur))
+        oor.setdefault(target, []).append(float(np.mean((sur.flags & L.F_SURROGATE_OOR) > 0)))
+        tick(f"surrogate {sc.name}")
+    for m, rep in reports.items():
+        if m in diffs:
+            rep.rollout = _summarise(diffs[m], oor[m])
+    if "auto" in diffs:
+        auto = _summarise(diffs["auto"], oor["auto"])
     eval_time = time.perf_counter() - t0
 
     for m, rep in reports.items():
@@ -702,7 +686,6 @@ def train_surrogates(
         fit_time_s=fit_time,
         eval_time_s=eval_time,
         total_time_s=time.perf_counter() - t_start,
-        rollout_available=with_rollout,
     )
 
 
