@@ -22,9 +22,9 @@ import numpy as np  # noqa: E402
 
 from evtms.benches import BENCHES  # noqa: E402
 from evtms.benches.grid import build_grid  # noqa: E402
+from evtms.benches.parameters import Parameters  # noqa: E402
 from evtms.benches.sweep import evaluate_grid  # noqa: E402
 from evtms.fluid import Fluid  # noqa: E402
-from evtms.params import Parameters  # noqa: E402
 
 
 def dense_grid(bench, n_target: int = 10_000) -> dict[str, np.ndarray]:

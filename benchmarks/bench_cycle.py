@@ -20,11 +20,11 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from evtms.benches.parameters import Parameters  # noqa: E402
 from evtms.cycle import OperatingPoints, load_cycle_luts  # noqa: E402
 from evtms.cycle.models import DirectModels, LutModels  # noqa: E402
 from evtms.cycle.solver import VALID_CYCLE_FLAGS, CycleSolver  # noqa: E402
 from evtms.fluid import Fluid, SaturationCurve  # noqa: E402
-from evtms.params import Parameters  # noqa: E402
 
 
 def points(n: int, seed: int = 5) -> OperatingPoints:

@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 
 from evtms.benches import BENCHES  # noqa: E402
 from evtms.benches.chunked import DaskRunner, InProcessRunner, sweep_to_file  # noqa: E402
-from evtms.params import Parameters  # noqa: E402
+from evtms.benches.parameters import Parameters  # noqa: E402
 
 
 def grid(n: int) -> dict[str, np.ndarray]:

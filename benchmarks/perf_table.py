@@ -60,12 +60,12 @@ import numpy as np
 from accuracy_cycle import compare, envelope
 
 import evtms
+from evtms.benches.parameters import Parameters
 from evtms.cycle import CycleSolver, OperatingPoints, load_cycle_luts
 from evtms.cycle.models import LutModels
 from evtms.cycle.solver import VALID_CYCLE_FLAGS
 from evtms.cycle.topology import topology
 from evtms.fluid import Fluid, SaturationCurve
-from evtms.params import Parameters
 
 BATCHES = (10, 100, 1000, 10000)
 

@@ -315,8 +315,9 @@ def _run_benches(
     from evtms.benches import BENCHES
     from evtms.benches.chunked import InProcessRunner, SweepInterrupted, sweep_to_file
     from evtms.benches.grid import DEFAULT_MAX_POINTS, build_grid, parse_axes
+    from evtms.benches.parameters import load_parameters
     from evtms.luts.io import LutStorage
-    from evtms.params import check_backend, load_parameters
+    from evtms.params import check_backend
 
     max_points = DEFAULT_MAX_POINTS if max_points is None else max_points
     if max_points < 1:
@@ -649,9 +650,9 @@ def _cycle_inputs(topology: str, texts: dict[str, str | None], max_points: int =
 
 def _cycle_models(luts: Path | None, direct: bool, params: Path | None, circuit):
     """(LUT tables or None, parameters) for a cycle command; a --params that the LUTs contradict is refused."""
+    from evtms.benches.parameters import load_parameters
     from evtms.cycle import load_cycle_luts
     from evtms.cycle.api import parameter_conflicts
-    from evtms.params import load_parameters
 
     if direct and luts is not None:
         fail("give --direct (bench physics) or --luts (LUT folder), not both")
@@ -1319,8 +1320,8 @@ def demo(
 
     Example: evtms demo -o out/   (a second run reuses up-to-date LUTs; --force recomputes)
     """
+    from evtms.benches.parameters import load_parameters
     from evtms.demo import run_demo
-    from evtms.params import load_parameters
 
     if workers < 1:
         fail(f"--workers {workers} is not allowed; allowed: 1 or more")
@@ -1510,8 +1511,8 @@ def _mode_models(path: Path):
 
 def _system_refrigerant(luts: Path, system, quiet: bool):
     """The cycle maps of ``luts`` for the simulator; LUTs and maps are built first where missing (with a bar)."""
+    from evtms.benches.parameters import Parameters
     from evtms.demo import ensure_luts
-    from evtms.params import Parameters
     from evtms.system.refrigerant import load_refrigerant
 
     if not luts.is_dir() or not all((luts / f"{c}.nc").is_file() for c in _CYCLE_COMPONENTS):

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from evtms import __version__
-from evtms.params import Parameters
+from evtms.benches.parameters import Parameters
 
 GRIDS = ("thesis", "cycle")
 

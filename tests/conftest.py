@@ -6,9 +6,9 @@ import pytest
 
 from evtms.benches import BENCHES
 from evtms.benches.grid import build_grid
+from evtms.benches.parameters import Parameters
 from evtms.benches.sweep import run_sweep
 from evtms.fluid import Fluid
-from evtms.params import Parameters
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -98,7 +98,7 @@ import sys
 from pathlib import Path
 
 from evtms.demo import ensure_luts
-from evtms.params import Parameters
+from evtms.benches.parameters import Parameters
 
 os.nice(10)  # the tests run first: timing checks (e.g. 'evtms --help' under 1 s) keep their CPU
 luts, done, demo = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]

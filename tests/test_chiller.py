@@ -17,9 +17,9 @@ from evtms.benches.chiller import (
     STATUS_NOT_COLDER_THAN_COOLANT,
     solve_chiller,
 )
+from evtms.benches.parameters import load_parameters
 from evtms.errors import EvtmsInputError
 from evtms.fluid import coolant
-from evtms.params import load_parameters
 
 BENCH = BENCHES["chiller"]
 VALID = (0, STATUS_CORRELATION_OUTSIDE_RANGE)

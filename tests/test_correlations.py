@@ -12,7 +12,7 @@ from evtms.benches import correlations as corr
 from evtms.benches.coil import coil_geometry
 from evtms.fluid import humid_air_inlet
 
-# Default condenser louvred fin (evtms.params.CoilParams): theta 27 deg, L_p 1 mm, F_p 0.5 mm,
+# Default condenser louvred fin (evtms.benches.coil.CoilParams): theta 27 deg, L_p 1 mm, F_p 0.5 mm,
 # F_l 9.75 - 2 = 7.75 mm, T_d 15 mm, L_l 6.5 mm, T_p 390 mm / 40 = 9.75 mm, delta_f 0.1 mm.
 FIN = corr.LouveredFin(
     louver_angle=math.radians(27.0),

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from evtms.benches.parameters import Parameters
 from evtms.cli import app
 from evtms.cycle import OperatingPoints, run_cycle
 from evtms.cycle.models import LutModels
@@ -21,7 +22,6 @@ from evtms.cycle.solver import (
     VALVE_SATURATED_FLAGS,
 )
 from evtms.fluid import Fluid
-from evtms.params import Parameters
 
 runner = CliRunner()
 

@@ -24,6 +24,10 @@ import pytest
 from typer.testing import CliRunner
 
 from evtms.benches import BENCHES
+from evtms.benches.chiller import PlateHXParams
+from evtms.benches.coil import CoilParams
+from evtms.benches.compressor import CompressorParams
+from evtms.benches.expansion_valve import ExpansionValveParams
 from evtms.benches.grid import (
     DEFAULT_MAX_POINTS,
     build_grid,
@@ -34,19 +38,10 @@ from evtms.benches.grid import (
     parse_value,
     round_sig,
 )
+from evtms.benches.parameters import Parameters, load_parameters, parameters_from_json
 from evtms.cli import app
 from evtms.errors import EvtmsInputError
-from evtms.params import (
-    MAX_PARAMS_BYTES,
-    CoilParams,
-    CompressorParams,
-    Environment,
-    ExpansionValveParams,
-    Parameters,
-    Range,
-    load_parameters,
-    parameters_from_json,
-)
+from evtms.params import MAX_PARAMS_BYTES, Environment, Range
 
 
 def refused(fn, *args, **kwargs) -> str:
@@ -302,7 +297,7 @@ def test_good_params_file_is_read(tmp_path):
     p.validate()
 
 
-@pytest.mark.parametrize("cls", [Environment, CoilParams, CompressorParams, ExpansionValveParams])
+@pytest.mark.parametrize("cls", [Environment, CoilParams, CompressorParams, ExpansionValveParams, PlateHXParams])
 def test_every_parameter_declares_a_range_its_default_keeps(cls):
     for f in dataclasses.fields(cls):
         rng = f.metadata.get("range")

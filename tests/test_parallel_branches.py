@@ -13,6 +13,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
+from evtms.benches.expansion_valve import ExpansionValveParams
 from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
 from evtms.cycle.solver import (
     CYCLE_FLAGS,
@@ -22,7 +23,6 @@ from evtms.cycle.solver import (
     CycleStatus,
 )
 from evtms.cycle.topology import INPUTS
-from evtms.params import ExpansionValveParams
 
 #: The two points of the report: the chiller's coolant (20 degC) barely warmer than evaporation
 #: plus the setpoint (its valve closes), and a hot cabin at full speed (the evaporator's valve saturates).

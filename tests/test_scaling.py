@@ -143,7 +143,7 @@ import resource
 import numpy as np
 from evtms.benches import BENCHES
 from evtms.benches.chunked import sweep_to_file
-from evtms.params import Parameters
+from evtms.benches.parameters import Parameters
 n = {points_per_axis}
 grid = {{"mdot": np.linspace(0.004, 0.008, n), "fan": np.linspace(0.1, 1, n), "p_in": np.linspace(0.9e6, 1.2e6, n),
         "T_in": np.linspace(330, 375, n), "T_res": np.linspace(300, 330, 5)}}
@@ -164,7 +164,7 @@ def test_a_worker_killed_mid_sweep_loses_nothing(tmp_path):
     distributed = pytest.importorskip("distributed")
     from evtms.benches import BENCHES
     from evtms.benches.chunked import DaskRunner, InProcessRunner, sweep_to_file
-    from evtms.params import Parameters
+    from evtms.benches.parameters import Parameters
 
     grid = {
         "mdot": np.linspace(0.004, 0.008, 6),
@@ -213,8 +213,8 @@ def test_a_worker_killed_mid_sweep_loses_nothing(tmp_path):
 
 def test_a_worker_saves_its_chunk_only_where_it_sees_the_partial_folder(tmp_path):
     from evtms.benches.chunked import ChunkPlan, _Job
+    from evtms.benches.parameters import Parameters
     from evtms.benches.partial import TOKEN, save_chunk
-    from evtms.params import Parameters
 
     grid = {
         "mdot": np.array([0.004, 0.006]),

@@ -26,9 +26,9 @@ import pytest
 
 from evtms.benches import BENCHES
 from evtms.benches.chunked import ChunkPlan, SweepInterrupted, sweep_to_file
+from evtms.benches.parameters import Parameters
 from evtms.benches.partial import LOCK, MAGIC, MARKER, lock_partial
 from evtms.errors import EvtmsInputError
-from evtms.params import Parameters
 
 CONDENSER = BENCHES["condenser"]
 # 216 points; with 20 points per chunk: 18 slabs of 2 x 4 x 2 and 1 x 4 x 2 points.
@@ -139,7 +139,7 @@ from pathlib import Path
 import numpy as np
 from evtms.benches import BENCHES
 from evtms.benches.chunked import sweep_to_file
-from evtms.params import Parameters
+from evtms.benches.parameters import Parameters
 
 grid = {grid}
 out, running, gate = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])

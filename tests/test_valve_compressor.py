@@ -8,10 +8,9 @@ from CoolProp.CoolProp import PropsSI
 
 from evtms.benches import BENCHES
 from evtms.benches.compressor import STATUS_LIQUID_SUCTION, clearance_volumetric_efficiency
-from evtms.benches.expansion_valve import STATUS_CHOKED, STATUS_DP_EXCEEDS_INLET, nominal_opening
+from evtms.benches.expansion_valve import STATUS_CHOKED, STATUS_DP_EXCEEDS_INLET, ExpansionValveParams, nominal_opening
 from evtms.benches.grid import build_grid
 from evtms.benches.sweep import run_sweep
-from evtms.params import ExpansionValveParams
 
 # --- expansion valve -------------------------------------------------------
 

@@ -11,14 +11,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from evtms.fluid import Fluid
 from evtms.luts.schema import ALTERNATE_AXES, AxisSpec, ComponentSpec
-from evtms.params import Parameters
 
-Evaluate = Callable[[dict[str, np.ndarray], Parameters, Fluid], dict[str, np.ndarray]]
+if TYPE_CHECKING:
+    from evtms.benches.parameters import Parameters
+
+Evaluate = Callable[[dict[str, np.ndarray], "Parameters", Fluid], dict[str, np.ndarray]]
 
 #: Status codes every bench shares; benches add their own above these.
 STATUS_VALID = 0
@@ -51,6 +54,12 @@ class Bench:
         Status code -> CF flag meaning (one word, underscores).
     evaluate : callable
         ``evaluate(inputs, params, fluid) -> outputs``.
+    parameters : callable
+        ``parameters()``: the component's default parameter table, a frozen
+        dataclass of fields with units and ranges (:mod:`evtms.params`).
+        :class:`~evtms.benches.parameters.Parameters` holds one such table
+        per registered bench, named after it: the ``[name]`` table of a
+        parameter file and the ``name`` table of a LUT's ``parameters``.
     presets : dict
         Grid preset name -> axis name -> values (SI).
     extra_axes : tuple of str
@@ -82,6 +91,7 @@ class Bench:
     outputs: tuple[str, ...]
     flags: dict[int, str]
     evaluate: Evaluate
+    parameters: Callable[[], Any]
     presets: dict[str, dict[str, tuple[float, ...]]] = field(default_factory=dict)
     extra_axes: tuple[str, ...] = ()
     valid_flags: tuple[int, ...] = (STATUS_VALID,)

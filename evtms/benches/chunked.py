@@ -49,6 +49,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evtms.benches.base import Bench
+from evtms.benches.parameters import Parameters
 from evtms.benches.partial import (
     TOKEN,
     chunk_file,
@@ -66,7 +67,6 @@ from evtms.benches.partial import (
 )
 from evtms.errors import EvtmsInputError
 from evtms.luts.io import LutStorage
-from evtms.params import Parameters
 
 if TYPE_CHECKING:
     from evtms.luts.writer import LutFileWriter

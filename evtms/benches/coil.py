@@ -64,6 +64,7 @@ MathWorks (2024). Condenser Evaporator (2P-MA), Simscape Fluids reference.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -72,16 +73,138 @@ from evtms.hx.crossflow import CAPACITY_RATIO_MAX, TubeSide, march_crossflow
 from evtms.hx.fins import LouveredFin, chang_wang_outside_range, louvered_fin_htc
 from evtms.hx.sides import OUTLET_SATURATION_MAX, AirSide, MoistAirSide
 from evtms.hx.sides import condense_excess as _condense_excess
-from evtms.params import CoilParams, Environment
+from evtms.params import Environment, Relation, area, count, fouling, fraction, length, param
 
 __all__ = [
     "CAPACITY_RATIO_MAX",
     "OUTLET_SATURATION_MAX",
     "CoilGeometry",
+    "CoilParams",
     "_condense_excess",
     "coil_geometry",
     "solve_coil",
 ]
+
+
+@dataclass(frozen=True)
+class CoilParams:
+    """Geometry and heat-transfer data shared by the two air-cooled coils.
+
+    Flat multiport tubes with louvred fins, air in cross flow, refrigerant in
+    all tubes in parallel. Areas as in the Simscape blocks.
+
+    Attributes
+    ----------
+    n_tubes : int
+        Number of flat tubes [1], 1 to 1000; ``n_tubes * tube_thickness < core_height``.
+    core_length : float
+        Tube length across the air stream [m], (0, 10].
+    core_height : float
+        Core height [m], (0, 10].
+    tube_depth : float
+        Tube width along the air flow [m], (0, 1].
+    tube_thickness : float
+        Tube outer thickness [m], (0, 0.1].
+    n_channels : int
+        Refrigerant channels per tube [1], 1 to 1000.
+    fin_spacing : float
+        Fin spacing [m], (0, 0.1].
+    area_air_free : float
+        Minimum free-flow area on the air side [m2], (0, 1000], at most the
+        frontal area ``core_length * core_height``.
+    area_air_primary : float
+        Air-side primary (tube) area [m2], (0, 1000].
+    area_air_fin : float
+        Air-side fin area [m2], (0, 1000].
+    area_ref : float
+        Refrigerant-side heat-transfer area [m2], (0, 1000].
+    fan_flow_max : float
+        Air volume flow at fan/blower fraction 1 [m3/s], (0, 100].
+    fin_efficiency : float
+        Fin efficiency [1], (0, 1].
+    fouling_air, fouling_ref : float
+        Fouling factors [m2 K/W], [0, 0.01) (0.1 m2K/kW = 1e-4 m2K/W).
+    wall_thickness : float
+        Tube wall thickness [m], (0, 0.01], less than half the tube thickness and depth.
+    wall_conductivity : float
+        Tube wall conductivity [W/(m K)], (0, 2000].
+    roughness : float
+        Channel wall roughness for the friction factor [m], [0, 0.001].
+    nu_laminar : float
+        Fully developed laminar Nusselt number, constant wall temperature [1], (0, 100].
+    louver_angle : float
+        Louver angle of the fins [rad], (0, pi/2); 27 deg by default, typical of
+        automotive louvred fins.
+    louver_pitch : float
+        Louver pitch along the air flow [m], (0, 0.1], less than ``tube_depth``.
+    louver_length : float
+        Louver length across the fin [m], (0, 1], less than the fin length
+        ``core_height / n_tubes - tube_thickness`` (7.75 mm condenser, 8 mm evaporator).
+    fin_thickness : float
+        Fin thickness [m], (0, 0.01], less than ``fin_spacing``.
+
+    Notes
+    -----
+    ``fin_spacing`` is the fin pitch: with the defaults the fin area
+    ``n_tubes (core_length / fin_spacing) 2 (core_height / n_tubes - tube_thickness) tube_depth``
+    is the Simscape block's 23.4 m2 (condenser) and 7.2 m2 (evaporator). The
+    louvred-fin air side (Chang and Wang 1997, :func:`evtms.hx.fins.chang_wang_j`)
+    takes the tube pitch ``core_height / n_tubes``, the fin length (tube pitch
+    minus ``tube_thickness``) and the flow depth ``tube_depth`` from these
+    parameters, and the louver geometry from the four above.
+    """
+
+    n_tubes: int = count(40)
+    core_length: float = length(1.26)
+    core_height: float = length(0.39)
+    tube_depth: float = length(0.015, 1.0)
+    tube_thickness: float = length(0.002, 0.1)
+    n_channels: int = count(12)
+    fin_spacing: float = length(0.5e-3, 0.1)
+    area_air_free: float = area(0.391)
+    area_air_primary: float = area(1.48)
+    area_air_fin: float = area(23.4)
+    area_ref: float = area(2.22)
+    fan_flow_max: float = param(0.88, 0.0, 100.0, "m3/s", lo_open=True)
+    fin_efficiency: float = fraction(0.7)
+    fouling_air: float = fouling(1e-4)
+    fouling_ref: float = fouling(1e-4)
+    wall_thickness: float = length(0.1e-3, 0.01)
+    wall_conductivity: float = param(240.0, 0.0, 2000.0, "W/(m K)", lo_open=True)
+    roughness: float = param(15e-6, 0.0, 1e-3, "m")
+    nu_laminar: float = param(3.66, 0.0, 100.0, lo_open=True)
+    louver_angle: float = param(0.47123889803846897, 0.0, 1.5707963267948966, "rad", lo_open=True, hi_open=True)
+    louver_pitch: float = length(1.0e-3, 0.1)
+    louver_length: float = length(6.5e-3, 1.0)
+    fin_thickness: float = length(0.1e-3, 0.01)
+
+    RELATIONS: ClassVar[tuple[Relation, ...]] = (
+        Relation("wall_thickness", "<", lambda c: c.tube_thickness / 2, "tube_thickness / 2", ("tube_thickness",)),
+        Relation("wall_thickness", "<", lambda c: c.tube_depth / 2, "tube_depth / 2", ("tube_depth",)),
+        Relation(
+            "n_tubes",
+            "<",
+            lambda c: c.core_height / c.tube_thickness,
+            "core_height / tube_thickness",
+            ("core_height", "tube_thickness"),
+        ),
+        Relation(
+            "area_air_free",
+            "<=",
+            lambda c: c.core_length * c.core_height,
+            "core_length * core_height",
+            ("core_length", "core_height"),
+        ),
+        Relation(
+            "louver_length",
+            "<",
+            lambda c: c.core_height / c.n_tubes - c.tube_thickness,
+            "core_height / n_tubes - tube_thickness",
+            ("core_height", "n_tubes", "tube_thickness"),
+        ),
+        Relation("louver_pitch", "<", lambda c: c.tube_depth, "tube_depth", ("tube_depth",)),
+        Relation("fin_thickness", "<", lambda c: c.fin_spacing, "fin_spacing", ("fin_spacing",)),
+    )
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,9 @@ MathWorks (2024). Compressor (2P), Simscape Fluids reference.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from evtms.benches.base import (
@@ -46,7 +49,51 @@ from evtms.benches.base import (
     pressure_nodes,
 )
 from evtms.fluid import Fluid, quality
-from evtms.params import CompressorParams, Parameters
+from evtms.params import fraction, param, temperature
+
+if TYPE_CHECKING:
+    from evtms.benches.parameters import Parameters
+
+
+@dataclass(frozen=True)
+class CompressorParams:
+    """Positive-displacement compressor.
+
+    Attributes
+    ----------
+    displacement : float
+        Swept volume per revolution [m3] (80 cm3), (0, 0.01].
+    speed_max : float
+        Shaft speed at speed fraction 1 [rev/min], (0, 100000].
+    eta_isentropic : float
+        Isentropic efficiency [1], (0, 1].
+    eta_vol_nominal : float
+        Volumetric efficiency at the nominal pressure ratio [1], (0, 1].
+    pr_nominal : float
+        Nominal pressure ratio [1], (1, 50].
+    p_in_nominal : float
+        Nominal suction pressure [Pa], 1 kPa to 10 MPa.
+    T_in_nominal : float
+        Nominal suction temperature [K], 150 K to 500 K.
+    eta_mechanical : float
+        Mechanical efficiency [1], (0, 1].
+    polytropic_exponent : float
+        Re-expansion exponent of the clearance gas [1], 1 to 2.
+    suction_superheat : float
+        Superheat that sets the suction pressure of the ``thesis`` grid [K], 0 K to 100 K.
+    """
+
+    displacement: float = param(80e-6, 0.0, 0.01, "m3", lo_open=True)
+    speed_max: float = param(3600.0, 0.0, 100_000.0, "rev/min", lo_open=True)
+    eta_isentropic: float = fraction(0.65)
+    eta_vol_nominal: float = fraction(0.9)
+    pr_nominal: float = param(4.6, 1.0, 50.0, lo_open=True)
+    p_in_nominal: float = param(0.3e6, 1e3, 10e6, "Pa")
+    T_in_nominal: float = temperature(284.15)
+    eta_mechanical: float = fraction(0.95)
+    polytropic_exponent: float = param(1.2, 1.0, 2.0)
+    suction_superheat: float = param(10.0, 0.0, 100.0, "K")
+
 
 STATUS_LIQUID_SUCTION = 3
 STATUS_NO_VOLUMETRIC_FLOW = 4
@@ -148,6 +195,7 @@ BENCH = Bench(
     outputs=OUTPUTS,
     flags=FLAGS,
     evaluate=compressor_power,
+    parameters=CompressorParams,
     extra_axes=("p_in",),
     # p_in is an output where it is not an axis (the suction pressure the grid implies).
     optional_outputs=("p_in",),

@@ -34,6 +34,8 @@ falls slightly with pressure, as the thesis found.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from evtms.benches.base import (
@@ -45,9 +47,11 @@ from evtms.benches.base import (
     first_code,
     pressure_nodes,
 )
-from evtms.benches.coil import solve_coil
+from evtms.benches.coil import CoilParams, solve_coil
 from evtms.fluid import Fluid
-from evtms.params import Parameters
+
+if TYPE_CHECKING:
+    from evtms.benches.parameters import Parameters
 
 STATUS_NOT_WARMER_THAN_AIR = 3
 STATUS_DP_EXCEEDS_INLET = 4
@@ -168,6 +172,7 @@ BENCH = Bench(
     outputs=OUTPUTS,
     flags=FLAGS,
     evaluate=condenser_heat_rate,
+    parameters=CoilParams,
     extra_axes=("T_air_in", "RH_air_in"),
     optional_outputs=("capacity_ratio", "h_out_continued"),
     surface_axes=(("p_in", "T_in"), ("p_in", "h_in")),

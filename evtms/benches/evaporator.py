@@ -48,6 +48,8 @@ kept for parity with the thesis.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from evtms.benches.base import (
@@ -56,6 +58,7 @@ from evtms.benches.base import (
     finish_status,
     pressure_nodes,
 )
+from evtms.benches.coil import CoilParams
 from evtms.benches.condenser import (
     COIL_OUTPUTS,
     STATUS_AIR_CORRELATION_OUTSIDE_RANGE,
@@ -63,7 +66,24 @@ from evtms.benches.condenser import (
     coil_bench_outputs,
 )
 from evtms.fluid import Fluid
-from evtms.params import Parameters
+
+if TYPE_CHECKING:
+    from evtms.benches.parameters import Parameters
+
+
+def _evaporator_coil() -> CoilParams:
+    """The evaporator's default coil: :class:`CoilParams` at the cabin evaporator's size."""
+    return CoilParams(
+        n_tubes=20,
+        core_length=0.75,
+        core_height=0.20,
+        area_air_free=0.120,
+        area_air_primary=0.432,
+        area_air_fin=7.2,
+        area_ref=0.66,
+        fan_flow_max=0.3,
+    )
+
 
 STATUS_NOT_COLDER_THAN_AIR = 3
 STATUS_FROST_RISK = 10
@@ -131,6 +151,7 @@ BENCH = Bench(
     outputs=OUTPUTS,
     flags=FLAGS,
     evaluate=evaporator_heat_rate,
+    parameters=_evaporator_coil,
     extra_axes=("T_air_in", "RH_air_in"),
     optional_outputs=("capacity_ratio", "h_out_continued"),
     surface_axes=(("p_in", "T_in"), ("p_in", "h_in")),

@@ -37,7 +37,7 @@ from evtms.errors import EvtmsInputError
 if TYPE_CHECKING:
     from evtms.benches.base import Bench
     from evtms.benches.chunked import ChunkPlan
-    from evtms.params import Parameters
+    from evtms.benches.parameters import Parameters
 
 #: File of the partial folder holding the running sweep's token (see :func:`sees_folder`).
 TOKEN = "token"

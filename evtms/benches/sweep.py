@@ -10,8 +10,8 @@ import numpy as np
 
 from evtms.benches.base import Bench
 from evtms.benches.grid import check_axis
+from evtms.benches.parameters import Parameters
 from evtms.fluid import Fluid, coolprop_version
-from evtms.params import Parameters
 
 if TYPE_CHECKING:
     import xarray as xr

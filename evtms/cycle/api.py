@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evtms import __version__
+from evtms.benches.parameters import Parameters
 from evtms.cycle.models import DirectModels, LutModels
 from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
 from evtms.cycle.tables import CycleLut
@@ -16,7 +17,6 @@ from evtms.cycle.topology import INPUTS, Topology, topology
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid, SaturationCurve
 from evtms.luts.cache import cached_arrays
-from evtms.params import Parameters
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -119,7 +119,7 @@ def parameter_conflicts(luts: dict[str, xr.Dataset], params: Parameters) -> list
     and air boundary each file records; a parameter set that differs would be
     silently ignored, so the caller refuses it.
     """
-    from evtms.params import parameters_from_json
+    from evtms.benches.parameters import parameters_from_json
 
     conflicts: list[str] = []
     for c, ds in luts.items():

@@ -16,12 +16,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evtms.benches import evaporator as evaporator_bench
-from evtms.benches.expansion_valve import nominal_opening
+from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
+from evtms.benches.parameters import Parameters
 from evtms.cycle.tables import cycle_lut
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
 from evtms.luts.validate import fixed_inputs
-from evtms.params import ExpansionValveParams, Parameters
 
 if TYPE_CHECKING:
     import xarray as xr

@@ -80,9 +80,9 @@ class Refrigerant:
 
     def check_physics(self) -> None:
         """Refuse the physics model where it would not describe the LUTs' components (made with other parameters)."""
+        from evtms.benches.parameters import Parameters
         from evtms.cycle import load_cycle_luts
         from evtms.cycle.api import parameter_conflicts
-        from evtms.params import Parameters
 
         if self.folder is None:
             raise EvtmsInputError("--model physics needs the cycle LUTs' folder (--luts)")
