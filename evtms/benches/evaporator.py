@@ -144,6 +144,10 @@ FLAGS = {
     STATUS_FROST_RISK_AIR_OUTSIDE_RANGE: "valid_frost_risk_air_correlation_outside_range",
 }
 
+#: The cycle grid's geometric flow ladder [kg/s] (16 nodes over 3-150 g/s) and its ratio [1].
+_LADDER_NODES = np.geomspace(0.003, 0.15, 16)
+_LADDER = _LADDER_NODES[1] / _LADDER_NODES[0]
+
 BENCH = Bench(
     name="evaporator",
     title="evtms evaporator bench: flat-tube R134a evaporator with moist air",
@@ -192,8 +196,13 @@ BENCH = Bench(
         # (median 0.24 % vs 0.20 %), p_B 1.72 %, Q_evap 1.62 %, COP 2.07 %, valve_opening
         # 2.14 %, status equal in 98; with --wide (ambient -10-50, cabin 10-50 degC) p_A
         # 1.65 %, COP 5.38 %, status equal in 97.
+        # Down to 1.37 g/s (the ladder continued by three nodes; 3.12 million points, 151 MB, 62 s): in
+        # the cabin+chiller circuit at low speed the chiller takes most of the flow and the cabin
+        # branch runs below 3 g/s; with the ladder ending at 3 g/s the LUT cycle closed that valve
+        # where the physics passed 2.5 g/s (Q_evap 0 instead of -417 W, p_A 4.8 % off). With them,
+        # 100 random cabin+chiller points: p_A worst 1.21 % (was 4.83 %), status equal in 98 (97).
         "cycle": {
-            "mdot": tuple(np.delete(np.geomspace(0.003, 0.15, 16), [1, 3, 14])),
+            "mdot": tuple(np.r_[0.003 / _LADDER ** np.arange(3, 0, -1), np.delete(_LADDER_NODES, [1, 3, 14])]),
             "blower": tuple(np.geomspace(0.1, 1.0, 12)),
             "p_in": pressure_nodes(np.r_[-35.0, -28.0, np.arange(-21.0, 26.0, 2.0), np.arange(29.0, 42.0, 3.0)]),
             "h_in": tuple(np.linspace(185e3, 350e3, 5)),
