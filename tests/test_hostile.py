@@ -61,8 +61,19 @@ def _same_device(a: Path, b: Path) -> bool:
     return os.stat(a).st_dev == os.stat(b).st_dev
 
 
+#: Files from this size on are fingerprinted by their inode's stat, not hashed [bytes].
+_HASH_BELOW = 1 << 20
+
+
 def _snapshot(root: Path) -> dict[str, str]:
-    """Every file and folder below ``root`` with a digest of its contents (folders: '')."""
+    """Every file and folder below ``root`` with a fingerprint of its contents (folders: '').
+
+    Small files are hashed. The workspace's copies of the cycle LUTs (some 200 MB) would
+    take 0.4 s per snapshot to hash, most of this module's time: a big file's fingerprint
+    is its size, inode, mtime and ctime instead. Any write or truncation moves ctime,
+    which no process can set back (``os.utime`` restores mtime only), and a replaced
+    file has another inode.
+    """
     out = {}
     for p in sorted(root.rglob("*")):
         rel = str(p.relative_to(root))
@@ -71,7 +82,11 @@ def _snapshot(root: Path) -> dict[str, str]:
         elif p.is_dir():
             out[rel] = ""
         else:
-            out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+            st = p.stat()
+            if st.st_size >= _HASH_BELOW:
+                out[rel] = f"stat {st.st_size} {st.st_ino} {st.st_mtime_ns} {st.st_ctime_ns}"
+            else:
+                out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
     return out
 
 
