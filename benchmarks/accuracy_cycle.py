@@ -46,7 +46,7 @@ def envelope(n: int, seed: int = 11, wide: bool = False) -> OperatingPoints:
 FIGURES = {
     "cabin": ("p_A", "p_B", "Q_evap", "COP", "valve_opening"),
     "chiller": ("p_A", "p_B", "Q_chiller", "COP", "valve_opening"),
-    "cabin+chiller": ("p_A", "p_B", "Q_evap", "Q_chiller", "mdot_chiller", "COP", "valve_opening"),
+    "cabin+chiller": ("p_A", "p_B", "mdot", "Q_evap", "Q_chiller", "mdot_chiller", "COP", "valve_opening"),
 }
 
 
@@ -65,6 +65,13 @@ def main() -> None:
         compare(points, load_cycle_luts(args.luts, circuit), circuit)
 
 
+def relative_error(lut: np.ndarray, direct: np.ndarray) -> np.ndarray:
+    """``|lut / direct - 1|`` in per cent; 0 where both are 0 (a closed branch in both solutions)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        err = np.abs(lut - direct) / np.abs(direct) * 100
+    return np.where((lut == 0) & (direct == 0), 0.0, err)
+
+
 def compare(points: OperatingPoints, luts, circuit: str) -> None:
     lut = run_cycle(points, luts, circuit=circuit)
     direct = run_cycle(points, circuit=circuit)
@@ -72,10 +79,12 @@ def compare(points: OperatingPoints, luts, circuit: str) -> None:
         counts = Counter(CYCLE_FLAGS[c] for c in r["status"].tolist())
         print(f"statuses {name}: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     print(f"status equal in {(lut['status'] == direct['status']).sum()} of {len(points)} points")
+    for i in np.nonzero(lut["status"] != direct["status"])[0]:
+        print(f"  point {i}: LUT {CYCLE_FLAGS[lut['status'][i]]}, direct {CYCLE_FLAGS[direct['status'][i]]}")
     ok = np.isin(lut["status"], VALID_CYCLE_FLAGS) & np.isin(direct["status"], VALID_CYCLE_FLAGS)
     print(f"{ok.sum()} points valid in both")
     for name in FIGURES[circuit]:
-        err = np.abs(lut[name][ok] / direct[name][ok] - 1) * 100
+        err = relative_error(lut[name][ok], direct[name][ok])
         print(
             f"{name:14s} median {np.median(err):.2f} %  90 % within {np.quantile(err, 0.9):.2f} %  "
             f"worst {err.max():.2f} %"
@@ -84,16 +93,22 @@ def compare(points: OperatingPoints, luts, circuit: str) -> None:
         # A branch that takes a small share of the flow has a small heat flow, whose relative error
         # is large (the split is ill-conditioned there): also as a share of the total cooling.
         total = np.abs(direct["Q_evap"][ok] + direct["Q_chiller"][ok])
+        err = relative_error(lut["Q_evap"][ok] + lut["Q_chiller"][ok], -total)
+        print(
+            f"{'total cooling':14s} median {np.median(err):.2f} %  90 % within {np.quantile(err, 0.9):.2f} %  "
+            f"worst {err.max():.2f} %"
+        )
         for name in ("Q_evap", "Q_chiller"):
             err = np.abs(lut[name][ok] - direct[name][ok]) / total * 100
             print(
                 f"{name:14s} of the total cooling: median {np.median(err):.2f} %  "
                 f"90 % within {np.quantile(err, 0.9):.2f} %  worst {err.max():.2f} %"
             )
-        worst = np.nonzero(ok)[0][np.argmax(np.abs(lut["Q_chiller"][ok] / direct["Q_chiller"][ok] - 1))]
+        share = np.abs(lut["Q_chiller"][ok] - direct["Q_chiller"][ok]) / total
+        worst = np.nonzero(ok)[0][np.argmax(share)]
         print(
-            f"  worst Q_chiller point: chiller flow {direct['mdot_chiller'][worst] * 1e3:.2f} g/s direct, "
-            f"{lut['mdot_chiller'][worst] * 1e3:.2f} g/s LUT, of {direct['mdot'][worst] * 1e3:.1f} g/s"
+            f"  worst Q_chiller point (of the total): chiller flow {direct['mdot_chiller'][worst] * 1e3:.2f} g/s "
+            f"direct, {lut['mdot_chiller'][worst] * 1e3:.2f} g/s LUT, of {direct['mdot'][worst] * 1e3:.1f} g/s"
         )
     # The floating superheat where the valve is saturated in both (it equals the setpoint elsewhere).
     sat = ok & np.isin(lut["status"], VALVE_SATURATED_FLAGS) & np.isin(direct["status"], VALVE_SATURATED_FLAGS)
