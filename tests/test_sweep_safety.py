@@ -541,3 +541,23 @@ def test_the_local_cluster_listens_on_loopback_only():
         assert len({pid for pid, _ in listening}) >= 2  # the worker's own sockets were seen too
     finally:
         runner.close()
+
+
+def test_closing_the_cluster_after_an_interrupt_logs_nothing(caplog):
+    """What dask and tornado log while a cluster stops must not follow the one 'error:' line."""
+    import logging
+
+    from evtms.benches.chunked import DaskRunner
+
+    class Noisy:
+        def close(self):
+            logging.getLogger("tornado.application").error("Exception in callback ... KeyboardInterrupt")
+            logging.getLogger("distributed.scheduler").warning("Removing worker ... lost computed tasks")
+
+    runner = object.__new__(DaskRunner)  # the close path alone: no cluster needed
+    runner.client, runner._cluster = Noisy(), Noisy()
+    with caplog.at_level(logging.DEBUG):
+        runner.close()
+        assert caplog.records == []
+        logging.getLogger("evtms.test").warning("after")  # logging is back on once closed
+    assert [r.getMessage() for r in caplog.records] == ["after"]

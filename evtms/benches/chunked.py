@@ -348,9 +348,17 @@ class DaskRunner:
             yield k, result
 
     def close(self) -> None:
-        self.client.close()
-        if self._cluster is not None:
-            self._cluster.close()
+        # The caller reports how the sweep ended (the file written, or one line on an
+        # interrupt with the chunks kept). What dask and tornado log in this process while
+        # the cluster stops (tasks cancelled by Ctrl-C, comms closed, a callback cut short)
+        # would only follow that line: logging is off until the cluster is closed.
+        logging.disable(logging.CRITICAL)
+        try:
+            self.client.close()
+            if self._cluster is not None:
+                self._cluster.close()
+        finally:
+            logging.disable(logging.NOTSET)
 
 
 #: Seconds a ``--scheduler`` address has to answer (connection and handshake).
