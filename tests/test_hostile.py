@@ -382,6 +382,12 @@ CASES: list[Case] = [
         "soc_min < soc_init",
         [write("n.toml", "[battery]\nsoc_min = 0.95\n")],
     ),
+    Case(
+        "simulate-params-empty",
+        [*SIM, "--params", "n.toml", "-o", "o.nc"],
+        "is empty; give at least one [table]",
+        [write("n.toml", b"")],
+    ),
     Case("simulate-dt-nan", [*SIM, "--dt", "nan", "-o", "o.nc"], "--dt"),
     Case(
         "simulate-too-many-steps",

@@ -21,11 +21,6 @@ from evtms.errors import EvtmsInputError
 from evtms.system.battery import BatteryParams
 from evtms.system.vehicle import VehicleParams
 
-try:
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
-
 
 @dataclass(frozen=True)
 class CabinParams:
@@ -314,14 +309,10 @@ def load_system_params(path: str | Path | None = None) -> SystemParams:
     """
     if path is None:
         return SystemParams()
-    from evtms.params import _read_params_file
+    from evtms.params import read_params_toml
 
     name = repr(str(path))
-    text = _read_params_file(Path(path))
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise EvtmsInputError(f"params file {name} is not valid TOML: {' '.join(str(exc).split())}") from None
+    data = read_params_toml(path)
     try:
         return system_params_from_dict(data)
     except EvtmsInputError as exc:
