@@ -116,6 +116,13 @@ class CoolantSide:
         """Temperature [K] at specific enthalpy ``h`` [J/kg] (the coolant's table, exact inverse of its enthalpy)."""
         return self.coolant.temperature(h)
 
+    def temperature_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """The table :meth:`temperature` interpolates linearly: enthalpies [J/kg], temperatures [K].
+
+        The counter-flow core's compiled heat-rate search reads it.
+        """
+        return self.coolant.h, self.coolant.T
+
     def capacity_rate(self) -> np.ndarray:
         """``mdot c_p(T_in)`` [W/K]."""
         return self.mdot * self.coolant.properties(self.T_in)["CP"]

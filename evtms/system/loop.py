@@ -26,7 +26,7 @@ Per step ``n`` (length ``dt_n`` [s]), as the project's system spec 2.6 says:
     likewise. Flows computed from the new temperatures close every node's
     ledger to round-off.
 
-Everything is float64 scalars and arrays so that :func:`evtms.system._jit.jit`
+Everything is float64 scalars and arrays so that :func:`evtms._jit.jit`
 compiles it (numba); with ``EVTMS_NO_NUMBA=1`` the same code runs as Python.
 Parameters travel packed in one array (``P_*`` indices), per-step outputs in
 one 2-D array (``O_*`` columns), states in another (``S_*`` columns).
@@ -45,7 +45,7 @@ import math
 
 import numpy as np
 
-from evtms.system._jit import jit
+from evtms._jit import jit
 from evtms.system.maps import map_interp
 
 # Modes (T section 4.6 order).

@@ -68,8 +68,8 @@ from pathlib import Path
 import numpy as np
 
 from evtms import __version__
+from evtms._jit import jit
 from evtms.errors import EvtmsInputError
-from evtms.system._jit import jit
 
 #: The outputs of every map, in slot order.
 MAP_OUTPUTS = (

@@ -1,6 +1,8 @@
-"""Compile the system simulator's scalar kernels with numba where it is available.
+"""Compile evtms's scalar kernels with numba where it is available.
 
-The time loop and its lookups are written in the subset of Python that numba
+The system simulator's time loop and lookups (:mod:`evtms.system.loop`,
+:mod:`evtms.system.maps`) and the counter-flow exchanger's heat-rate search
+(:mod:`evtms.hx.counterflow`) are written in the subset of Python that numba
 compiles (scalars, NumPy arrays, no objects). :func:`jit` compiles them with
 ``numba.njit(cache=True)`` (machine code cached next to the module, so only a
 machine's first run compiles); with ``EVTMS_NO_NUMBA=1`` set, or without
