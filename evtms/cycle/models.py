@@ -21,6 +21,7 @@ from evtms.benches.parameters import Parameters
 from evtms.cycle.tables import cycle_lut
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
+from evtms.hx._kernels import per_point_searches
 from evtms.luts.validate import fixed_inputs
 
 if TYPE_CHECKING:
@@ -93,7 +94,8 @@ class DirectModels:
         bench = self._benches[component]
         n = len(next(iter(inputs.values())))
         inputs = {k: np.broadcast_to(np.asarray(v, float), (n,)).copy() for k, v in inputs.items()}
-        out = bench.evaluate(inputs, self.params, self.fluid)
+        with per_point_searches():  # a cycle solver's calls hold a few points each
+            out = bench.evaluate(inputs, self.params, self.fluid)
         bad = ~np.isin(out["status"], bench.valid_flags)
         reasons = _reasons(n)
         for code, meaning in bench.flags.items():

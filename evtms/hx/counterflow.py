@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from evtms._jit import jit, numba_enabled
+from evtms.hx._kernels import divide, interp
 from evtms.hx.sides import SecondaryStream
 
 #: Bisection steps on the heat rate (each halves the bracket; 60 reach round-off).
@@ -242,53 +243,16 @@ def _fill_pinch(ref: RefrigerantPath, sec: SecondaryStream, Q: np.ndarray, f: np
 
 
 @jit
-def _divide(a: float, b: float) -> float:
-    """``a / b`` as NumPy divides floats (inf or NaN for ``b == 0``; plain Python and numba's
-    default error model would raise)."""
-    if b != 0.0:
-        return a / b
-    if a != a or a == 0.0:
-        return math.nan
-    return math.copysign(math.inf, a) * math.copysign(1.0, b)
-
-
-@jit
-def _interp(x: float, xp: np.ndarray, fp: np.ndarray) -> float:
-    """``np.interp(x, xp, fp, left=nan, right=nan)`` for one ``x``, with NumPy's arithmetic."""
-    n = xp.size
-    if not (xp[0] <= x <= xp[n - 1]):  # also NaN
-        return math.nan
-    if x == xp[n - 1]:
-        return fp[n - 1]
-    lo, hi = 0, n - 1  # xp[lo] <= x < xp[hi]
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if xp[mid] <= x:
-            lo = mid
-        else:
-            hi = mid
-    if x == xp[lo]:
-        return fp[lo]
-    slope = (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo])
-    y = slope * (x - xp[lo]) + fp[lo]
-    if y != y:
-        y = slope * (x - xp[lo + 1]) + fp[lo + 1]
-        if y != y and fp[lo] == fp[lo + 1]:
-            y = fp[lo]
-    return y
-
-
-@jit
 def _zone_temperature(h, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
     """One point of :func:`_refrigerant_temperature`."""
     reachable = T_sec_in > T_sat
     h_end_l = h_l if reachable else h_at_secondary
     T_end_l = T_sat if reachable else T_sec_in
-    slope_l = _divide(T_end_l - T_in, h_end_l - h_in) if h_in < h_l else 0.0
+    slope_l = divide(T_end_l - T_in, h_end_l - h_in) if h_in < h_l else 0.0
     vapour_in = h_in >= h_v
     h0_v = h_in if vapour_in else h_v
     T0_v = T_in if vapour_in else T_sat
-    slope_v = _divide(T_sec_in - T0_v, h_at_secondary - h0_v)
+    slope_v = divide(T_sec_in - T0_v, h_at_secondary - h0_v)
     if h < h_l:
         return T_in + (h - h_in) * slope_l
     if h <= h_v:
@@ -309,8 +273,8 @@ def _fraction_total(Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, R, s_m
         Q_z = mdot * (b - a)
         f_z = 0.0
         if Q_z > 0:
-            T_s_a = _interp(h_s_out + ratio * (a - h_in), tab_h, tab_T)
-            T_s_b = s_T_in if z == 2 else _interp(h_s_out + ratio * (b - h_in), tab_h, tab_T)
+            T_s_a = interp(h_s_out + ratio * (a - h_in), tab_h, tab_T)
+            T_s_b = s_T_in if z == 2 else interp(h_s_out + ratio * (b - h_in), tab_h, tab_T)
             dT_a = T_s_a - _zone_temperature(a, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, s_T_in)
             dT_b = T_s_b - _zone_temperature(b, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, s_T_in)
             if dT_a > 0 and dT_b > 0:
@@ -319,7 +283,7 @@ def _fraction_total(Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, R, s_m
                 if abs(e) < 1e-6:
                     log_mean = dT_a * (1.0 + e / 2.0 - e * e / 12.0)
                 else:
-                    log_mean = _divide(dT_b - dT_a, math.log(r))
+                    log_mean = divide(dT_b - dT_a, math.log(r))
                 f_z = Q_z * (R[z] + s_R) / log_mean
             else:
                 f_z = math.inf

@@ -37,8 +37,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from evtms._jit import numba_enabled
 from evtms.fluid import Fluid
-from evtms.hx import tube
+from evtms.hx import _kernels, tube
 from evtms.hx.effectiveness import crossflow_effectiveness
 
 _BISECTION_STEPS = 60
@@ -119,6 +120,40 @@ class ZoneHeatRate:
         H_w = self.moisture.condensate(f, q)[2]
         return q - np.where(np.isfinite(H_w), H_w, 0.0)  # a NaN surface state flags the point later
 
+    def fraction_for(self, target: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Coil fraction in ``[0, hi]`` at which :meth:`rate` is ``target`` [W], by :func:`bisect`.
+
+        Within :func:`evtms.hx._kernels.per_point_searches` (and with numba) the
+        bisection runs per point in machine code (:func:`evtms.hx._kernels.bisect_zone_fraction`,
+        the same arithmetic): on the few points of a cycle solver's call NumPy's per-call
+        overhead dominates it.
+        """
+        if not (numba_enabled() and _kernels.per_point()):
+            return bisect(self.rate, target, hi)
+        n = target.size
+
+        def rows(*arrays: np.ndarray) -> np.ndarray:
+            return np.column_stack([np.broadcast_to(np.asarray(a, float), (n,)) for a in arrays])
+
+        missing = np.full((n, 4), np.nan)
+        dry = rows(self.C_ref, self.R_tot, self.C_air, self.dT)
+        wet = missing if self.wet is None else rows(self.wet.C_ref, self.wet.R_tot, self.wet.C_air, self.wet.dT)
+        if self.moisture is None:
+            moist, tables = missing, (np.zeros(2), np.zeros(2), np.zeros(2))
+        else:
+            m = self.moisture
+            moist = rows(m.air_h, m.air_w, m.m_air, m.decay)
+            tables = (m.sat_air.T, m.sat_air.h, m.sat_air.w)
+        return _kernels.bisect_zone_fraction(
+            np.ascontiguousarray(target, float),
+            np.ascontiguousarray(hi, float),
+            dry,
+            wet,
+            moist,
+            *(np.ascontiguousarray(t, float) for t in tables),
+            _BISECTION_STEPS,
+        )
+
     def subset(self, sub: np.ndarray) -> ZoneHeatRate:
         return ZoneHeatRate(
             self.C_ref[sub],
@@ -146,7 +181,7 @@ class ZoneHeatRate:
         f = np.full_like(Q_needed, np.inf)
         if ok.any():
             sub = np.nonzero(ok)[0]
-            f[ok] = bisect(self.subset(sub).rate, Q_needed[ok], big[ok])
+            f[ok] = self.subset(sub).fraction_for(Q_needed[ok], big[ok])
         return f
 
 
@@ -434,7 +469,7 @@ def march_crossflow(
         take_all = Q_full <= Q_needed
         f_z = np.where(take_all, fr, 0.0)
         if (~take_all).any():
-            f_z = np.where(take_all, fr, bisect(model.rate, Q_needed, fr))
+            f_z = np.where(take_all, fr, model.fraction_for(Q_needed, fr))
         Q_z = np.where(take_all, Q_full, Q_needed)
 
         # Coldest (evaporator) or hottest (condenser) wall point of the zone: at the air inlet face.
