@@ -260,14 +260,14 @@ _KERNEL_CASES = {
 @pytest.mark.parametrize("name", sorted(_KERNEL_CASES))
 def test_compiled_searches_equal_the_array_bisections(name, monkeypatch):
     """The cores' compiled per-point searches (evtms.hx._kernels; the cross-flow one within
-    per_point_searches, as the cycle's direct models use it) are the array bisections'
+    crossflow.per_point_searches, as the cycle's direct models use it) are the array bisections'
     arithmetic: same statuses, every output equal to round-off."""
     import evtms.hx.counterflow as cf
     import evtms.hx.crossflow as xf
     from evtms.benches import BENCHES
     from evtms.benches.parameters import Parameters
     from evtms.fluid import Fluid
-    from evtms.hx._kernels import per_point_searches
+    from evtms.hx.crossflow import per_point_searches
 
     if not cf.numba_enabled():
         pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set): only the array path exists")

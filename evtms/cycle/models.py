@@ -21,7 +21,7 @@ from evtms.benches.parameters import Parameters
 from evtms.cycle.tables import cycle_lut
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
-from evtms.hx._kernels import per_point_searches
+from evtms.hx.crossflow import per_point_searches
 from evtms.luts.validate import fixed_inputs
 
 if TYPE_CHECKING:

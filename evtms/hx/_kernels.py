@@ -8,45 +8,19 @@ is the scalar twin of an array function named in its docstring, and the tests
 (``tests/test_hx.py``) hold the two to round-off. Divisions go through
 :func:`divide`, which gives NumPy's inf and NaN where plain Python (and numba's
 default error model) would raise.
+
+Importing this module imports numba (about 0.2 s): the cores import it where
+they first search per point, not at start-up, so a bench command or a dask
+worker that never does pays nothing.
 """
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import math
-from collections.abc import Iterator
 
 import numpy as np
 
 from evtms._jit import jit
-
-#: Whether the cross-flow core searches per point in machine code (:func:`per_point_searches`).
-_PER_POINT = contextvars.ContextVar("evtms_hx_per_point", default=False)
-
-
-@contextlib.contextmanager
-def per_point_searches() -> Iterator[None]:
-    """Within this block the cross-flow core's zone searches run per point, compiled.
-
-    That is 2-3x faster on the few points of a cycle solver's call (a one-point
-    evaporator call 6.3 -> 2.8 ms), and about 15 % slower on a sweep's thousands,
-    where NumPy's vectorised exp and pow win. A sweep's values must not depend on
-    its batch, so the caller chooses (the cycle's direct models do), not the batch
-    size. The counter-flow core's compiled search is faster at every size and
-    always on.
-    """
-    token = _PER_POINT.set(True)
-    try:
-        yield
-    finally:
-        _PER_POINT.reset(token)
-
-
-def per_point() -> bool:
-    """Whether :func:`per_point_searches` is in force."""
-    return _PER_POINT.get()
-
 
 #: Enthalpy of liquid water per kelvin above the triple point [J/(kg K)]
 #: (:func:`evtms.fluid.water_liquid_enthalpy`).
@@ -104,6 +78,21 @@ def interp(x: float, xp: np.ndarray, fp: np.ndarray) -> float:
         if y != y and fp[lo] == fp[lo + 1]:
             y = fp[lo]
     return y
+
+
+@jit
+def log_mean(a: float, b: float) -> float:
+    """One point of :func:`evtms.hx.counterflow._log_mean` (positive ``a`` and ``b``)."""
+    r = b / a
+    e = r - 1.0
+    if abs(e) < 1e-6:
+        return a * (1.0 + e / 2.0 - e * e / 12.0)
+    return divide(b - a, math.log(r))
+
+
+def columns(n: int, *arrays: np.ndarray) -> np.ndarray:
+    """The per-point arrays (or scalars) side by side: a C-ordered float array of ``n`` rows."""
+    return np.column_stack([np.broadcast_to(np.asarray(a, float), (n,)) for a in arrays])
 
 
 @jit
@@ -173,4 +162,71 @@ def bisect_zone_fraction(target, hi, dry, wet, moist, sat_T, sat_h, sat_w, steps
             else:
                 up = mid
         out[i] = 0.5 * (lo + up)
+    return out
+
+
+@jit
+def counterflow_refrigerant_temperature(h, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
+    """One point of :func:`evtms.hx.counterflow._refrigerant_temperature` at enthalpy ``h``."""
+    reachable = T_sec_in > T_sat
+    h_end_l = h_l if reachable else h_at_secondary
+    T_end_l = T_sat if reachable else T_sec_in
+    slope_l = divide(T_end_l - T_in, h_end_l - h_in) if h_in < h_l else 0.0
+    vapour_in = h_in >= h_v
+    h0_v = h_in if vapour_in else h_v
+    T0_v = T_in if vapour_in else T_sat
+    slope_v = divide(T_sec_in - T0_v, h_at_secondary - h0_v)
+    if h < h_l:
+        return T_in + (h - h_in) * slope_l
+    if h <= h_v:
+        return T_sat
+    return T0_v + (h - h0_v) * slope_v
+
+
+@jit
+def counterflow_fraction_total(
+    Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, R, s_mdot, s_T_in, s_h_in, s_R, tab_h, tab_T
+):
+    """One point of ``evtms.hx.counterflow._fractions(...).sum(axis=1)``: the area fraction a trial
+    heat rate ``Q`` [W] needs [1]."""
+    h_out = h_in + Q / mdot
+    h_s_out = s_h_in - Q / s_mdot
+    ratio = mdot / s_mdot
+    bounds = (h_in, min(max(h_l, h_in), h_out), min(max(h_v, h_in), h_out), h_out)
+    total = 0.0
+    for z in range(3):
+        a, b = bounds[z], bounds[z + 1]
+        Q_z = mdot * (b - a)
+        f_z = 0.0
+        if Q_z > 0:
+            T_s_a = interp(h_s_out + ratio * (a - h_in), tab_h, tab_T)
+            T_s_b = s_T_in if z == 2 else interp(h_s_out + ratio * (b - h_in), tab_h, tab_T)
+            dT_a = T_s_a - counterflow_refrigerant_temperature(a, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, s_T_in)
+            dT_b = T_s_b - counterflow_refrigerant_temperature(b, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, s_T_in)
+            f_z = Q_z * (R[z] + s_R) / log_mean(dT_a, dT_b) if dT_a > 0 and dT_b > 0 else math.inf
+        total += f_z
+    return total
+
+
+@jit
+def bisect_counterflow_heat_rate(steps, hi, ref, sec, tab_h, tab_T):
+    """The largest heat rate [W] in ``[0, hi]`` whose zones fit the exchanger, per point: ``steps``
+    halvings of the bracket, as :func:`evtms.hx.counterflow.solve_counterflow_evaporator`'s array
+    loop does (``hi = 0`` gives 0). ``ref``: per point ``mdot, h_in, T_in, T_sat, h_l, h_v,
+    h_at_secondary, R_liquid, R_two_phase, R_vapour``; ``sec``: ``mdot, T_in, h_in, R``."""
+    out = np.zeros(hi.size)
+    for i in range(hi.size):
+        lo, up = 0.0, hi[i]
+        r, s = ref[i], sec[i]
+        if up > 0:
+            for _ in range(steps):
+                mid = 0.5 * (lo + up)
+                total = counterflow_fraction_total(
+                    mid, r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7:10], s[0], s[1], s[2], s[3], tab_h, tab_T
+                )
+                if total < 1.0:
+                    lo = mid
+                else:
+                    up = mid
+        out[i] = lo
     return out

@@ -41,13 +41,11 @@ ed., sec. 11.3 (log-mean temperature difference) and eq. 11.29b.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from evtms._jit import jit, numba_enabled
-from evtms.hx._kernels import divide, interp
+from evtms._jit import numba_enabled
 from evtms.hx.sides import SecondaryStream
 
 #: Bisection steps on the heat rate (each halves the bracket; 60 reach round-off).
@@ -242,80 +240,6 @@ def _fill_pinch(ref: RefrigerantPath, sec: SecondaryStream, Q: np.ndarray, f: np
     return f
 
 
-@jit
-def _zone_temperature(h, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
-    """One point of :func:`_refrigerant_temperature`."""
-    reachable = T_sec_in > T_sat
-    h_end_l = h_l if reachable else h_at_secondary
-    T_end_l = T_sat if reachable else T_sec_in
-    slope_l = divide(T_end_l - T_in, h_end_l - h_in) if h_in < h_l else 0.0
-    vapour_in = h_in >= h_v
-    h0_v = h_in if vapour_in else h_v
-    T0_v = T_in if vapour_in else T_sat
-    slope_v = divide(T_sec_in - T0_v, h_at_secondary - h0_v)
-    if h < h_l:
-        return T_in + (h - h_in) * slope_l
-    if h <= h_v:
-        return T_sat
-    return T0_v + (h - h0_v) * slope_v
-
-
-@jit
-def _fraction_total(Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, R, s_mdot, s_T_in, s_h_in, s_R, tab_h, tab_T):
-    """One point of ``_fractions(...).sum(axis=1)``: the area fraction trial heat rate ``Q`` needs [1]."""
-    h_out = h_in + Q / mdot
-    h_s_out = s_h_in - Q / s_mdot
-    ratio = mdot / s_mdot
-    bounds = (h_in, min(max(h_l, h_in), h_out), min(max(h_v, h_in), h_out), h_out)
-    total = 0.0
-    for z in range(3):
-        a, b = bounds[z], bounds[z + 1]
-        Q_z = mdot * (b - a)
-        f_z = 0.0
-        if Q_z > 0:
-            T_s_a = interp(h_s_out + ratio * (a - h_in), tab_h, tab_T)
-            T_s_b = s_T_in if z == 2 else interp(h_s_out + ratio * (b - h_in), tab_h, tab_T)
-            dT_a = T_s_a - _zone_temperature(a, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, s_T_in)
-            dT_b = T_s_b - _zone_temperature(b, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, s_T_in)
-            if dT_a > 0 and dT_b > 0:
-                r = dT_b / dT_a
-                e = r - 1.0
-                if abs(e) < 1e-6:
-                    log_mean = dT_a * (1.0 + e / 2.0 - e * e / 12.0)
-                else:
-                    log_mean = divide(dT_b - dT_a, math.log(r))
-                f_z = Q_z * (R[z] + s_R) / log_mean
-            else:
-                f_z = math.inf
-        total = total + f_z if z else f_z
-    return total
-
-
-@jit
-def _bisect_heat_rate(
-    hi, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, R, s_mdot, s_T_in, s_h_in, s_R, tab_h, tab_T
-):
-    """The largest heat rate [W] in ``[0, hi]`` whose zones fit the exchanger, per point:
-    :data:`BISECTION_STEPS` halvings of the bracket, as :func:`solve_counterflow_evaporator`'s
-    array loop does (``hi = 0`` gives 0)."""
-    out = np.zeros(hi.size)
-    for i in range(hi.size):
-        lo, up = 0.0, hi[i]
-        if up > 0:
-            for _ in range(BISECTION_STEPS):
-                mid = 0.5 * (lo + up)
-                total = _fraction_total(
-                    mid, mdot[i], h_in[i], T_in[i], T_sat[i], h_l[i], h_v[i], h_at_secondary[i], R[i], s_mdot[i],
-                    s_T_in[i], s_h_in[i], s_R[i], tab_h, tab_T,
-                )  # fmt: skip
-                if total < 1.0:
-                    lo = mid
-                else:
-                    up = mid
-        out[i] = lo
-    return out
-
-
 def _largest_fitting_heat_rate(ref: RefrigerantPath, sec: SecondaryStream, hi: np.ndarray) -> np.ndarray:
     """The largest heat rate [W] in ``[0, hi]`` at which the zone fractions sum to less than 1.
 
@@ -326,19 +250,17 @@ def _largest_fitting_heat_rate(ref: RefrigerantPath, sec: SecondaryStream, hi: n
     """
     table = getattr(sec, "temperature_table", None)
     if table is not None and numba_enabled():  # as plain Python the per-point loop would crawl
-        tab_h, tab_T = table()
-        arrays = [ref.mdot, ref.h_in, ref.T_in, ref.T_sat, ref.h_l, ref.h_v, ref.h_at_secondary]
-        arrays = [np.ascontiguousarray(a, float) for a in arrays]
-        stream = [np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), hi.shape)) for v in (sec.mdot, sec.T_in)]
-        return _bisect_heat_rate(
-            np.ascontiguousarray(hi, float),
-            *arrays,
-            np.ascontiguousarray(ref.R, float),
-            *stream,
-            np.ascontiguousarray(np.broadcast_to(np.asarray(sec.h_in, float), hi.shape)),
-            np.ascontiguousarray(np.broadcast_to(np.asarray(sec.R, float), hi.shape)),
-            np.ascontiguousarray(tab_h, float),
-            np.ascontiguousarray(tab_T, float),
+        from evtms.hx import _kernels
+
+        n = hi.size
+        R = np.asarray(ref.R, float)
+        ref_rows = _kernels.columns(
+            n, ref.mdot, ref.h_in, ref.T_in, ref.T_sat, ref.h_l, ref.h_v, ref.h_at_secondary, R[:, 0], R[:, 1], R[:, 2]
+        )
+        sec_rows = _kernels.columns(n, sec.mdot, sec.T_in, sec.h_in, sec.R)
+        tab_h, tab_T = (np.ascontiguousarray(t, float) for t in table())
+        return _kernels.bisect_counterflow_heat_rate(
+            BISECTION_STEPS, np.ascontiguousarray(hi, float), ref_rows, sec_rows, tab_h, tab_T
         )
     lo = np.zeros(hi.size)
     for _ in range(BISECTION_STEPS):
