@@ -193,11 +193,11 @@ class Case:
     code: int = 2
 
 
-def bad_params(id: str, toml: bytes | str, message: str) -> Case:
-    """A bench run whose --params file n.toml holds ``toml``."""
-    return Case(
-        id, ["bench", "condenser", *SMALL, "--params", "n.toml", "-o", "o.nc"], message, [write("n.toml", toml)]
-    )
+def bad_params(
+    id: str, toml: bytes | str, message: str, command: tuple[str, ...] = ("bench", "condenser", *SMALL)
+) -> Case:
+    """A run of ``command`` (a bench by default) whose --params file n.toml holds ``toml``."""
+    return Case(id, [*command, "--params", "n.toml", "-o", "o.nc"], message, [write("n.toml", toml)])
 
 
 LUT_INPUT_CASES = [
@@ -364,30 +364,10 @@ CASES: list[Case] = [
     Case(
         "simulate-trace-fifo", ["simulate", "--cycle", "t.csv", "--t-amb", "30", "-o", "o.nc"], "t.csv", [fifo("t.csv")]
     ),
-    Case(
-        "simulate-params-unknown-table",
-        [*SIM, "--params", "n.toml", "-o", "o.nc"],
-        "table [hvac] is unknown",
-        [write("n.toml", "[hvac]\nx = 1\n")],
-    ),
-    Case(
-        "simulate-params-string",
-        [*SIM, "--params", "n.toml", "-o", "o.nc"],
-        "[cabin] volume = 'big'",
-        [write("n.toml", "[cabin]\nvolume = 'big'\n")],
-    ),
-    Case(
-        "simulate-params-order",
-        [*SIM, "--params", "n.toml", "-o", "o.nc"],
-        "soc_min < soc_init",
-        [write("n.toml", "[battery]\nsoc_min = 0.95\n")],
-    ),
-    Case(
-        "simulate-params-empty",
-        [*SIM, "--params", "n.toml", "-o", "o.nc"],
-        "is empty; give at least one [table]",
-        [write("n.toml", b"")],
-    ),
+    bad_params("simulate-params-unknown-table", "[hvac]\nx = 1\n", "table [hvac] is unknown", tuple(SIM)),
+    bad_params("simulate-params-string", "[cabin]\nvolume = 'big'\n", "[cabin] volume = 'big'", tuple(SIM)),
+    bad_params("simulate-params-order", "[battery]\nsoc_min = 0.95\n", "soc_min < soc_init", tuple(SIM)),
+    bad_params("simulate-params-empty", b"", "is empty; give at least one [table]", tuple(SIM)),
     Case("simulate-dt-nan", [*SIM, "--dt", "nan", "-o", "o.nc"], "--dt"),
     Case(
         "simulate-too-many-steps",
