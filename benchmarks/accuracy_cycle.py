@@ -72,6 +72,11 @@ def relative_error(lut: np.ndarray, direct: np.ndarray) -> np.ndarray:
     return np.where((lut == 0) & (direct == 0), 0.0, err)
 
 
+def spread(err: np.ndarray) -> str:
+    """Median, 90th percentile and worst of errors in per cent."""
+    return f"median {np.median(err):.2f} %  90 % within {np.quantile(err, 0.9):.2f} %  worst {err.max():.2f} %"
+
+
 def compare(points: OperatingPoints, luts, circuit: str) -> None:
     lut = run_cycle(points, luts, circuit=circuit)
     direct = run_cycle(points, circuit=circuit)
@@ -84,28 +89,16 @@ def compare(points: OperatingPoints, luts, circuit: str) -> None:
     ok = np.isin(lut["status"], VALID_CYCLE_FLAGS) & np.isin(direct["status"], VALID_CYCLE_FLAGS)
     print(f"{ok.sum()} points valid in both")
     for name in FIGURES[circuit]:
-        err = relative_error(lut[name][ok], direct[name][ok])
-        print(
-            f"{name:14s} median {np.median(err):.2f} %  90 % within {np.quantile(err, 0.9):.2f} %  "
-            f"worst {err.max():.2f} %"
-        )
+        print(f"{name:14s} {spread(relative_error(lut[name][ok], direct[name][ok]))}")
     if circuit == "cabin+chiller":
         # A branch that takes a small share of the flow has a small heat flow, whose relative error
         # is large (the split is ill-conditioned there): also as a share of the total cooling.
         total = np.abs(direct["Q_evap"][ok] + direct["Q_chiller"][ok])
-        err = relative_error(lut["Q_evap"][ok] + lut["Q_chiller"][ok], -total)
-        print(
-            f"{'total cooling':14s} median {np.median(err):.2f} %  90 % within {np.quantile(err, 0.9):.2f} %  "
-            f"worst {err.max():.2f} %"
-        )
-        for name in ("Q_evap", "Q_chiller"):
-            err = np.abs(lut[name][ok] - direct[name][ok]) / total * 100
-            print(
-                f"{name:14s} of the total cooling: median {np.median(err):.2f} %  "
-                f"90 % within {np.quantile(err, 0.9):.2f} %  worst {err.max():.2f} %"
-            )
-        share = np.abs(lut["Q_chiller"][ok] - direct["Q_chiller"][ok]) / total
-        worst = np.nonzero(ok)[0][np.argmax(share)]
+        print(f"{'total cooling':14s} {spread(relative_error(lut['Q_evap'][ok] + lut['Q_chiller'][ok], -total))}")
+        share = {name: np.abs(lut[name][ok] - direct[name][ok]) / total * 100 for name in ("Q_evap", "Q_chiller")}
+        for name, err in share.items():
+            print(f"{name:14s} of the total cooling: {spread(err)}")
+        worst = np.nonzero(ok)[0][np.argmax(share["Q_chiller"])]
         print(
             f"  worst Q_chiller point (of the total): chiller flow {direct['mdot_chiller'][worst] * 1e3:.2f} g/s "
             f"direct, {lut['mdot_chiller'][worst] * 1e3:.2f} g/s LUT, of {direct['mdot'][worst] * 1e3:.1f} g/s"
