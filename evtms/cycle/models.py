@@ -18,7 +18,8 @@ import numpy as np
 from evtms.benches import evaporator as evaporator_bench
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
-from evtms.cycle.tables import cycle_lut
+from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, outlet_enthalpy
+from evtms.cycle.tables import cycle_lut, vapour_table
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
 from evtms.hx.crossflow import per_point_searches
@@ -26,6 +27,8 @@ from evtms.luts.validate import fixed_inputs
 
 if TYPE_CHECKING:
     import xarray as xr
+
+    from evtms.fluid import VapourTable
 
 Result = dict[str, np.ndarray]
 
@@ -183,25 +186,43 @@ class DirectModels:
 class _LutComponent:
     """One component's LUT: interpolators, axes, and the fixed values of absent axes."""
 
-    def __init__(self, component: str, lut, curvature: tuple[str, ...], compiled: bool = True) -> None:
+    def __init__(
+        self,
+        component: str,
+        lut,
+        curvature: tuple[str, ...],
+        compiled: bool = True,
+        vapour: VapourTable | None = None,
+    ) -> None:
         lut = cycle_lut(lut, component)
         self.component = component
         self.source = lut.encoding["source"]
         self.dims = list(lut.dims)
+        # An evaporating branch's outlet is interpolated as the log of its approach to the
+        # secondary inlet (evtms.cycle.approach), which sets the valve-controlled flow
+        # several times more accurately where the outlet nears that temperature.
+        self.secondary = SECONDARY_INLET.get(component) if vapour is not None else None
+        self.vapour = vapour
+
+        def table(variables: tuple[str, ...]):
+            if self.secondary is None:
+                return lut.interpolator(list(variables), curvature, compiled)
+            swap = {OUTLET: APPROACH}
+            return lut.interpolator(
+                [swap.get(v, v) for v in variables], tuple(swap.get(v, v) for v in curvature), compiled, vapour
+            )
+
         # The coils' responses curve strongly between nodes (they saturate towards
         # the air temperature); the quadratic correction cuts that error several-fold.
-        self.fast = lut.interpolator(list(ITERATION_OUTPUTS[component]), curvature, compiled)
-        self.subcooled = (
-            lut.interpolator(list(ITERATION_OUTPUTS["condenser_subcooled"]), curvature, compiled)
-            if component == "condenser"
-            else self.fast
-        )
+        self.fast = table(ITERATION_OUTPUTS[component])
+        self.subcooled = table(ITERATION_OUTPUTS["condenser_subcooled"]) if component == "condenser" else self.fast
         self.needs_subcooled = False
         # The final states need a few more variables: a table of those alone, added to
         # the widest iteration table's (the tables hold each variable with its curvature
         # columns, so a table of every variable would repeat the largest ones).
-        extra = [v for v in COMPONENT_OUTPUTS[component] if v not in self.subcooled.variables]
-        self.extra = lut.interpolator(extra, curvature, compiled) if extra else None
+        have = set(self.subcooled.variables) | ({OUTLET} if self.secondary else set())
+        extra = tuple(v for v in COMPONENT_OUTPUTS[component] if v not in have)
+        self.extra = table(extra) if extra else None
         # The evaporator's frost risk (its bench status ``valid_frost_risk_surface_below_0C``):
         # the LUTs hold no surface temperature, so the final states interpolate the
         # indicator of that status (1 at frost-risk nodes, 0 at other valid nodes).
@@ -255,6 +276,9 @@ class _LutComponent:
                     )
         itp = self.subcooled if (self.needs_subcooled or self.detailed) else self.fast
         out = itp(cols)
+        if self.secondary is not None:
+            T_sec = np.broadcast_to(np.asarray(query[self.secondary], float), (n,))
+            out[OUTLET] = outlet_enthalpy(out.pop(APPROACH), out["p_out"], T_sec, self.vapour)
         if self.detailed and self.extra is not None:
             out.update(self.extra(cols))
         if self.detailed and self.frost is not None:
@@ -267,7 +291,7 @@ class _LutComponent:
         if outside:
             for v in out.values():
                 v[bad] = np.nan
-        nan = ~bad & ~np.isfinite(out[itp.variables[0]])
+        nan = ~bad & ~np.isfinite(out[OUTLET if self.secondary else itp.variables[0]])
         if nan.any():
             reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
         out["reason"] = reasons
@@ -291,12 +315,20 @@ class LutModels:
     compiled : bool
         Interpolate through the compiled kernel (numba); False keeps to the
         NumPy path, which a job of a few points finishes before numba loads.
+    approach : bool
+        Interpolate the evaporating branches' outlet as the log of its approach
+        to the secondary inlet (:mod:`evtms.cycle.approach`; default); False
+        interpolates ``h_out_continued`` itself (for comparison).
     """
 
     name = "lut"
 
     def __init__(
-        self, luts: dict[str, xr.Dataset], components: tuple[str, ...] | None = None, compiled: bool = True
+        self,
+        luts: dict[str, xr.Dataset],
+        components: tuple[str, ...] | None = None,
+        compiled: bool = True,
+        approach: bool = True,
     ) -> None:
         # Axes the solver searches along (an input it only sets may be a fixed input of the LUT).
         searched = {
@@ -309,6 +341,8 @@ class LutModels:
         components = components or ("condenser", "evaporator", "expansion_valve", "compressor")
         need = {c: searched[c] for c in components}
         self.luts = {}
+        evaporating = [c for c in components if c in SECONDARY_INLET and c in luts]
+        vapour = vapour_table({c: cycle_lut(luts[c], c) for c in evaporating}) if approach and evaporating else None
         for component, axes in need.items():
             if component not in luts:
                 raise EvtmsInputError(f"the cycle needs a {component} LUT; none was given")
@@ -322,7 +356,7 @@ class LutModels:
                         f"the {component} LUT has axes {', '.join(dims)}; cycle work needs {axis!r} as an axis "
                         "(write it with --grid cycle)"
                     )
-            self.luts[component] = _LutComponent(component, lut, CURVED.get(component, ()), compiled)
+            self.luts[component] = _LutComponent(component, lut, CURVED.get(component, ()), compiled, vapour)
         self.valve_lut = cycle_lut(luts["expansion_valve"], "expansion_valve")
         self.valve_attrs = dict(self.valve_lut.attrs)
         self._valve: tuple[ExpansionValveParams, float] | None = None

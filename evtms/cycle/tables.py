@@ -10,6 +10,7 @@ a single operating point touches only the pages of the cells it lands in.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 from pathlib import Path
@@ -17,10 +18,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, approach_log
 from evtms.luts.cache import cached_arrays
 from evtms.luts.validate import read_lut_metadata
 
 if TYPE_CHECKING:
+    from evtms.fluid import VapourTable
     from evtms.luts import Interpolator
 
 
@@ -63,20 +66,31 @@ class CycleLut:
         recipe = {"kind": kind, "component": self.component, **recipe}
         return cached_arrays(f"{self.component}-{kind}-{_short(recipe)}", [self.path], recipe, build)
 
-    def interpolator(self, variables: list[str], curvature: tuple[str, ...], compiled: bool = True) -> Interpolator:
+    def interpolator(
+        self,
+        variables: list[str],
+        curvature: tuple[str, ...],
+        compiled: bool = True,
+        vapour: VapourTable | None = None,
+    ) -> Interpolator:
         """Interpolator of ``variables`` (NaN outside the axes), the ``curvature`` ones corrected;
-        ``compiled=False``: on the NumPy path (see :meth:`Interpolator.from_arrays`)."""
+        ``compiled=False``: on the NumPy path (see :meth:`Interpolator.from_arrays`). The variable
+        :data:`~evtms.cycle.approach.APPROACH` is derived from the outlet (needs ``vapour``)."""
         from evtms.luts import Interpolator
 
         curved = [v for v in curvature if v in variables]
+        recipe = {"variables": variables, "curved": curved}
+        if APPROACH in variables:
+            # The derived table depends on the vapour enthalpies it was computed with.
+            recipe["vapour"] = vapour.digest()
 
         def build():
             from evtms.luts import open_lut
 
-            ds = open_lut(self.path, self.component, variables)
-            return DatasetLut(ds, self.component).interpolator(variables, tuple(curved)).to_arrays()
+            ds = open_lut(self.path, self.component, stored_variables(variables))
+            return DatasetLut(ds, self.component).interpolator(variables, tuple(curved), vapour=vapour).to_arrays()
 
-        arrays, info = self._cached("itp", {"variables": variables, "curved": curved}, build)
+        arrays, info = self._cached("itp", recipe, build)
         return Interpolator.from_arrays(arrays, info, compiled)
 
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
@@ -111,13 +125,38 @@ class DatasetLut:
         self.encoding = {"source": ds.encoding.get("source", component)}
         self.fixed = fixed_inputs(ds)
 
-    def interpolator(self, variables: list[str], curvature: tuple[str, ...], compiled: bool = True) -> Interpolator:
+    def interpolator(
+        self,
+        variables: list[str],
+        curvature: tuple[str, ...],
+        compiled: bool = True,
+        vapour: VapourTable | None = None,
+    ) -> Interpolator:
         """As :meth:`CycleLut.interpolator`, built from the dataset in memory."""
         from evtms.luts import Interpolator
 
-        itp = Interpolator.from_dataset(self.ds, variables, out_of_range="nan", curvature=curvature)
+        ds = self.ds
+        if APPROACH in variables:
+            ds = ds.assign({APPROACH: (self.dims, self._approach(vapour))})
+        itp = Interpolator.from_dataset(ds, variables, out_of_range="nan", curvature=curvature)
         itp.compiled = itp.compiled and compiled
         return itp
+
+    def _approach(self, vapour: VapourTable) -> np.ndarray:
+        """:func:`~evtms.cycle.approach.approach_log` at every node (NaN where the outlet is)."""
+        h_out = self.ds[OUTLET].values
+        p_out = self.ds["p_out"].values
+        T_sec = np.broadcast_to(np.asarray(self.secondary_inlet(), float), h_out.shape)
+        return approach_log(h_out, p_out, T_sec, vapour)
+
+    def secondary_inlet(self) -> np.ndarray | float:
+        """The secondary inlet temperature [K] at the nodes: its axis (broadcast) or the value the LUT was made at."""
+        name = SECONDARY_INLET[self.component]
+        if name in self.dims:
+            return self.axes[name].reshape([-1 if d == name else 1 for d in self.dims])
+        if name in self.fixed:
+            return self.fixed[name]
+        return json.loads(self.attrs.get("environment", "{}"))["T"]  # an air coil without an air axis
 
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
         """As :meth:`CycleLut.indicator`, built from the dataset in memory."""
@@ -132,6 +171,40 @@ class DatasetLut:
 
     def derived(self, name: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
         return build()
+
+
+def stored_variables(variables: list[str]) -> list[str]:
+    """The file's variables ``variables`` are read or derived from."""
+    if APPROACH not in variables:
+        return variables
+    return list(dict.fromkeys([v for v in variables if v != APPROACH] + [OUTLET, "p_out"]))
+
+
+def vapour_table(luts: dict) -> VapourTable:
+    """The refrigerant's :class:`~evtms.fluid.VapourTable` for a LUT cycle; cached like the saturation curve.
+
+    Built once per fluid, backend and CoolProp version (a cached one spares a
+    LUT run the import of CoolProp); for in-memory datasets kept per process.
+    """
+    from evtms.fluid import VapourTable
+
+    any_lut = next(iter(luts.values()))
+    name = any_lut.attrs.get("fluid", "R134a")
+    backend = json.loads(any_lut.attrs.get("parameters", "{}")).get("backend", "HEOS")
+    if not any(isinstance(v, CycleLut) for v in luts.values()):
+        return VapourTable.from_tables(_vapour_tables(name, backend))
+    from importlib.metadata import version
+
+    recipe = {"fluid": name, "backend": backend, "coolprop": version("CoolProp")}
+    arrays, _ = cached_arrays("vapour", [], recipe, lambda: (_vapour_tables(name, backend), {}))
+    return VapourTable.from_tables(arrays)
+
+
+@functools.lru_cache(maxsize=4)
+def _vapour_tables(name: str, backend: str) -> dict[str, np.ndarray]:
+    from evtms.fluid import Fluid, VapourTable
+
+    return VapourTable(Fluid(name, backend)).tables()
 
 
 def cycle_lut(lut, component: str) -> CycleLut | DatasetLut:

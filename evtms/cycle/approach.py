@@ -1,0 +1,69 @@
+"""An evaporating branch's outlet as the logarithm of its approach to the secondary inlet.
+
+A thermostatic valve sets its branch's flow so that the outlet is superheated
+by the setpoint. Where the secondary stream (cabin air, coolant) is only a few
+kelvin warmer than the evaporating refrigerant plus that setpoint, the outlet
+runs in the exponential tail of the superheated zone: against a secondary of
+nearly constant temperature the zone is an exchanger with a capacity ratio
+near 0, so its effectiveness is ``1 - exp(-NTU)`` (Incropera et al. 2007,
+eq. 11.35a) and the outlet approaches the secondary inlet temperature as
+``exp(-NTU)``. There the outlet enthalpy changes little with the flow, and an
+enthalpy interpolated linearly between LUT nodes puts the flow that meets the
+setpoint several per cent off (the split between two parallel branches, even
+more). The LUT cycle therefore interpolates the logarithm of the approach
+fraction
+
+    psi = (h(p_out, T_sec) - h_out) / (h(p_out, T_sec) - h_v(p_out))    [1]
+
+which is 1 for a saturated-vapour outlet, falls towards 0 as the outlet
+approaches the secondary inlet temperature ``T_sec`` (close to
+``exp(-NTU)`` of the superheated zone, so ``ln psi`` is close to linear in
+it) and exceeds 1 for the continued two-phase side (``h_out_continued`` below
+``h_v``). Where the secondary is less than :data:`SUPERHEAT_MIN` warmer than
+saturation, the denominator takes that superheat (a branch that cannot
+superheat its outlet). The same function of the same inputs is applied at the
+nodes and inverted at a query (:func:`outlet_enthalpy`), so the interpolant
+still passes through every node; the vapour enthalpies come from a
+:class:`~evtms.fluid.VapourTable`, which spares the LUT cycle CoolProp.
+
+References
+----------
+Incropera, F. P., DeWitt, D. P., Bergman, T. L., Lavine, A. S. (2007).
+Fundamentals of Heat and Mass Transfer, 6th ed., Wiley, section 11.4.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from evtms.fluid import VapourTable
+
+#: Name of the interpolated variable in a component's LUT tables.
+APPROACH = "approach_log"
+#: The outlet variable it stands for.
+OUTLET = "h_out_continued"
+#: The secondary inlet temperature of each evaporating component's LUT.
+SECONDARY_INLET = {"evaporator": "T_air_in", "chiller": "T_coolant_in"}
+#: Smallest secondary-over-saturation superheat [K] the denominator uses.
+SUPERHEAT_MIN = 0.5
+#: Smallest approach fraction [1]: an outlet at the secondary temperature (to round-off) stays finite.
+APPROACH_MIN = 1e-9
+
+
+def _span(vapour: VapourTable, p_out: np.ndarray, T_sec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``h_v(p_out)`` and ``h(p_out, T_sec) - h_v(p_out)`` [J/kg], the latter from at least SUPERHEAT_MIN."""
+    T_sat, h_v = vapour.saturation(p_out)
+    return h_v, vapour.enthalpy_above_saturation(p_out, np.maximum(T_sec - T_sat, SUPERHEAT_MIN))
+
+
+def approach_log(h_out: np.ndarray, p_out: np.ndarray, T_sec: np.ndarray, vapour: VapourTable) -> np.ndarray:
+    """``ln psi`` [1] of outlets ``h_out`` [J/kg] at ``p_out`` [Pa] against a secondary inlet at ``T_sec`` [K]."""
+    h_v, span = _span(vapour, p_out, T_sec)
+    with np.errstate(invalid="ignore"):
+        return np.log(np.maximum((h_v + span - h_out) / span, APPROACH_MIN))
+
+
+def outlet_enthalpy(log_psi: np.ndarray, p_out: np.ndarray, T_sec: np.ndarray, vapour: VapourTable) -> np.ndarray:
+    """The outlet enthalpy [J/kg] whose :func:`approach_log` is ``log_psi`` (its inverse)."""
+    h_v, span = _span(vapour, p_out, T_sec)
+    return h_v + span * (1.0 - np.exp(log_psi))
