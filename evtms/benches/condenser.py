@@ -192,13 +192,16 @@ BENCH = Bench(
         # -10 degC and at 50 degC, saturation every 4 K from -10 degC and at 13 degC (with fan 1
         # a -10 degC ambient condenses at -9 degC, a 50 degC one at full speed at 55-63 degC),
         # h_in up to 520 kJ/kg (a 50 degC ambient at full speed discharges at up to 495 kJ/kg;
-        # the last cell is superheated vapour). 777,216 points, 35 MB, 16.5 s (was 399,360,
-        # 18 MB, 8.1 s back to back).
+        # the last cell is superheated vapour). Refrigerant flows 24 (not 16) and inlet enthalpies
+        # every 10 kJ/kg (not 20): the LUT cycle's discharge pressure hinges on capacity_ratio = 1,
+        # whose interpolation error at the physics' cycle states fell from 2.8 to 1.8 % (worst),
+        # and the worst COP error of a 100-point chiller-cycle check from 1.36 to 0.88 %.
+        # 2,137,344 points, 46 s with two workers (was 777,216 and 16.5 s).
         "cycle": {
-            "mdot": tuple(np.geomspace(0.002, 0.15, 16)),
+            "mdot": tuple(np.geomspace(0.002, 0.15, 24)),
             "fan": tuple(np.geomspace(0.1, 1.0, 8)),
             "p_in": pressure_nodes(np.r_[-10.0, -6.0, -2.0, 2.0, 6.0, 10.0, 13.0, np.arange(15.0, 92.0, 2.0)]),
-            "h_in": (*np.linspace(400e3, 480e3, 5), 520e3),
+            "h_in": (*np.linspace(400e3, 480e3, 9), 500e3, 520e3),
             "T_res": (300.0,),
             "T_air_in": tuple(np.r_[-10.0, -5.0, 0.0, 5.0, 10.0, np.arange(15.0, 45.1, 2.0), 50.0] + 273.15),
         },
