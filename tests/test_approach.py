@@ -44,3 +44,39 @@ def test_a_secondary_colder_than_saturation_stays_finite_and_invertible(vapour):
 def test_nan_outlets_stay_nan(vapour):
     y = approach_log(np.array([np.nan, 4e5]), np.array([3e5, np.nan]), np.array([290.0, 290.0]), vapour)
     assert np.isnan(y).all()
+
+
+def test_the_approach_interpolates_a_superheated_chiller_outlet_better(cycle_luts_dir):
+    """Off-node outlets 3-12 K superheated (the valve-controlled states): the LUT cycle's chiller
+    outlet within a fifth of the error of the enthalpy interpolated itself (measured 152 against
+    785 J/kg rms, 513 against 2,414 J/kg worst, on 91 of 400 random states)."""
+    from evtms.benches.parameters import Parameters
+    from evtms.cycle import load_cycle_luts
+    from evtms.cycle.models import DirectModels, LutModels
+
+    luts = load_cycle_luts(cycle_luts_dir, "chiller")
+    components = ("compressor", "condenser", "chiller")
+    approach, plain = LutModels(luts, components, False), LutModels(luts, components, False, approach=False)
+    fluid = Fluid()
+    rng = np.random.default_rng(7)
+    n = 400
+    T_sat = rng.uniform(273.15, 288.15, n)
+    inputs = (
+        np.exp(rng.uniform(np.log(2e-3), np.log(20e-3), n)),  # mdot [kg/s]
+        fluid.saturation_pressure(T_sat),
+        rng.uniform(220e3, 280e3, n),  # h_in [J/kg]
+        rng.uniform(0.12, 0.45, n),  # mdot_coolant [kg/s]
+        T_sat + rng.uniform(6.0, 20.0, n),  # T_coolant_in [K]
+    )
+    direct = DirectModels(Parameters()).chiller(*inputs)
+    T_out = fluid.state("PH", direct["p_out"], direct["h_out_continued"], ("T",))["T"]
+    superheat = T_out - fluid.saturation(direct["p_out"])["T"]
+    tail = (superheat > 3.0) & (superheat < 12.0)
+    assert tail.sum() >= 50
+    err = {
+        name: np.abs(model.chiller(*inputs)["h_out_continued"] - direct["h_out_continued"])[tail]
+        for name, model in (("approach", approach), ("plain", plain))
+    }
+    assert np.isfinite(err["approach"]).all() and np.isfinite(err["plain"]).all()
+    assert np.sqrt(np.mean(err["approach"] ** 2)) < 0.4 * np.sqrt(np.mean(err["plain"] ** 2))
+    assert err["approach"].max() < 0.4 * err["plain"].max()

@@ -170,7 +170,10 @@ def test_lut_circuits_match_the_direct_physics(circuits, cycle_luts_dir):
     from evtms.cycle import load_cycle_luts, run_cycle
 
     points, results, np = circuits
-    for name, tol in (("chiller", 0.01), ("cabin+chiller", 0.02)):
+    # Measured: every figure within 0.32 % (pressures, flow, work, COP; branch heat flows as a
+    # share of the total cooling) at these three points; 0.57 % with the outlet enthalpy itself
+    # interpolated instead of its approach to the coolant (evtms.cycle.approach).
+    for name, tol in (("chiller", 0.005), ("cabin+chiller", 0.005)):
         lut = run_cycle(points, load_cycle_luts(cycle_luts_dir, name), circuit=name)
         direct = results[name]
         assert (lut["status"] == 0).all(), lut["reason"]
