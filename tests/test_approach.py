@@ -80,3 +80,26 @@ def test_the_approach_interpolates_a_superheated_chiller_outlet_better(cycle_lut
     assert np.isfinite(err["approach"]).all() and np.isfinite(err["plain"]).all()
     assert np.sqrt(np.mean(err["approach"] ** 2)) < 0.4 * np.sqrt(np.mean(err["plain"] ** 2))
     assert err["approach"].max() < 0.4 * err["plain"].max()
+
+
+def test_compiled_inverse_gives_the_numpy_numbers(vapour):
+    """The cycle's compiled loop against the array path, inside, at the edges of and outside the table."""
+    rng = np.random.default_rng(2)
+    n = 2000
+    p = np.exp(rng.uniform(np.log(1e4), np.log(4.2e6), n))  # beyond the table at both ends
+    p[:3] = (vapour.p[0], vapour.p[-1], np.nan)
+    T_sat, _ = vapour.saturation(np.clip(p, vapour.p[0], vapour.p[-1]))
+    T_sec = T_sat + rng.uniform(-10.0, 130.0, n)  # colder than saturation up to beyond the table's superheats
+    T_sec[3] = np.nan
+    log_psi = rng.uniform(-12.0, 3.0, n)
+    log_psi[4] = np.nan
+    numpy_path = outlet_enthalpy(log_psi, p, T_sec, vapour)
+    compiled = outlet_enthalpy(log_psi, p, T_sec, vapour, compiled=True)
+    assert np.array_equal(np.isnan(numpy_path), np.isnan(compiled)) and np.isnan(numpy_path[2:5]).all()
+    ok = ~np.isnan(numpy_path)
+    assert ok.sum() > 1500
+    assert np.allclose(compiled[ok], numpy_path[ok], rtol=1e-12, atol=1e-6)
+    # Broadcast arguments (a scalar secondary temperature) take the same path.
+    one = outlet_enthalpy(log_psi[5:9], p[5:9], 300.0, vapour, compiled=True)
+    reference = outlet_enthalpy(log_psi[5:9], p[5:9], np.full(4, 300.0), vapour)
+    assert np.allclose(one, reference, rtol=1e-12, equal_nan=True)

@@ -34,8 +34,11 @@ Fundamentals of Heat and Mass Transfer, 6th ed., Wiley, section 11.4.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
+from evtms._jit import jit, numba_enabled
 from evtms.fluid import VapourTable
 
 #: Name of the interpolated variable in a component's LUT tables.
@@ -63,7 +66,76 @@ def approach_log(h_out: np.ndarray, p_out: np.ndarray, T_sec: np.ndarray, vapour
         return np.log(np.maximum((h_v + span - h_out) / span, APPROACH_MIN))
 
 
-def outlet_enthalpy(log_psi: np.ndarray, p_out: np.ndarray, T_sec: np.ndarray, vapour: VapourTable) -> np.ndarray:
-    """The outlet enthalpy [J/kg] whose :func:`approach_log` is ``log_psi`` (its inverse)."""
+def outlet_enthalpy(
+    log_psi: np.ndarray, p_out: np.ndarray, T_sec: np.ndarray, vapour: VapourTable, compiled: bool = False
+) -> np.ndarray:
+    """The outlet enthalpy [J/kg] whose :func:`approach_log` is ``log_psi`` (its inverse).
+
+    ``compiled``: one compiled loop over the points (numba; the same numbers to
+    round-off), for the cycle solver's many calls on a few points each, where
+    NumPy's per-call overhead of some thirty array operations dominates.
+    """
+    if compiled and numba_enabled():
+        args = (log_psi, p_out, T_sec)
+        if not all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64 for a in args) or not (
+            log_psi.size == p_out.size == T_sec.size
+        ):  # the solver's calls pass 1-D float arrays of one size; anything else is broadcast first
+            args = [np.ascontiguousarray(a, dtype=np.float64) for a in np.broadcast_arrays(*args)]
+        out = np.empty(args[0].shape)
+        _kernel()(*(a.reshape(-1) for a in args), *_table_arguments(vapour), SUPERHEAT_MIN, out.reshape(-1))
+        return out
     h_v, span = _span(vapour, p_out, T_sec)
     return h_v + span * (1.0 - np.exp(log_psi))
+
+
+def _outlet_enthalpy_points(log_psi, p_out, T_sec, log_p0, dlog_p, T, h_v, step, dh, superheat_min, out):
+    """:func:`outlet_enthalpy` point by point (the twin of :meth:`VapourTable.saturation` and
+    :meth:`VapourTable.enthalpy_above_saturation`, held to them in the tests)."""
+    n_p, n_sh = dh.shape
+    for k in range(log_psi.size):
+        u = (np.log(p_out[k]) - log_p0) / dlog_p
+        if not (u >= 0.0 and u <= n_p - 1):
+            out[k] = np.nan
+            continue
+        i = min(int(u), n_p - 2)
+        w = u - i
+        T_sat = T[i] + w * (T[i + 1] - T[i])
+        h_sat = h_v[i] + w * (h_v[i + 1] - h_v[i])
+        superheat = T_sec[k] - T_sat
+        if superheat < superheat_min:
+            superheat = superheat_min
+        v = superheat / step
+        if not (v == v):
+            out[k] = np.nan
+            continue
+        v = min(max(v, 0.0), n_sh - 1.0)
+        j = min(int(v), n_sh - 2)
+        t = v - j
+        low = dh[i, j] + t * (dh[i, j + 1] - dh[i, j])
+        high = dh[i + 1, j] + t * (dh[i + 1, j + 1] - dh[i + 1, j])
+        span = low + w * (high - low)
+        out[k] = h_sat + span * (1.0 - np.exp(log_psi[k]))
+
+
+@functools.lru_cache(maxsize=4)
+def _table_arguments(vapour: VapourTable) -> tuple:
+    """The kernel's view of ``vapour``: ln of its first pressure, its ln-p step, T_sat, h_v, superheat step, dh."""
+    p = vapour.p
+    return (
+        float(np.log(p[0])),
+        float(np.log(p[-1] / p[0]) / (p.size - 1)),
+        np.ascontiguousarray(vapour.T),
+        np.ascontiguousarray(vapour.h_v),
+        float(vapour.superheat[1] - vapour.superheat[0]),
+        np.ascontiguousarray(vapour.dh),
+    )
+
+
+_COMPILED = []
+
+
+def _kernel():
+    # Compiled on first use: importing this module (and so the cycle) does not load numba.
+    if not _COMPILED:
+        _COMPILED.append(jit(_outlet_enthalpy_points))
+    return _COMPILED[0]

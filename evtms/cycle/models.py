@@ -203,6 +203,7 @@ class _LutComponent:
         # several times more accurately where the outlet nears that temperature.
         self.secondary = SECONDARY_INLET.get(component) if vapour is not None else None
         self.vapour = vapour
+        self.compiled = compiled
 
         def table(variables: tuple[str, ...]):
             if self.secondary is None:
@@ -278,7 +279,7 @@ class _LutComponent:
         out = itp(cols)
         if self.secondary is not None:
             T_sec = np.broadcast_to(np.asarray(query[self.secondary], float), (n,))
-            out[OUTLET] = outlet_enthalpy(out.pop(APPROACH), out["p_out"], T_sec, self.vapour)
+            out[OUTLET] = outlet_enthalpy(out.pop(APPROACH), out["p_out"], T_sec, self.vapour, self.compiled)
         if self.detailed and self.extra is not None:
             out.update(self.extra(cols))
         if self.detailed and self.frost is not None:
