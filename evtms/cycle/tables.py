@@ -195,7 +195,9 @@ def vapour_table(luts: dict) -> VapourTable:
         return VapourTable.from_tables(_vapour_tables(name, backend))
     from importlib.metadata import version
 
-    recipe = {"fluid": name, "backend": backend, "coolprop": version("CoolProp")}
+    # The table's layout (pressures, superheat step and range) is part of what it depends on.
+    layout = list(VapourTable.__init__.__defaults__)
+    recipe = {"fluid": name, "backend": backend, "coolprop": version("CoolProp"), "layout": layout}
     arrays, _ = cached_arrays("vapour", [], recipe, lambda: (_vapour_tables(name, backend), {}))
     return VapourTable.from_tables(arrays)
 
