@@ -498,7 +498,8 @@ class VapourTable:
     pressures from ``p_min`` to 95 % of the critical pressure and superheats
     from 0 to ``superheat_max`` every ``step`` K, with ``T_sat`` and ``h_v``
     on the same pressures; interpolated bilinearly (in ln p and superheat),
-    within about 5 J/kg of CoolProp over the table (checked in the tests).
+    within about 5 J/kg of CoolProp over the table (checked in the tests), and
+    continued linearly beyond ``superheat_max``.
     The LUT cycle measures an evaporator outlet against the secondary inlet
     with it (:mod:`evtms.cycle.approach`) without importing CoolProp.
 
@@ -518,7 +519,7 @@ class VapourTable:
     COLUMNS = ("p", "T", "h_v", "superheat", "dh")
 
     def __init__(
-        self, fluid: Fluid, p_min: float = 2e4, n: int = 400, superheat_max: float = 100.0, step: float = 0.5
+        self, fluid: Fluid, p_min: float = 1e4, n: int = 400, superheat_max: float = 100.0, step: float = 0.5
     ) -> None:
         p = np.geomspace(p_min, 0.95 * fluid.p_crit, n)
         sat = fluid.state("PQ", p, 1.0, ("T", "H"))
@@ -569,9 +570,12 @@ class VapourTable:
         return self.T[i] + w * (self.T[i + 1] - self.T[i]), self.h_v[i] + w * (self.h_v[i + 1] - self.h_v[i])
 
     def enthalpy_above_saturation(self, p: np.ndarray, superheat: np.ndarray) -> np.ndarray:
-        """``h(p, T_sat + superheat) - h_v(p)`` [J/kg]; superheat clipped to the table, NaN outside its pressures."""
+        """``h(p, T_sat + superheat) - h_v(p)`` [J/kg]; NaN outside the table's pressures.
+
+        A negative superheat counts as 0; beyond ``superheat_max`` the last step's slope
+        continues linearly (the function keeps rising, so it stays invertible)."""
         i, w = self._pressure_cell(np.asarray(p, float))
-        v = np.clip(np.asarray(superheat, float) / self._step, 0.0, self.superheat.size - 1)
+        v = np.maximum(np.asarray(superheat, float) / self._step, 0.0)
         j = np.minimum(np.nan_to_num(v).astype(np.intp), self.superheat.size - 2)
         t = v - j
         low = self.dh[i, j] + t * (self.dh[i, j + 1] - self.dh[i, j])

@@ -103,3 +103,20 @@ def test_compiled_inverse_gives_the_numpy_numbers(vapour):
     one = outlet_enthalpy(log_psi[5:9], p[5:9], 300.0, vapour, compiled=True)
     reference = outlet_enthalpy(log_psi[5:9], p[5:9], np.full(4, 300.0), vapour)
     assert np.allclose(one, reference, rtol=1e-12, equal_nan=True)
+
+
+def test_round_trip_where_the_secondary_is_beyond_the_table_s_superheats(vapour):
+    """A cold evaporation against a hot secondary (-35 degC against 50 degC at 22 kPa: over 100 K apart)
+    still inverts exactly: the table's enthalpies continue linearly past its last superheat."""
+    p = np.full(4, 2.2e4)
+    T_sat, h_v = vapour.saturation(p)
+    T_sec = T_sat + np.array([99.0, 105.0, 120.0, 140.0])
+    span = vapour.enthalpy_above_saturation(p, T_sec - T_sat)
+    assert np.all(np.diff(span) > 0)
+    h = h_v + 0.97 * span  # outlets 3 % of the span short of the secondary temperature
+    y = approach_log(h, p, T_sec, vapour)
+    assert np.allclose(y, np.log(0.03), atol=1e-9)
+    for compiled in (False, True):
+        assert np.allclose(outlet_enthalpy(y, p, T_sec, vapour, compiled), h, rtol=0, atol=1e-6)
+    # Scalars come back as scalars on both paths.
+    assert np.shape(outlet_enthalpy(-1.0, 3e5, 300.0, vapour, compiled=True)) == ()

@@ -77,11 +77,14 @@ def outlet_enthalpy(
     """
     if compiled and numba_enabled():
         args = (log_psi, p_out, T_sec)
-        if not all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64 for a in args) or not (
+        if all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64 for a in args) and (
             log_psi.size == p_out.size == T_sec.size
-        ):  # the solver's calls pass 1-D float arrays of one size; anything else is broadcast first
-            args = [np.ascontiguousarray(a, dtype=np.float64) for a in np.broadcast_arrays(*args)]
-        out = np.empty(args[0].shape)
+        ):  # the solver's calls: 1-D float arrays of one size
+            shape = log_psi.shape
+        else:  # anything else is broadcast first (0-d for scalar arguments, as on the array path)
+            shape = np.broadcast_shapes(*(np.shape(a) for a in args))
+            args = [np.array(np.broadcast_to(np.asarray(a, np.float64), shape)).reshape(-1) for a in args]
+        out = np.empty(shape)
         _kernel()(*(a.reshape(-1) for a in args), *_table_arguments(vapour), SUPERHEAT_MIN, out.reshape(-1))
         return out
     h_v, span = _span(vapour, p_out, T_sec)
@@ -108,8 +111,8 @@ def _outlet_enthalpy_points(log_psi, p_out, T_sec, log_p0, dlog_p, T, h_v, step,
         if not (v == v):
             out[k] = np.nan
             continue
-        v = min(max(v, 0.0), n_sh - 1.0)
-        j = min(int(v), n_sh - 2)
+        v = max(v, 0.0)
+        j = min(int(v), n_sh - 2) if v < n_sh else n_sh - 2  # beyond the table: the last step continued
         t = v - j
         low = dh[i, j] + t * (dh[i, j + 1] - dh[i, j])
         high = dh[i + 1, j] + t * (dh[i + 1, j + 1] - dh[i + 1, j])

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, approach_log
+from evtms.cycle.approach import APPROACH, APPROACH_MIN, OUTLET, SECONDARY_INLET, SUPERHEAT_MIN, approach_log
 from evtms.luts.cache import cached_arrays
 from evtms.luts.validate import read_lut_metadata
 
@@ -81,8 +81,9 @@ class CycleLut:
         curved = [v for v in curvature if v in variables]
         recipe = {"variables": variables, "curved": curved}
         if APPROACH in variables:
-            # The derived table depends on the vapour enthalpies it was computed with.
+            # The derived table depends on the vapour enthalpies and the transform it was computed with.
             recipe["vapour"] = vapour.digest()
+            recipe["approach"] = {"superheat_min": SUPERHEAT_MIN, "approach_min": APPROACH_MIN, "version": 1}
 
         def build():
             from evtms.luts import open_lut
@@ -198,7 +199,8 @@ def vapour_table(luts: dict) -> VapourTable:
     # The table's layout (pressures, superheat step and range) is part of what it depends on.
     layout = list(VapourTable.__init__.__defaults__)
     recipe = {"fluid": name, "backend": backend, "coolprop": version("CoolProp"), "layout": layout}
-    arrays, _ = cached_arrays("vapour", [], recipe, lambda: (_vapour_tables(name, backend), {}))
+    # One entry per recipe: the cache keeps one file per name and drops its older recipes.
+    arrays, _ = cached_arrays(f"vapour-{_short(recipe)}", [], recipe, lambda: (_vapour_tables(name, backend), {}))
     return VapourTable.from_tables(arrays)
 
 
