@@ -533,9 +533,10 @@ class VapourTable:
     def _set(self, tables: dict[str, np.ndarray]) -> None:
         self.p, self.T, self.h_v = tables["p"], tables["T"], tables["h_v"]
         self.superheat, self.dh = tables["superheat"], tables["dh"]
-        self._log_p0 = float(np.log(self.p[0]))
-        self._dlog_p = float(np.log(self.p[-1] / self.p[0]) / (self.p.size - 1))
-        self._step = float(self.superheat[1] - self.superheat[0])
+        # The grids are uniform in ln p and in superheat: a cell is found by arithmetic.
+        self.log_p0 = float(np.log(self.p[0]))
+        self.dlog_p = float(np.log(self.p[-1] / self.p[0]) / (self.p.size - 1))
+        self.step = float(self.superheat[1] - self.superheat[0])
 
     def tables(self) -> dict[str, np.ndarray]:
         """The tabulated columns by name (SI)."""
@@ -558,29 +559,42 @@ class VapourTable:
         return table
 
     def _pressure_cell(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        # Uniform in ln p: the cell index and the position in it; NaN outside the table.
-        u = (np.log(p) - self._log_p0) / self._dlog_p
+        # The cell index and the position in it; NaN outside the table.
+        u = (np.log(np.asarray(p, float)) - self.log_p0) / self.dlog_p
         u = np.where((u >= 0) & (u <= self.p.size - 1), u, np.nan)
         i = np.minimum(np.nan_to_num(u).astype(np.intp), self.p.size - 2)
         return i, u - i
 
+    @staticmethod
+    def _along(table: np.ndarray, i: np.ndarray, w: np.ndarray) -> np.ndarray:
+        return table[i] + w * (table[i + 1] - table[i])
+
+    def _rise(self, i: np.ndarray, w: np.ndarray, superheat: np.ndarray) -> np.ndarray:
+        v = np.maximum(np.asarray(superheat, float) / self.step, 0.0)
+        j = np.minimum(np.nan_to_num(v).astype(np.intp), self.superheat.size - 2)
+        t = v - j
+        low = self.dh[i, j] + t * (self.dh[i, j + 1] - self.dh[i, j])
+        high = self.dh[i + 1, j] + t * (self.dh[i + 1, j + 1] - self.dh[i + 1, j])
+        return low + w * (high - low)
+
     def saturation(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Saturation temperature [K] and saturated-vapour enthalpy [J/kg] at ``p`` [Pa]; NaN outside."""
-        i, w = self._pressure_cell(np.asarray(p, float))
-        return self.T[i] + w * (self.T[i + 1] - self.T[i]), self.h_v[i] + w * (self.h_v[i + 1] - self.h_v[i])
+        i, w = self._pressure_cell(p)
+        return self._along(self.T, i, w), self._along(self.h_v, i, w)
 
     def enthalpy_above_saturation(self, p: np.ndarray, superheat: np.ndarray) -> np.ndarray:
         """``h(p, T_sat + superheat) - h_v(p)`` [J/kg]; NaN outside the table's pressures.
 
         A negative superheat counts as 0; beyond ``superheat_max`` the last step's slope
         continues linearly (the function keeps rising, so it stays invertible)."""
-        i, w = self._pressure_cell(np.asarray(p, float))
-        v = np.maximum(np.asarray(superheat, float) / self._step, 0.0)
-        j = np.minimum(np.nan_to_num(v).astype(np.intp), self.superheat.size - 2)
-        t = v - j
-        low = self.dh[i, j] + t * (self.dh[i, j + 1] - self.dh[i, j])
-        high = self.dh[i + 1, j] + t * (self.dh[i + 1, j + 1] - self.dh[i + 1, j])
-        return low + w * (high - low)
+        return self._rise(*self._pressure_cell(p), superheat)
+
+    def rise_to(self, p: np.ndarray, T: np.ndarray, superheat_min: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """``h_v(p)`` and ``h(p, T') - h_v(p)`` [J/kg] with ``T' = max(T, T_sat(p) + superheat_min)`` [K].
+
+        :meth:`saturation` and :meth:`enthalpy_above_saturation` from one search of the pressure cell."""
+        i, w = self._pressure_cell(p)
+        return self._along(self.h_v, i, w), self._rise(i, w, np.maximum(T - self._along(self.T, i, w), superheat_min))
 
 
 #: Incompressible-fluid name and mass fraction of the default coolant: 50 % monoethylene glycol in water.

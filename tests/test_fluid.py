@@ -79,6 +79,11 @@ def test_vapour_table_matches_coolprop(fluid):
     # Clipped in superheat, NaN outside the pressures; a cached copy answers the same.
     assert table.enthalpy_above_saturation(p[:3], -5.0) == pytest.approx(0.0)
     assert np.isnan(table.saturation(np.array([1e3, 5e6]))[0]).all()
+    # rise_to is the two lookups from one pressure cell.
+    T_sec = sat["T"] + superheat - 3.0
+    h_v_at, rise = table.rise_to(p, T_sec, 0.5)
+    assert np.array_equal(h_v_at, h_v)
+    assert np.allclose(rise, table.enthalpy_above_saturation(p, np.maximum(T_sec - T_sat, 0.5)), rtol=1e-12, atol=1e-9)
     copy = VapourTable.from_tables(table.tables())
     assert copy.digest() == table.digest()
     assert np.array_equal(copy.enthalpy_above_saturation(p, superheat), table.enthalpy_above_saturation(p, superheat))

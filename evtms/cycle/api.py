@@ -12,11 +12,10 @@ from evtms import __version__
 from evtms.benches.parameters import Parameters
 from evtms.cycle.models import DirectModels, LutModels
 from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
-from evtms.cycle.tables import CycleLut
+from evtms.cycle.tables import CycleLut, fluid_tables
 from evtms.cycle.topology import INPUTS, Topology, topology
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid, SaturationCurve
-from evtms.luts.cache import cached_arrays
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -95,20 +94,11 @@ def saturation_curve(luts: dict, fluid: Fluid | None = None) -> SaturationCurve:
     LUT run the import of CoolProp (about 2 s). ``fluid`` is used if given
     and nothing is cached.
     """
-    any_lut = next(iter(luts.values()))
-    name = any_lut.attrs.get("fluid", "R134a")
-    backend = json.loads(any_lut.attrs.get("parameters", "{}")).get("backend", "HEOS")
 
-    def build():
-        return SaturationCurve(fluid or Fluid(name, backend)).tables(), {}
+    def build(name: str, backend: str) -> dict:
+        return SaturationCurve(fluid or Fluid(name, backend)).tables()
 
-    lut = next((v for v in luts.values() if isinstance(v, CycleLut)), None)
-    if lut is None:
-        return SaturationCurve.from_tables(build()[0])
-    from importlib.metadata import version
-
-    recipe = {"fluid": name, "backend": backend, "coolprop": version("CoolProp")}
-    arrays, _ = cached_arrays("saturation", [], recipe, build)
+    arrays = fluid_tables(luts, "saturation", list(SaturationCurve.__init__.__defaults__), build)
     return SaturationCurve.from_tables(arrays)
 
 

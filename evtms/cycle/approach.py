@@ -34,8 +34,6 @@ Fundamentals of Heat and Mass Transfer, 6th ed., Wiley, section 11.4.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from evtms._jit import jit, numba_enabled
@@ -53,15 +51,9 @@ SUPERHEAT_MIN = 0.5
 APPROACH_MIN = 1e-9
 
 
-def _span(vapour: VapourTable, p_out: np.ndarray, T_sec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``h_v(p_out)`` and ``h(p_out, T_sec) - h_v(p_out)`` [J/kg], the latter from at least SUPERHEAT_MIN."""
-    T_sat, h_v = vapour.saturation(p_out)
-    return h_v, vapour.enthalpy_above_saturation(p_out, np.maximum(T_sec - T_sat, SUPERHEAT_MIN))
-
-
 def approach_log(h_out: np.ndarray, p_out: np.ndarray, T_sec: np.ndarray, vapour: VapourTable) -> np.ndarray:
     """``ln psi`` [1] of outlets ``h_out`` [J/kg] at ``p_out`` [Pa] against a secondary inlet at ``T_sec`` [K]."""
-    h_v, span = _span(vapour, p_out, T_sec)
+    h_v, span = vapour.rise_to(p_out, T_sec, SUPERHEAT_MIN)
     with np.errstate(invalid="ignore"):
         return np.log(np.maximum((h_v + span - h_out) / span, APPROACH_MIN))
 
@@ -85,15 +77,16 @@ def outlet_enthalpy(
             shape = np.broadcast_shapes(*(np.shape(a) for a in args))
             args = [np.array(np.broadcast_to(np.asarray(a, np.float64), shape)).reshape(-1) for a in args]
         out = np.empty(shape)
-        _kernel()(*(a.reshape(-1) for a in args), *_table_arguments(vapour), SUPERHEAT_MIN, out.reshape(-1))
+        table = (vapour.log_p0, vapour.dlog_p, vapour.T, vapour.h_v, vapour.step, vapour.dh)
+        _kernel()(*(a.reshape(-1) for a in args), *table, SUPERHEAT_MIN, out.reshape(-1))
         return out
-    h_v, span = _span(vapour, p_out, T_sec)
+    h_v, span = vapour.rise_to(p_out, T_sec, SUPERHEAT_MIN)
     return h_v + span * (1.0 - np.exp(log_psi))
 
 
 def _outlet_enthalpy_points(log_psi, p_out, T_sec, log_p0, dlog_p, T, h_v, step, dh, superheat_min, out):
-    """:func:`outlet_enthalpy` point by point (the twin of :meth:`VapourTable.saturation` and
-    :meth:`VapourTable.enthalpy_above_saturation`, held to them in the tests)."""
+    """:func:`outlet_enthalpy` point by point (the twin of :meth:`VapourTable.rise_to`, held to
+    it in the tests)."""
     n_p, n_sh = dh.shape
     for k in range(log_psi.size):
         u = (np.log(p_out[k]) - log_p0) / dlog_p
@@ -118,20 +111,6 @@ def _outlet_enthalpy_points(log_psi, p_out, T_sec, log_p0, dlog_p, T, h_v, step,
         high = dh[i + 1, j] + t * (dh[i + 1, j + 1] - dh[i + 1, j])
         span = low + w * (high - low)
         out[k] = h_sat + span * (1.0 - np.exp(log_psi[k]))
-
-
-@functools.lru_cache(maxsize=4)
-def _table_arguments(vapour: VapourTable) -> tuple:
-    """The kernel's view of ``vapour``: ln of its first pressure, its ln-p step, T_sat, h_v, superheat step, dh."""
-    p = vapour.p
-    return (
-        float(np.log(p[0])),
-        float(np.log(p[-1] / p[0]) / (p.size - 1)),
-        np.ascontiguousarray(vapour.T),
-        np.ascontiguousarray(vapour.h_v),
-        float(vapour.superheat[1] - vapour.superheat[0]),
-        np.ascontiguousarray(vapour.dh),
-    )
 
 
 _COMPILED = []

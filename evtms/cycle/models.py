@@ -19,11 +19,10 @@ from evtms.benches import evaporator as evaporator_bench
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
 from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, outlet_enthalpy
-from evtms.cycle.tables import cycle_lut, vapour_table
+from evtms.cycle.tables import cycle_lut, values_made_at, vapour_table
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
 from evtms.hx.crossflow import per_point_searches
-from evtms.luts.validate import fixed_inputs
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -232,10 +231,7 @@ class _LutComponent:
         )
         self.detailed = False
         self.ranges = {d: (float(lut.axes[d][0]), float(lut.axes[d][-1])) for d in self.dims}
-        env = json.loads(lut.attrs.get("environment", "{}"))
-        # Inputs a LUT was computed at one value of: its fixed inputs, and for air axes
-        # it does not have at all, the air boundary of its environment.
-        self.fixed = {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")} | fixed_inputs(lut.attrs)
+        self.fixed = values_made_at(lut.attrs)
 
     def __call__(self, query: dict[str, np.ndarray]) -> Result:
         # The solver calls this some ninety times per operating point and iteration, mostly

@@ -20,9 +20,11 @@ import numpy as np
 
 from evtms.cycle.approach import APPROACH, APPROACH_MIN, OUTLET, SECONDARY_INLET, SUPERHEAT_MIN, approach_log
 from evtms.luts.cache import cached_arrays
-from evtms.luts.validate import read_lut_metadata
+from evtms.luts.validate import fixed_inputs, read_lut_metadata
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from evtms.fluid import VapourTable
     from evtms.luts import Interpolator
 
@@ -116,8 +118,6 @@ class DatasetLut:
     """An in-memory LUT dataset with :class:`CycleLut`'s interface (nothing cached)."""
 
     def __init__(self, ds, component: str) -> None:
-        from evtms.luts.validate import fixed_inputs
-
         self.ds = ds
         self.component = component
         self.attrs = dict(ds.attrs)
@@ -155,9 +155,7 @@ class DatasetLut:
         name = SECONDARY_INLET[self.component]
         if name in self.dims:
             return self.axes[name].reshape([-1 if d == name else 1 for d in self.dims])
-        if name in self.fixed:
-            return self.fixed[name]
-        return json.loads(self.attrs.get("environment", "{}"))["T"]  # an air coil without an air axis
+        return values_made_at(self.attrs)[name]
 
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
         """As :meth:`CycleLut.indicator`, built from the dataset in memory."""
@@ -174,6 +172,13 @@ class DatasetLut:
         return build()
 
 
+def values_made_at(attrs) -> dict[str, float | None]:
+    """Inputs a LUT was computed at one value of: its fixed inputs, and for the air axes it does
+    not have at all, the air boundary of its environment (``None`` where it records none)."""
+    env = json.loads(attrs.get("environment", "{}"))
+    return {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")} | fixed_inputs(attrs)
+
+
 def stored_variables(variables: list[str]) -> list[str]:
     """The file's variables ``variables`` are read or derived from."""
     if APPROACH not in variables:
@@ -181,27 +186,34 @@ def stored_variables(variables: list[str]) -> list[str]:
     return list(dict.fromkeys([v for v in variables if v != APPROACH] + [OUTLET, "p_out"]))
 
 
-def vapour_table(luts: dict) -> VapourTable:
-    """The refrigerant's :class:`~evtms.fluid.VapourTable` for a LUT cycle; cached like the saturation curve.
+def fluid_tables(luts: dict, kind: str, layout: list, build: Callable[[str, str], dict]) -> dict[str, np.ndarray]:
+    """Property tables ``build(fluid, backend)`` makes for the LUTs' refrigerant.
 
-    Built once per fluid, backend and CoolProp version (a cached one spares a
-    LUT run the import of CoolProp); for in-memory datasets kept per process.
+    Cached (:mod:`evtms.luts.cache`) per fluid, backend, CoolProp version and
+    ``layout`` (what else the tables depend on) when the LUTs are files: a
+    cached table spares a LUT run the import of CoolProp (about 2 s). For
+    in-memory datasets ``build`` is called.
     """
-    from evtms.fluid import VapourTable
-
     any_lut = next(iter(luts.values()))
     name = any_lut.attrs.get("fluid", "R134a")
     backend = json.loads(any_lut.attrs.get("parameters", "{}")).get("backend", "HEOS")
     if not any(isinstance(v, CycleLut) for v in luts.values()):
-        return VapourTable.from_tables(_vapour_tables(name, backend))
+        return build(name, backend)
     from importlib.metadata import version
 
-    # The table's layout (pressures, superheat step and range) is part of what it depends on.
-    layout = list(VapourTable.__init__.__defaults__)
     recipe = {"fluid": name, "backend": backend, "coolprop": version("CoolProp"), "layout": layout}
     # One entry per recipe: the cache keeps one file per name and drops its older recipes.
-    arrays, _ = cached_arrays(f"vapour-{_short(recipe)}", [], recipe, lambda: (_vapour_tables(name, backend), {}))
-    return VapourTable.from_tables(arrays)
+    arrays, _ = cached_arrays(f"{kind}-{_short(recipe)}", [], recipe, lambda: (build(name, backend), {}))
+    return arrays
+
+
+def vapour_table(luts: dict) -> VapourTable:
+    """The refrigerant's :class:`~evtms.fluid.VapourTable` for a LUT cycle (:func:`fluid_tables`;
+    for in-memory datasets kept per process)."""
+    from evtms.fluid import VapourTable
+
+    layout = list(VapourTable.__init__.__defaults__)
+    return VapourTable.from_tables(fluid_tables(luts, "vapour", layout, _vapour_tables))
 
 
 @functools.lru_cache(maxsize=4)
