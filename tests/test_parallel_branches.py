@@ -137,3 +137,45 @@ def test_fewer_invalid_nodes_on_a_small_ac_chiller_map(cycle_luts_dir):
     assert status.size == 729
     assert invalid < 200, counts
     assert counts[int(STATUS_BRANCH_CLOSED)] > 0 and counts[int(STATUS_VALVE_SATURATED)] > 0, counts
+
+
+def test_chiller_cell_next_to_colder_coolant_takes_no_heat(cycle_luts_dir):
+    """Coolant at 17 degC against evaporation at 15.7 degC (500 kPa): the chiller LUT's cell holds
+    nodes with the coolant colder than the refrigerant (16 degC against 17.0 degC at 520 kPa), which
+    the bench leaves NaN (no heat flows). The LUT model reads that cell as no heat flow, as the bench
+    does at those nodes, not as the end of its envelope: the physics' chiller there superheats by
+    at most 1.3 K, below any setpoint, so its valve closes either way. A cell of valid nodes (coolant
+    at 22 degC) is interpolated as before."""
+    from evtms.cycle.models import LutModels
+
+    models = LutModels(load_cycle_luts(cycle_luts_dir, "cabin+chiller"), ("chiller",))
+    one = {"mdot": np.array([0.002]), "p_in": np.array([5e5]), "h_in": np.array([250e3])}
+    edge = models.chiller(**one, mdot_coolant=np.array([0.3]), T_coolant_in=np.array([290.15]))
+    assert edge["no_heat_flow"].tolist() == [True] and edge["reason"].tolist() == [""]
+    inside = models.chiller(**one, mdot_coolant=np.array([0.3]), T_coolant_in=np.array([295.15]))
+    assert not inside.get("no_heat_flow", np.zeros(1, bool))[0] and inside["reason"][0] == ""
+    assert np.isfinite(inside["h_out_continued"][0]) and inside["h_out_continued"][0] > 250e3
+
+
+def test_chiller_near_its_no_heat_edge_closes_its_valve_on_luts(cycle_luts_dir):
+    """Coolant 17.0 degC, 1.6 K above the evaporation the physics finds (15.4 degC): the direct
+    physics closes the chiller valve (status 10, p_A 495.2 kPa, cabin branch 16.1 g/s; measured,
+    accuracy benchmark's point 52). On LUTs the suction iterates meet chiller cells touching
+    colder-coolant nodes; they used to end the point as 'outside the model envelope'."""
+    point = OperatingPoints(  # to the last digit: which suction iterates meet such a cell is that sensitive
+        speed=0.1492012552616542,
+        fan=0.5480563176019253,
+        blower=0.9362118775281661,
+        T_amb=301.303835500582,
+        T_cabin=300.83956319242395,
+        RH_cabin=0.366613229178761,
+        mdot_coolant=0.3187180584726041,
+        T_coolant_in=290.11985378411276,
+        superheat=8.155022642985905,
+    )
+    r = run_cycle(point, load_cycle_luts(cycle_luts_dir, "cabin+chiller"), circuit="cabin+chiller")
+    assert r["status"].tolist() == [STATUS_BRANCH_CLOSED], r["reason"]
+    assert r["mdot_chiller"][0] == 0.0 and "battery chiller valve is closed" in r["reason"][0]
+    assert r["p_A"][0] == pytest.approx(495.2e3, rel=0.01)
+    assert r["mdot_evap"][0] == pytest.approx(16.1e-3, rel=0.01)
+    assert abs(r["balance_relative"][0]) < 1e-5

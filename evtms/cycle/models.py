@@ -31,6 +31,14 @@ if TYPE_CHECKING:
 
 Result = dict[str, np.ndarray]
 
+
+def wrong_side_flags(flags: dict[int, str]) -> tuple[int, ...]:
+    """A bench's status codes for a refrigerant inlet on the wrong side of the secondary stream (not
+    warmer than the air in a condenser, not colder than the air or coolant in an evaporator): no heat
+    flows. The cycle's closures read them as "no heat flows", not as a failed point."""
+    return tuple(c for c, meaning in flags.items() if meaning.startswith("refrigerant_inlet_not_"))
+
+
 #: The evaporator bench's status codes of valid points whose coldest surface is below 0 degC
 #: (``valid_frost_risk_surface_below_0C``, code 10; its ``FROST_RISK_FLAGS`` where it lists more).
 EVAPORATOR_FROST_FLAGS = tuple(getattr(evaporator_bench, "FROST_RISK_FLAGS", (evaporator_bench.STATUS_FROST_RISK,)))
@@ -103,11 +111,7 @@ class DirectModels:
         for code, meaning in bench.flags.items():
             reasons[bad & (out["status"] == code)] = f"{component}: {meaning}"
         result = {k: out[k] for k in COMPONENT_OUTPUTS[component]}
-        # The bench's code for a refrigerant inlet on the wrong side of the secondary
-        # stream (not warmer than the air in a condenser, not colder in an evaporator):
-        # the cycle's closures read it as "no heat flows", not as a failed point.
-        wrong_side = [c for c, meaning in bench.flags.items() if meaning.startswith("refrigerant_inlet_not_")]
-        result["no_heat_flow"] = np.isin(out["status"], wrong_side)
+        result["no_heat_flow"] = np.isin(out["status"], wrong_side_flags(bench.flags))
         if component == "evaporator":
             result["frost_risk"] = np.isin(out["status"], EVAPORATOR_FROST_FLAGS).astype(float)
         result["reason"] = reasons
@@ -229,6 +233,16 @@ class _LutComponent:
         self.frost = (
             lut.indicator("frost_risk", EVAPORATOR_FROST_FLAGS, compiled) if component == "evaporator" else None
         )
+        # A cell touching nodes where the refrigerant enters on the wrong side of the secondary
+        # stream (no heat flows; the bench leaves them NaN) interpolates to NaN. Near that edge
+        # the physics takes next to no heat (a chiller whose coolant is barely warmer than the
+        # evaporation cannot superheat, so its valve closes): such a point is "no heat flow",
+        # as the bench says at the nodes, and not the end of the model's envelope. The share of
+        # the cell's weight on those nodes is interpolated, NaN where other invalid nodes weigh.
+        from evtms.benches import BENCHES
+
+        codes = wrong_side_flags(BENCHES[component].flags) if component in BENCHES else ()
+        self.no_heat = lut.indicator("no_heat_flow", codes, compiled) if codes else None
         self.detailed = False
         self.ranges = {d: (float(lut.axes[d][0]), float(lut.axes[d][-1])) for d in self.dims}
         self.fixed = values_made_at(lut.attrs)
@@ -289,6 +303,13 @@ class _LutComponent:
             for v in out.values():
                 v[bad] = np.nan
         nan = ~bad & ~np.isfinite(out[OUTLET if self.secondary else itp.variables[0]])
+        if nan.any() and self.no_heat is not None:
+            k = np.nonzero(nan)[0]
+            share = self.no_heat({d: c[k] for d, c in cols.items()})["no_heat_flow"]
+            none = np.zeros(n, bool)
+            none[k[share > 0]] = True  # NaN shares (other invalid nodes) compare False
+            out["no_heat_flow"] = none
+            nan &= ~none
         if nan.any():
             reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
         out["reason"] = reasons

@@ -97,7 +97,9 @@ class CycleLut:
         return Interpolator.from_arrays(arrays, info, compiled)
 
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
-        """Interpolator of ``name``: 1 at nodes whose status is in ``codes``, 0 at other valid nodes, NaN at invalid."""
+        """Interpolator of ``name``: 1 at nodes whose status is in ``codes`` (valid or not), 0 at other
+        valid nodes, NaN at other invalid nodes: the share of a point's interpolation weight on nodes
+        with those codes, NaN where the cell holds any other invalid node."""
         from evtms.luts import Interpolator
 
         def build():
@@ -106,7 +108,7 @@ class CycleLut:
             ds = open_lut(self.path, self.component, [])
             return DatasetLut(ds, self.component).indicator(name, codes).to_arrays()
 
-        arrays, info = self._cached("flag", {"name": name, "codes": list(codes)}, build)
+        arrays, info = self._cached("flag", {"name": name, "codes": list(codes), "version": 2}, build)
         return Interpolator.from_arrays(arrays, info, compiled)
 
     def derived(self, name: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
@@ -162,8 +164,9 @@ class DatasetLut:
         from evtms.luts import Interpolator
 
         status = self.ds["status"].values
+        flagged = np.isin(status, codes)
         valid = np.isin(status, np.asarray(self.ds["status"].attrs["valid_flag_values"]))
-        table = np.where(valid, np.isin(status, codes), np.nan)
+        table = np.where(valid | flagged, flagged, np.nan)
         itp = Interpolator([(d, self.axes[d]) for d in self.dims], {name: table}, "nan", fixed=self.fixed)
         itp.compiled = itp.compiled and compiled
         return itp
