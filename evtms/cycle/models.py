@@ -11,6 +11,7 @@ accuracy reference) and names the bench's status.
 from __future__ import annotations
 
 import json
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -238,11 +239,13 @@ class _LutComponent:
         # the physics takes next to no heat (a chiller whose coolant is barely warmer than the
         # evaporation cannot superheat, so its valve closes): such a point is "no heat flow",
         # as the bench says at the nodes, and not the end of the model's envelope. The share of
-        # the cell's weight on those nodes is interpolated, NaN where other invalid nodes weigh.
+        # the cell's weight on those nodes is interpolated, NaN where other invalid nodes weigh;
+        # its table is built (and cached) the first time a NaN cell is met.
         from evtms.benches import BENCHES
 
         codes = wrong_side_flags(BENCHES[component].flags) if component in BENCHES else ()
-        self.no_heat = lut.indicator("no_heat_flow", codes, compiled) if codes else None
+        self._no_heat_table = partial(lut.indicator, "no_heat_flow", codes, compiled) if codes else None
+        self._no_heat = None
         self.detailed = False
         self.ranges = {d: (float(lut.axes[d][0]), float(lut.axes[d][-1])) for d in self.dims}
         self.fixed = values_made_at(lut.attrs)
@@ -303,9 +306,11 @@ class _LutComponent:
             for v in out.values():
                 v[bad] = np.nan
         nan = ~bad & ~np.isfinite(out[OUTLET if self.secondary else itp.variables[0]])
-        if nan.any() and self.no_heat is not None:
+        if nan.any() and self._no_heat_table is not None:
             k = np.nonzero(nan)[0]
-            share = self.no_heat({d: c[k] for d, c in cols.items()})["no_heat_flow"]
+            if self._no_heat is None:
+                self._no_heat = self._no_heat_table()
+            share = self._no_heat({d: c[k] for d, c in cols.items()})["no_heat_flow"]
             none = np.zeros(n, bool)
             none[k[share > 0]] = True  # NaN shares (other invalid nodes) compare False
             out["no_heat_flow"] = none
