@@ -64,8 +64,11 @@ def single_phase_nusselt(Re: np.ndarray, Pr: np.ndarray, friction_factor: np.nda
 
     .. math:: Nu = \\frac{(f/8)(Re - 1000) Pr}{1 + 12.7\\sqrt{f/8}(Pr^{2/3} - 1)};
 
-    linear blend in between. Validity of Gnielinski's equation: 3000 <= Re
-    <= 5e6 and 0.5 <= Pr <= 2000 (Incropera et al. 2007, eq. 8.62).
+    linear blend in between, from ``nu_laminar`` to Gnielinski's value at
+    Re = 4000 (the transition interpolation Gnielinski 2013 recommends; its
+    ends are corners of the Nusselt number against the flow). Validity of
+    Gnielinski's equation: 3000 <= Re <= 5e6 and 0.5 <= Pr <= 2000
+    (Incropera et al. 2007, eq. 8.62).
 
     Parameters
     ----------
@@ -81,6 +84,8 @@ def single_phase_nusselt(Re: np.ndarray, Pr: np.ndarray, friction_factor: np.nda
     ----------
     Gnielinski, V. (1976). New equations for heat and mass transfer in
     turbulent pipe and channel flow. Int. Chem. Eng. 16(2), 359-368.
+    Gnielinski, V. (2013). On heat transfer in tubes. Int. J. Heat Mass
+    Transfer 63, 134-140.
     """
     Re = np.asarray(Re, float)
     Re_t = np.maximum(Re, RE_TURBULENT)
