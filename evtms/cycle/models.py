@@ -324,6 +324,13 @@ class _LutComponent:
 class LutModels:
     """Component models interpolated from LUT datasets.
 
+    A coil's point whose interpolation cell holds nodes where the refrigerant
+    enters on the wrong side of the secondary stream (the bench's
+    ``refrigerant_inlet_not_*`` status: no heat flows, NaN in the LUT), and no
+    other invalid node, returns ``no_heat_flow`` True with an empty reason, as
+    :class:`DirectModels` does at those states; any other NaN cell returns NaN
+    with a reason.
+
     Parameters
     ----------
     luts : mapping of str to CycleLut or xarray.Dataset
