@@ -16,6 +16,7 @@ from evtms.cycle.solver import (
     CYCLE_FLAGS,
     FROST_RISK_FLAGS,
     STATUS_CONVERGED,
+    STATUS_EVAPORATOR_NO_ROOT,
     STATUS_EVAPORATOR_WET,
     STATUS_OUTSIDE_ENVELOPE,
     VALID_CYCLE_FLAGS,
@@ -112,6 +113,44 @@ def test_outside_the_envelope_names_the_axis(cycle_luts):
     assert r["status"][0] == STATUS_OUTSIDE_ENVELOPE
     assert "evaporator LUT axis T_air_in" in r["reason"][0] and "328.15" in r["reason"][0]
     assert np.isnan(r["p_A"][0]) and np.isnan(r["COP"][0])
+
+
+def test_condenser_cells_next_to_no_heat_nodes_in_a_later_iterate(cycle_luts):
+    """Ambient at 2 degC, full speed: the discharge search meets condenser cells next to nodes where
+    the refrigerant is not warmer than the air (no heat flows) only after its first iterates. The
+    solver gathers the iterates' results; a key that appeared late (no_heat_flow) once raised
+    KeyError. The physics cannot reach the setpoint here even with the valve at its maximum
+    (measured with the direct models: status 3 with that reason); the LUT cycle says the same."""
+    point = OperatingPoints(
+        speed=0.9968, fan=0.3243, blower=0.9235, T_amb=275.065, T_cabin=311.504, RH_cabin=0.4094, superheat=8.24
+    )
+    r = run_cycle(point, cycle_luts)
+    assert r["status"][0] == STATUS_EVAPORATOR_NO_ROOT, r["reason"]
+    assert "superheat stays below its setpoint" in r["reason"][0]
+    assert np.isnan(r["COP"][0])
+
+
+def test_a_solved_state_where_a_branch_takes_no_heat_is_not_valid(cycle_luts, monkeypatch):
+    """A root can sit on a jump of the superheat residual where the evaporator's LUT cell turns to
+    'no heat flows'. Forced here: the final evaluation says no heat flows at the solved state. That
+    point must not come out valid with NaN figures; it is outside the envelope, and says why."""
+    point = OperatingPoints(speed=[0.5, 0.5], fan=0.5, blower=0.5, T_amb=303.15, T_cabin=300.15)
+    calls = []
+    evaporator = LutModels.evaporator
+
+    def final_without_heat(self, *args):
+        r = evaporator(self, *args)
+        if self.luts["evaporator"].detailed:  # the final states' evaluation
+            calls.append(1)
+            r["no_heat_flow"] = np.array([True, False])[: r["no_heat_flow"].size]
+        return r
+
+    monkeypatch.setattr(LutModels, "evaporator", final_without_heat)
+    r = run_cycle(point, cycle_luts)
+    assert calls, "the final states were not evaluated in detail"
+    assert r["status"].tolist() == [STATUS_OUTSIDE_ENVELOPE, STATUS_CONVERGED], r["reason"]
+    assert "takes no heat" in r["reason"][0]
+    assert np.isnan(r["COP"][0]) and np.isfinite(r["COP"][1])
 
 
 def test_a_root_beyond_a_lut_pressure_axis_is_outside_the_envelope_not_its_end(cycle_luts):

@@ -153,7 +153,7 @@ def test_chiller_cell_next_to_colder_coolant_takes_no_heat(cycle_luts_dir):
     edge = models.chiller(**one, mdot_coolant=np.array([0.3]), T_coolant_in=np.array([290.15]))
     assert edge["no_heat_flow"].tolist() == [True] and edge["reason"].tolist() == [""]
     inside = models.chiller(**one, mdot_coolant=np.array([0.3]), T_coolant_in=np.array([295.15]))
-    assert not inside.get("no_heat_flow", np.zeros(1, bool))[0] and inside["reason"][0] == ""
+    assert inside["no_heat_flow"].tolist() == [False] and inside["reason"][0] == ""
     assert np.isfinite(inside["h_out_continued"][0]) and inside["h_out_continued"][0] > 250e3
 
 

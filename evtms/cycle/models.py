@@ -306,15 +306,17 @@ class _LutComponent:
             for v in out.values():
                 v[bad] = np.nan
         nan = ~bad & ~np.isfinite(out[OUTLET if self.secondary else itp.variables[0]])
-        if nan.any() and self._no_heat_table is not None:
-            k = np.nonzero(nan)[0]
-            if self._no_heat is None:
-                self._no_heat = self._no_heat_table()
-            share = self._no_heat({d: c[k] for d, c in cols.items()})["no_heat_flow"]
+        if self._no_heat_table is not None:
+            # Always present (as from DirectModels): the solver gathers results of several calls.
             none = np.zeros(n, bool)
-            none[k[share > 0]] = True  # NaN shares (other invalid nodes) compare False
+            if nan.any():
+                k = np.nonzero(nan)[0]
+                if self._no_heat is None:
+                    self._no_heat = self._no_heat_table()
+                share = self._no_heat({d: c[k] for d, c in cols.items()})["no_heat_flow"]
+                none[k[share > 0]] = True  # NaN shares (other invalid nodes) compare False
+                nan &= ~none
             out["no_heat_flow"] = none
-            nan &= ~none
         if nan.any():
             reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
         out["reason"] = reasons

@@ -100,6 +100,9 @@ from evtms.cycle.topology import INPUTS as CYCLE_INPUTS
 from evtms.cycle.topology import Topology, topology
 from evtms.fluid import SaturationCurve
 
+#: Figures every valid point has finite (a closed branch's are 0; its superheat and opening may be NaN).
+_MUST_BE_FINITE = ("p_A", "p_B", "mdot", "Q_evap", "Q_latent", "Q_chiller", "Q_cond", "W", "COP")
+
 
 class CycleStatus(IntEnum):
     """Status of a solved operating point (the ``status`` of a cycle result).
@@ -1639,6 +1642,21 @@ class CycleSolver:
         }
         with np.errstate(invalid="ignore", divide="ignore"):
             res["COP"] = -(res["Q_evap"] + res["Q_chiller"]) / res["W"]
+        # A valid point carries finite figures. A root can sit on a jump of its residual where a
+        # component gives no heat (a LUT cell next to nodes with the refrigerant on the wrong side
+        # of its secondary stream, or the bench's own edge): its figures are then not a state.
+        no_heat = np.broadcast_to(_no_heat_flow(cond), p_A.shape).copy()
+        for c in names:
+            no_heat |= _no_heat_flow(branches[c]) & (np.asarray(flows[c]) > 0)
+        finite = np.logical_and.reduce([np.isfinite(np.asarray(res[k], float)) for k in _MUST_BE_FINITE])
+        broken = np.isin(status, VALID_CYCLE_FLAGS) & (no_heat | ~finite)
+        status[broken] = STATUS_OUTSIDE_ENVELOPE
+        reason[broken] = np.where(
+            no_heat[broken],
+            "the solution lies where a component takes no heat (its refrigerant inlet on the wrong side "
+            "of its secondary stream, or a LUT cell next to such nodes)",
+            "a component model gives NaN at the solved state",
+        )
         invalid = ~np.isin(status, VALID_CYCLE_FLAGS)
         for k, v in res.items():
             v = np.array(v, float)
