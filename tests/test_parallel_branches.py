@@ -179,3 +179,29 @@ def test_chiller_near_its_no_heat_edge_closes_its_valve_on_luts(cycle_luts_dir):
     assert r["p_A"][0] == pytest.approx(495.2e3, rel=0.01)
     assert r["mdot_evap"][0] == pytest.approx(16.1e-3, rel=0.01)
     assert abs(r["balance_relative"][0]) < 1e-5
+
+
+def test_a_suction_search_that_swings_across_a_branch_closing_closes_that_valve(cycle_luts_dir):
+    """Cabin air at 10.5 degC, coolant at 27 degC, speed 0.14: the chiller holds the suction so warm
+    that the cabin evaporator cannot superheat by the setpoint at any flow it covers. The direct
+    physics closes the cabin valve (status 10, p_A 395.0 kPa, 11.47 g/s through the chiller;
+    measured, point 87 of the accuracy benchmark's --wide envelope). On LUTs the suction search
+    with both valves holding swung across the flow at which the evaporator closes and did not
+    converge; it used to end there ('not_converged') instead of closing that valve."""
+    point = OperatingPoints(  # to the last digit: whether the search swings is that sensitive
+        speed=0.13601179229787122,
+        fan=0.6036381230531438,
+        blower=0.21446212190479402,
+        T_amb=306.03034128257104,
+        T_cabin=283.6357213052372,
+        RH_cabin=0.6738916713151382,
+        mdot_coolant=0.13655259024389305,
+        T_coolant_in=300.1254856615801,
+        superheat=9.722172907125545,
+    )
+    r = run_cycle(point, load_cycle_luts(cycle_luts_dir, "cabin+chiller"), circuit="cabin+chiller")
+    assert r["status"].tolist() == [STATUS_BRANCH_CLOSED], r["reason"]
+    assert r["mdot_evap"][0] == 0.0 and "cabin evaporator valve is closed" in r["reason"][0]
+    assert r["p_A"][0] == pytest.approx(395.0e3, rel=0.01)
+    assert r["mdot_chiller"][0] == pytest.approx(11.47e-3, rel=0.01)
+    assert abs(r["balance_relative"][0]) < 1e-5

@@ -1102,10 +1102,12 @@ class CycleSolver:
         names = [b.component for b in self.circuit.branches]
         labels = [b.label for b in self.circuit.branches]
         mode = ops["branch_mode"]
-        # Closed valves: a branch that would need less than its model's least flow.
+        # Closed valves: a branch that would need less than its model's least flow (at the last
+        # suction iterate; where the suction search did not converge with the split at that
+        # bound, it went back and forth across the flow at which that branch would close).
         kind = self._clamped.copy()
         least = np.isin(kind, (_CLAMP_FIRST_LEAST, _CLAMP_SECOND_LEAST))
-        idx = np.nonzero((res["status"] == STATUS_OUTSIDE_ENVELOPE) & least)[0]
+        idx = np.nonzero(np.isin(res["status"], (STATUS_OUTSIDE_ENVELOPE, STATUS_NOT_CONVERGED)) & least)[0]
         if idx.size:
             mode[idx] = np.where(kind[idx] == _CLAMP_FIRST_LEAST, _FIRST_CLOSED, _SECOND_CLOSED)
             r = self._solve_at({k: v[idx] for k, v in ops.items()})
