@@ -205,3 +205,68 @@ def test_a_suction_search_that_swings_across_a_branch_closing_closes_that_valve(
     assert r["p_A"][0] == pytest.approx(395.0e3, rel=0.01)
     assert r["mdot_chiller"][0] == pytest.approx(11.47e-3, rel=0.01)
     assert abs(r["balance_relative"][0]) < 1e-5
+
+
+#: A hot cabin at low speed evaporates at 20.5 degC on its own; coolant at 15 and 18 degC is colder.
+COLD_COOLANT = OperatingPoints(
+    speed=0.12,
+    fan=0.6,
+    blower=0.6,
+    T_amb=303.15,
+    T_cabin=308.15,
+    RH_cabin=0.5,
+    mdot_coolant=0.2,
+    T_coolant_in=[288.15, 291.15],
+    superheat=7.0,
+)
+
+
+def _check_cold_coolant(r, cabin_p_A):
+    assert r["status"].tolist() == [STATUS_BRANCH_CLOSED] * 2, r["reason"]
+    assert (r["mdot_chiller"] == 0).all() and (r["Q_chiller"] == 0).all()
+    assert all("the suction would rise past the battery chiller's secondary inlet" in x for x in r["reason"])
+    # With the chiller closed the circuit is the cabin loop: its suction, whatever the coolant.
+    np.testing.assert_allclose(r["p_A"], cabin_p_A, rtol=1e-6)
+    assert np.abs(r["balance_relative"]).max() < 1e-5
+
+
+def test_coolant_colder_than_the_cabin_evaporation_closes_the_chiller():
+    """Both valves holding, the suction would rise past the coolant's temperature (the search's top:
+    every open branch must evaporate below its stream). The chiller cannot evaporate there, so its
+    valve closes and the cabin branch alone sets the suction, as in the cabin circuit. Both points
+    were 'superheat_setpoint_not_reachable' before. The bench physics, about 3 s."""
+    cabin = run_cycle(COLD_COOLANT, circuit="cabin")
+    assert (cabin["status"] == 0).all() and (cabin["T_D"] > 273.15 + 18.0).all()  # evaporating above both
+    _check_cold_coolant(run_cycle(COLD_COOLANT, circuit="cabin+chiller"), cabin["p_A"])
+
+
+def test_coolant_colder_than_the_cabin_evaporation_closes_the_chiller_on_luts(cycle_luts_dir):
+    cabin = run_cycle(COLD_COOLANT, load_cycle_luts(cycle_luts_dir, "cabin"), circuit="cabin")
+    r = run_cycle(COLD_COOLANT, load_cycle_luts(cycle_luts_dir, "cabin+chiller"), circuit="cabin+chiller")
+    _check_cold_coolant(r, cabin["p_A"])
+    assert r["p_A"][0] == pytest.approx(581.4e3, rel=0.01)  # the physics' (measured)
+
+
+def test_a_closed_branchs_lut_does_not_bound_the_suction(cycle_luts_dir):
+    """A 49.5 degC cabin at low speed evaporates above 29 degC, the chiller LUT's last pressure; the
+    coolant at 22 degC closes the chiller. Its LUT then no longer bounds the suction search (it used
+    to end the point at that axis, 'outside_model_envelope'): the circuit is the cabin loop."""
+    hot = OperatingPoints(
+        speed=0.12,
+        fan=0.36,
+        blower=0.83,
+        T_amb=304.1,
+        T_cabin=322.6,
+        RH_cabin=0.65,
+        mdot_coolant=0.156,
+        T_coolant_in=295.3,
+        superheat=7.4,
+    )
+    luts = load_cycle_luts(cycle_luts_dir, "cabin+chiller")
+    cabin = run_cycle(hot, load_cycle_luts(cycle_luts_dir, "cabin"), circuit="cabin")
+    r = run_cycle(hot, luts, circuit="cabin+chiller")
+    assert np.isin(r["status"], VALID_CYCLE_FLAGS).all(), r["reason"]
+    assert r["mdot_chiller"][0] == 0.0 and "battery chiller valve is closed" in r["reason"][0]
+    assert r["p_A"][0] > float(luts["chiller"].axes["p_in"].max())
+    np.testing.assert_allclose(r["p_A"], cabin["p_A"], rtol=1e-6)
+    np.testing.assert_allclose(r["COP"], cabin["COP"], rtol=1e-6)

@@ -170,9 +170,10 @@ class DirectModels:
         """The valve's parameters and its flow area at the nominal opening [m2]."""
         return self.params.expansion_valve, nominal_opening(self.params.expansion_valve, self.fluid)
 
-    def limits(self) -> dict[str, tuple[float, float]]:
+    def limits(self, exclude: tuple[str, ...] = ()) -> dict[str, tuple[float, float]]:
         """Ranges the solver may search: the fluid's saturation range, and pressure
-        ratios up to where the compressor's volumetric efficiency falls to 5 %."""
+        ratios up to where the compressor's volumetric efficiency falls to 5 %
+        (the same whichever components are ``exclude``-d)."""
         from evtms.benches.compressor import clearance_volumetric_efficiency
 
         comp = self.params.compressor
@@ -447,10 +448,15 @@ class LutModels:
             self._valve = (valve, float(arrays["area"][0]))
         return self._valve
 
-    def limits(self) -> dict[str, tuple[float, float]]:
-        """Pressure ranges the solver may search: where the LUTs have data."""
+    def limits(self, exclude: tuple[str, ...] = ()) -> dict[str, tuple[float, float]]:
+        """Pressure ranges the solver may search: where the LUTs have data (the components in
+        ``exclude``, a closed branch's, do not bound the suction)."""
         # Suction: every evaporating branch's inlet-pressure axis and the compressor's.
-        suction = [(c, self.luts[c].ranges["p_in"]) for c in ("evaporator", "chiller", "compressor") if c in self.luts]
+        suction = [
+            (c, self.luts[c].ranges["p_in"])
+            for c in ("evaporator", "chiller", "compressor")
+            if c in self.luts and c not in exclude
+        ]
         low = max(suction, key=lambda item: item[1][0])
         high = min(suction, key=lambda item: item[1][1])
         cond = self.luts["condenser"].ranges["p_in"]

@@ -1082,7 +1082,14 @@ class CycleSolver:
           reason says "nearly closed", with the bound of the duty left out.
           The same holds where, with the other valve saturated, the branch
           holding the setpoint would need less than its least flow: it
-          closes and the saturated branch runs alone.
+          closes and the saturated branch runs alone. And where, with both
+          valves holding, the outlets are still above the setpoint at the top
+          of the suction pressures searched (saturation 0.5 K below the colder
+          secondary inlet, which no open branch may evaporate above), the
+          suction would rise past that stream's temperature: the branch on it
+          cannot evaporate, its valve closes, and the other branch alone sets
+          the suction (coolant at 22 degC against a 35 degC cabin at low
+          speed evaporates at 24 degC with the chiller closed).
         - saturated: a valve that would need more than its maximum opening
           sits at it, and its branch's superheat floats above the setpoint
           while the other branch holds the setpoint (the split is solved with
@@ -1102,6 +1109,9 @@ class CycleSolver:
         names = [b.component for b in self.circuit.branches]
         labels = [b.label for b in self.circuit.branches]
         mode = ops["branch_mode"]
+        above_top = self._above_top.copy()  # of the first solve (a re-solve below resets it)
+        # Why a closed valve closed, where not for the least flow (the default note in _flag).
+        self._closed_cause = np.full(mode.size, "", dtype=object)
         # Closed valves: a branch that would need less than its model's least flow (at the last
         # suction iterate; where the suction search did not converge with the split at that
         # bound, it went back and forth across the flow at which that branch would close).
@@ -1113,6 +1123,24 @@ class CycleSolver:
             r = self._solve_at({k: v[idx] for k, v in ops.items()})
             for k, v in r.items():
                 res[k][idx] = v
+        # The colder stream's branch at the top of the search: every open branch must evaporate below
+        # its secondary inlet, so the coldest one caps the suction pressure. Where both outlets are
+        # still above the setpoint there, the suction would rise past that cap: the branch on the
+        # colder stream can no longer evaporate, its bulb sees no superheat and its valve closes,
+        # and the other branch alone sets the suction (up to its own stream).
+        capped = np.nonzero(above_top & (mode == _BOTH_HOLD))[0]
+        if capped.size:
+            temps = [np.asarray(ops[b.secondary_temperature], float)[capped] for b in self.circuit.branches]
+            colder = np.where(temps[0] <= temps[1], 0, 1)
+            mode[capped] = np.where(colder == 0, _FIRST_CLOSED, _SECOND_CLOSED)
+            for i, b, t in zip(capped, colder, np.minimum(*temps), strict=True):
+                self._closed_cause[i] = (
+                    f"with both open, the suction would rise past the {labels[b]}'s secondary inlet "
+                    f"({t - 273.15:.3g} degC), where that branch cannot evaporate"
+                )
+            r = self._solve_at({k: v[capped] for k, v in ops.items()})
+            for k, v in r.items():
+                res[k][capped] = v
         # Saturated valves: one floats, the other holds its setpoint.
         ok = res["status"] == STATUS_CONVERGED
         over = [ok & (res[key] > self.max_opening) for key in ("valve_opening", "valve_opening_chiller")]
@@ -1252,16 +1280,16 @@ class CycleSolver:
         self._p_discharge = (limits["p_discharge"][0] * (1 + 1e-9), limits["p_discharge"][1] * (1 - 1e-9))
         # A hair inside the compressor's pressure-ratio range, so that p_B/p_A stays on its grid.
         self._pr = (max(limits["pr"][0], 1.0) * (1 + 1e-9), limits["pr"][1] * (1 - 1e-9))
-        p_lo_lim, p_hi_lim = limits["p_suction"][0] * (1 + 1e-9), limits["p_suction"][1] * (1 - 1e-9)
         self._axes = limits["axes"]
         # Evaporating 45 K below the (coldest) secondary stream leaves a large superheat: the low end.
         T_sec = self._secondary_temperature(ops)
-        lo, lo_axis = _bound(
-            [(self.sat.pressure(T_sec - 45.0), None), (p_lo_lim, self._axes["p_suction"][0])], upper=False
-        )
-        hi, hi_axis = _bound(
-            [(self.sat.pressure(T_sec - 0.5), None), (p_hi_lim, self._axes["p_suction"][1])], upper=True
-        )
+        lows, highs = [(self.sat.pressure(T_sec - 45.0), None)], [(self.sat.pressure(T_sec - 0.5), None)]
+        for where, lim in self._suction_limits(ops, limits):
+            (p_lo_lim, p_hi_lim), (lo_name, hi_name) = lim["p_suction"], lim["axes"]["p_suction"]
+            lows.append((np.where(where, p_lo_lim * (1 + 1e-9), -np.inf), lo_name))
+            highs.append((np.where(where, p_hi_lim * (1 - 1e-9), np.inf), hi_name))
+        lo, lo_axis = _bound(lows, upper=False)
+        hi, hi_axis = _bound(highs, upper=True)
         t_lo, t_hi = self.sat.temperature(lo), self.sat.temperature(hi)
         self._guess = np.full(n, np.nan) if p_B_guess is None else np.asarray(p_B_guess, float).copy()
         self._dp_guess = np.zeros(n) if dp_guess is None else np.nan_to_num(np.asarray(dp_guess, float))
@@ -1298,6 +1326,9 @@ class CycleSolver:
             ),
         )
         f_lo, f_hi = br["f_lo"], br["f_hi"]
+        # Superheat above its setpoint up to the physical top (saturation 0.5 K below the coldest
+        # secondary inlet): with branches in parallel, the one on that stream caps the search.
+        self._above_top = (status == STATUS_EVAPORATOR_NO_ROOT) & br["hi_is_end"] & np.isfinite(f_hi) & (f_hi >= 0)
         # Superheat below its setpoint down to the physical low end (evaporating 45 K below
         # the cabin air): where the outlet is still two-phase there, the evaporator floods.
         low = np.nonzero((status == STATUS_EVAPORATOR_NO_ROOT) & br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0))[0]
@@ -1319,6 +1350,20 @@ class CycleSolver:
             p_A[idx] = self._pressure_root(residual, br, idx, _OUTER_FTOL, status, reason, "suction-pressure")
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
+
+    def _suction_limits(self, ops: dict, limits: dict) -> list[tuple[np.ndarray, dict]]:
+        """The models' suction-pressure ranges per group of points: a closed branch's model does not
+        bound the suction (a hot cabin alone may evaporate above the chiller LUT's last pressure)."""
+        n = ops["speed"].size
+        mode = np.asarray(ops.get("branch_mode", np.zeros(n)), int)
+        if not self.circuit.parallel or not np.isin(mode, (_FIRST_CLOSED, _SECOND_CLOSED)).any():
+            return [(np.ones(n, bool), limits)]
+        names = [b.component for b in self.circuit.branches]
+        return [
+            (~np.isin(mode, (_FIRST_CLOSED, _SECOND_CLOSED)), limits),
+            (mode == _FIRST_CLOSED, self.models.limits(exclude=(names[0],))),
+            (mode == _SECOND_CLOSED, self.models.limits(exclude=(names[1],))),
+        ]
 
     def _float_superheat(
         self, ops: dict, res: dict, idx: np.ndarray, key: str = "valve_opening", share: np.ndarray | None = None
@@ -1548,10 +1593,11 @@ class CycleSolver:
             if closed[i]:
                 b = 0 if mode[i] == _FIRST_CLOSED else 1
                 least = self.models.flow_range(self.circuit.branches[b].component)[0]
-                notes.append(
-                    f"the {labels[b]} valve is closed (no flow, no heat): that branch would need less than the "
-                    f"least flow its model covers ({least * 1e3:.3g} g/s) to hold the setpoint" + self._closed_notes[i]
+                cause = self._closed_cause[i] or (
+                    f"that branch would need less than the least flow its model covers ({least * 1e3:.3g} g/s) "
+                    "to hold the setpoint"
                 )
+                notes.append(f"the {labels[b]} valve is closed (no flow, no heat): {cause}" + self._closed_notes[i])
             if sat[i] and self.circuit.parallel:
                 b = 0 if mode[i] in (_FIRST_FLOATS, _SECOND_CLOSED) else 1
                 key = "superheat_actual" if b == 0 else "superheat_chiller"
