@@ -57,6 +57,32 @@ def test_a_changed_source_or_recipe_rebuilds_and_drops_the_stale_entry(tmp_path,
     assert len(_entries(cache_dir)) == 1
 
 
+def test_a_hard_link_finds_the_entry_and_a_copy_does_not(tmp_path, cache_dir):
+    """A hard link is the same file (inode, size, time): its path reuses the entry. A copy with the
+    same bytes and modification time is another file: it is built anew."""
+    import os
+    import shutil
+
+    src = tmp_path / "a.nc"
+    src.write_bytes(b"one")
+    (tmp_path / "linked").mkdir()
+    link = tmp_path / "linked" / "a.nc"
+    os.link(src, link)
+    copy = tmp_path / "copy.nc"
+    shutil.copy2(src, copy)
+    calls = []
+
+    def build():
+        calls.append(1)
+        return {"x": np.array([float(len(calls))])}, {}
+
+    assert cached_arrays("thing", [src], {"v": 1}, build)[0]["x"][0] == 1.0
+    assert cached_arrays("thing", [link], {"v": 1}, build)[0]["x"][0] == 1.0
+    assert len(calls) == 1
+    assert cached_arrays("thing", [copy], {"v": 1}, build)[0]["x"][0] == 2.0
+    assert len(calls) == 2
+
+
 def test_an_unwritable_cache_folder_builds_in_memory(tmp_path, monkeypatch):
     """Where the cache cannot be written (here its parent is a file; a read-only folder fails
     alike, also for root), the arrays are built and returned, nothing raised."""

@@ -12,8 +12,10 @@ recipe (evtms version, variables, options), so it is cached:
   untouched; one folder per entry, ``<name>-<source>-<key>/``, with one
   ``.npy`` file per array and a ``meta.json``; ``source`` hashes the source
   files' resolved paths and ``key`` the recipe, evtms's version and each
-  source file's size and modification time, so rewriting a LUT (or upgrading
-  evtms) makes a new key and the stale entry of that file is removed;
+  source file's identity (device, inode, size and modification time), so
+  rewriting a LUT (or upgrading evtms) makes a new key and the stale entry of
+  that file is removed, and a hard link to a file (another path, the same
+  inode) finds the entry made through the first path;
 - read back memory-mapped: a query touches only the pages of the cells it
   lands in, so a single operating point neither reads nor holds whole tables;
 - written to a temporary folder and renamed into place, so concurrent runs
@@ -53,11 +55,12 @@ def cache_root() -> Path:
 
 
 def cache_key(sources: Sequence[str | Path], recipe: Mapping) -> str:
-    """SHA-256 (hex) of the recipe, evtms's version and each source file's identity."""
+    """SHA-256 (hex) of the recipe, evtms's version and each source file's identity (device, inode,
+    size, modification time: not its path, so that hard links share an entry)."""
     ident = []
     for src in sources:
         st = os.stat(src)
-        ident.append([str(Path(src).resolve()), st.st_size, st.st_mtime_ns])
+        ident.append([st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns])
     text = json.dumps({"evtms": __version__, "recipe": recipe, "sources": ident}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
@@ -102,8 +105,10 @@ def cached_arrays(
     prefix = f"{name}-{where}"
     root = cache_root()
     entry = root / f"{prefix}-{key[:32]}"
-    if entry.is_dir():
-        got = _load(entry)
+    # This path's entry, else one made through a hard link to the same files (same key).
+    candidates = [entry] if entry.is_dir() else sorted(root.glob(f"{name}-*-{key[:32]}"))
+    for found in candidates:
+        got = _load(found)
         if got is not None:
             return got
     arrays, info = build()
