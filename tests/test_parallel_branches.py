@@ -270,3 +270,29 @@ def test_a_closed_branchs_lut_does_not_bound_the_suction(cycle_luts_dir):
     assert r["p_A"][0] > float(luts["chiller"].axes["p_in"].max())
     np.testing.assert_allclose(r["p_A"], cabin["p_A"], rtol=1e-6)
     np.testing.assert_allclose(r["COP"], cabin["COP"], rtol=1e-6)
+
+
+def test_lut_models_take_the_status_codes_from_the_file(thesis):
+    """A LUT carries its status codes and their meanings; the LUT models read which codes mean
+    "no heat flows" and "frost risk" from it, not from the bench's present numbering. Here the
+    chiller's code for coolant colder than the refrigerant is renumbered 3 -> 9 and one node
+    carries it: a point in a cell touching that node is "no heat flows" (with the bench's
+    numbering the node would be an unknown invalid one, and the point NaN)."""
+    from evtms.cycle.models import CURVED, _LutComponent
+    from evtms.cycle.tables import DatasetLut
+
+    ds = thesis("chiller").copy(deep=True)
+    attrs = ds["status"].attrs
+    attrs["flag_values"] = np.where(np.atleast_1d(attrs["flag_values"]) == 3, 9, attrs["flag_values"]).astype(np.int8)
+    node = (0,) * ds["status"].ndim
+    ds["status"].values[node] = 9
+    for name in ds.data_vars:
+        if name != "status":
+            ds[name].values[node] = np.nan
+    lut = DatasetLut(ds, "chiller")
+    assert lut.status_flags()[9] == "refrigerant_inlet_not_colder_than_coolant" and 3 not in lut.status_flags()
+    chiller = _LutComponent("chiller", lut, CURVED["chiller"], compiled=False)
+    assert chiller.no_heat_codes == (9,) and chiller.frost_codes == ()
+    mid = {d: np.array([0.5 * (ds[d].values[0] + ds[d].values[1])]) for d in ds["status"].dims}
+    r = chiller(mid)
+    assert r["no_heat_flow"].tolist() == [True] and r["reason"].tolist() == [""]

@@ -229,11 +229,16 @@ class _LutComponent:
         have = set(self.subcooled.variables) | ({OUTLET} if self.secondary else set())
         extra = tuple(v for v in COMPONENT_OUTPUTS[component] if v not in have)
         self.extra = table(extra) if extra else None
+        # Status codes as the file defines them (a LUT carries its own flag_values and meanings).
+        flags = lut.status_flags()
         # The evaporator's frost risk (its bench status ``valid_frost_risk_surface_below_0C``):
         # the LUTs hold no surface temperature, so the final states interpolate the
         # indicator of that status (1 at frost-risk nodes, 0 at other valid nodes).
+        self.frost_codes = tuple(c for c, meaning in flags.items() if meaning.startswith("valid_frost_risk"))
         self.frost = (
-            lut.indicator("frost_risk", EVAPORATOR_FROST_FLAGS, compiled) if component == "evaporator" else None
+            lut.indicator("frost_risk", self.frost_codes, compiled)
+            if component == "evaporator" and self.frost_codes
+            else None
         )
         # A cell touching nodes where the refrigerant enters on the wrong side of the secondary
         # stream (no heat flows; the bench leaves them NaN) interpolates to NaN. Near that edge
@@ -242,10 +247,10 @@ class _LutComponent:
         # as the bench says at the nodes, and not the end of the model's envelope. The share of
         # the cell's weight on those nodes is interpolated, NaN where other invalid nodes weigh;
         # its table is built (and cached) the first time a NaN cell is met.
-        from evtms.benches import BENCHES
-
-        codes = wrong_side_flags(BENCHES[component].flags) if component in BENCHES else ()
-        self._no_heat_table = partial(lut.indicator, "no_heat_flow", codes, compiled) if codes else None
+        self.no_heat_codes = wrong_side_flags(flags)
+        self._no_heat_table = (
+            partial(lut.indicator, "no_heat_flow", self.no_heat_codes, compiled) if self.no_heat_codes else None
+        )
         self._no_heat = None
         self.detailed = False
         self.ranges = {d: (float(lut.axes[d][0]), float(lut.axes[d][-1])) for d in self.dims}

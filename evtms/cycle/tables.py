@@ -96,6 +96,10 @@ class CycleLut:
         arrays, info = self._cached("itp", recipe, build)
         return Interpolator.from_arrays(arrays, info, compiled)
 
+    def status_flags(self) -> dict[int, str]:
+        """The file's status codes and their meanings (its ``flag_values`` and ``flag_meanings``)."""
+        return _flags(self.meta.variables["status"])
+
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
         """Interpolator of ``name``: 1 at nodes whose status is in ``codes`` (valid or not), 0 at other
         valid nodes, NaN at other invalid nodes: the share of a point's interpolation weight on nodes
@@ -159,6 +163,10 @@ class DatasetLut:
             return self.axes[name].reshape([-1 if d == name else 1 for d in self.dims])
         return values_made_at(self.attrs)[name]
 
+    def status_flags(self) -> dict[int, str]:
+        """As :meth:`CycleLut.status_flags`."""
+        return _flags(self.ds["status"].attrs)
+
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
         """As :meth:`CycleLut.indicator`, built from the dataset in memory."""
         from evtms.luts import Interpolator
@@ -173,6 +181,11 @@ class DatasetLut:
 
     def derived(self, name: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
         return build()
+
+
+def _flags(status_attrs) -> dict[int, str]:
+    codes = np.atleast_1d(status_attrs["flag_values"])
+    return {int(c): m for c, m in zip(codes, str(status_attrs["flag_meanings"]).split(), strict=True)}
 
 
 def values_made_at(attrs) -> dict[str, float | None]:
