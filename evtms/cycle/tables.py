@@ -20,7 +20,7 @@ import numpy as np
 
 from evtms.cycle.approach import APPROACH, APPROACH_MIN, OUTLET, SECONDARY_INLET, SUPERHEAT_MIN, approach_log
 from evtms.luts.cache import cached_arrays
-from evtms.luts.validate import fixed_inputs, read_lut_metadata
+from evtms.luts.validate import fixed_inputs, read_lut_metadata, status_flags
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -98,7 +98,7 @@ class CycleLut:
 
     def status_flags(self) -> dict[int, str]:
         """The file's status codes and their meanings (its ``flag_values`` and ``flag_meanings``)."""
-        return _flags(self.meta.variables["status"])
+        return status_flags(self.meta.variables["status"])
 
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
         """Interpolator of ``name``: 1 at nodes whose status is in ``codes`` (valid or not), 0 at other
@@ -165,7 +165,7 @@ class DatasetLut:
 
     def status_flags(self) -> dict[int, str]:
         """As :meth:`CycleLut.status_flags`."""
-        return _flags(self.ds["status"].attrs)
+        return status_flags(self.ds["status"].attrs)
 
     def indicator(self, name: str, codes: tuple[int, ...], compiled: bool = True) -> Interpolator:
         """As :meth:`CycleLut.indicator`, built from the dataset in memory."""
@@ -181,11 +181,6 @@ class DatasetLut:
 
     def derived(self, name: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
         return build()
-
-
-def _flags(status_attrs) -> dict[int, str]:
-    codes = np.atleast_1d(status_attrs["flag_values"])
-    return {int(c): m for c, m in zip(codes, str(status_attrs["flag_meanings"]).split(), strict=True)}
 
 
 def values_made_at(attrs) -> dict[str, float | None]:

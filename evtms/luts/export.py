@@ -9,7 +9,7 @@ import numpy as np
 
 from evtms.luts.io import atomic_output, squeeze_fixed_inputs
 from evtms.luts.schema import AXES
-from evtms.luts.validate import fixed_inputs
+from evtms.luts.validate import fixed_inputs, status_flags
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -52,7 +52,6 @@ def to_mat(ds: xr.Dataset, path: str | Path) -> Path:
 
     ds = squeeze_fixed_inputs(ds)
     dims = _dims(ds)
-    flags = ds["status"].attrs
     lut = {
         "component": ds.attrs["component"],
         "fluid": ds.attrs["fluid"],
@@ -62,10 +61,7 @@ def to_mat(ds: xr.Dataset, path: str | Path) -> Path:
         "fixed_inputs": _fixed_struct(ds),
         "units": {n: str(ds[n].attrs.get("units", "")) for n in [*dims, *ds.data_vars]},
         "long_names": {n: str(ds[n].attrs.get("long_name", "")) for n in [*dims, *ds.data_vars]},
-        "status_flags": " ".join(
-            f"{int(c)}={m}"
-            for c, m in zip(np.atleast_1d(flags["flag_values"]), flags["flag_meanings"].split(), strict=True)
-        ),
+        "status_flags": " ".join(f"{c}={m}" for c, m in status_flags(ds["status"].attrs).items()),
         "provenance": {k: str(v) for k, v in ds.attrs.items()},
         "note": SIMULINK_NOTE,
     }

@@ -9,7 +9,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from evtms.luts.schema import AXES
-from evtms.luts.validate import LutFormatError, LutMetadata, fixed_inputs, read_lut_metadata, valid_flags
+from evtms.luts.validate import (
+    LutFormatError,
+    LutMetadata,
+    fixed_inputs,
+    read_lut_metadata,
+    status_flags,
+    valid_flags,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -77,11 +84,7 @@ def _variable(name: str, attrs: dict, lo: float, hi: float) -> dict[str, Any]:
 
 
 def _status_counts(status_attrs: dict, counts: dict[int, int]) -> list[dict[str, Any]]:
-    codes = np.atleast_1d(status_attrs["flag_values"])
-    meanings = str(status_attrs["flag_meanings"]).split()
-    return [
-        {"code": int(c), "meaning": m, "count": counts.get(int(c), 0)} for c, m in zip(codes, meanings, strict=True)
-    ]
+    return [{"code": c, "meaning": m, "count": counts.get(c, 0)} for c, m in status_flags(status_attrs).items()]
 
 
 def _common(attrs: dict) -> dict[str, Any]:

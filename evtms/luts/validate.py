@@ -679,6 +679,13 @@ def _fill_attr(da) -> dict:
     return {} if fill is None else {"_FillValue": fill}
 
 
+def status_flags(status_attrs: Mapping) -> dict[int, str]:
+    """A LUT's status codes and their meanings, in the file's order (the ``status`` variable's
+    ``flag_values`` and ``flag_meanings``, as :func:`evtms.luts.io.variable_attributes` writes them)."""
+    codes = np.atleast_1d(status_attrs["flag_values"])
+    return {int(c): m for c, m in zip(codes, str(status_attrs["flag_meanings"]).split(), strict=True)}
+
+
 def valid_flags(ds: xr.Dataset | LutMetadata) -> np.ndarray:
     """Status codes that mark valid points (``valid_flag_values``, else just 0)."""
     if isinstance(ds, LutMetadata):
