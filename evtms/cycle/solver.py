@@ -1119,10 +1119,7 @@ class CycleSolver:
         least = np.isin(kind, (_CLAMP_FIRST_LEAST, _CLAMP_SECOND_LEAST))
         idx = np.nonzero(np.isin(res["status"], (STATUS_OUTSIDE_ENVELOPE, STATUS_NOT_CONVERGED)) & least)[0]
         if idx.size:
-            mode[idx] = np.where(kind[idx] == _CLAMP_FIRST_LEAST, _FIRST_CLOSED, _SECOND_CLOSED)
-            r = self._solve_at({k: v[idx] for k, v in ops.items()})
-            for k, v in r.items():
-                res[k][idx] = v
+            self._solve_again(ops, res, idx, np.where(kind[idx] == _CLAMP_FIRST_LEAST, _FIRST_CLOSED, _SECOND_CLOSED))
         # The colder stream's branch at the top of the search: every open branch must evaporate below
         # its secondary inlet, so the coldest one caps the suction pressure. Where both outlets are
         # still above the setpoint there, the suction would rise past that cap: the branch on the
@@ -1132,15 +1129,12 @@ class CycleSolver:
         if capped.size:
             temps = [np.asarray(ops[b.secondary_temperature], float)[capped] for b in self.circuit.branches]
             colder = np.where(temps[0] <= temps[1], 0, 1)
-            mode[capped] = np.where(colder == 0, _FIRST_CLOSED, _SECOND_CLOSED)
             for i, b, t in zip(capped, colder, np.minimum(*temps), strict=True):
                 self._closed_cause[i] = (
                     f"with both open, the suction would rise past the {labels[b]}'s secondary inlet "
                     f"({t - 273.15:.3g} degC), where that branch cannot evaporate"
                 )
-            r = self._solve_at({k: v[capped] for k, v in ops.items()})
-            for k, v in r.items():
-                res[k][capped] = v
+            self._solve_again(ops, res, capped, np.where(colder == 0, _FIRST_CLOSED, _SECOND_CLOSED))
         # Saturated valves: one floats, the other holds its setpoint.
         ok = res["status"] == STATUS_CONVERGED
         over = [ok & (res[key] > self.max_opening) for key in ("valve_opening", "valve_opening_chiller")]
@@ -1171,10 +1165,7 @@ class CycleSolver:
         retry &= np.char.find(why, "split") >= 0
         idx = np.nonzero(retry)[0]
         if idx.size:
-            mode[idx] = np.where(mode[idx] == _FIRST_FLOATS, _SECOND_CLOSED, _FIRST_CLOSED)
-            r = self._solve_at({k: v[idx] for k, v in ops.items()})
-            for k, v in r.items():
-                res[k][idx] = v
+            self._solve_again(ops, res, idx, np.where(mode[idx] == _FIRST_FLOATS, _SECOND_CLOSED, _FIRST_CLOSED))
             saturated[idx] = False
             for b, key in enumerate(("valve_opening", "valve_opening_chiller")):
                 alone = (_SECOND_CLOSED, _FIRST_CLOSED)[b]
@@ -1241,6 +1232,13 @@ class CycleSolver:
                 v[jump] = np.nan
         saturated &= ~jump
         return saturated
+
+    def _solve_again(self, ops: dict, res: dict, idx: np.ndarray, modes: np.ndarray) -> None:
+        """Solve the points ``idx`` again with their branch modes set to ``modes`` (``ops`` and ``res`` in place)."""
+        ops["branch_mode"][idx] = modes
+        r = self._solve_at({k: v[idx] for k, v in ops.items()})
+        for k, v in r.items():
+            res[k][idx] = v
 
     @staticmethod
     def _branch_invalid(res: dict, where: np.ndarray, reasons: list[str]) -> None:
