@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from evtms.benches import evaporator as evaporator_bench
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
 from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, outlet_enthalpy
@@ -40,9 +39,11 @@ def wrong_side_flags(flags: dict[int, str]) -> tuple[int, ...]:
     return tuple(c for c, meaning in flags.items() if meaning.startswith("refrigerant_inlet_not_"))
 
 
-#: The evaporator bench's status codes of valid points whose coldest surface is below 0 degC
-#: (``valid_frost_risk_surface_below_0C``, code 10; its ``FROST_RISK_FLAGS`` where it lists more).
-EVAPORATOR_FROST_FLAGS = tuple(getattr(evaporator_bench, "FROST_RISK_FLAGS", (evaporator_bench.STATUS_FROST_RISK,)))
+def frost_risk_flags(flags: dict[int, str]) -> tuple[int, ...]:
+    """A bench's status codes of valid points whose coldest surface is below 0 degC (the evaporator's
+    ``valid_frost_risk_surface_below_0C``, and the same with its air correlation out of range)."""
+    return tuple(c for c, meaning in flags.items() if meaning.startswith("valid_frost_risk"))
+
 
 #: Variables the solver needs while it iterates (the fewer, the faster the LUT gathers).
 #: The coils' outlet enthalpy is ``h_out_continued``: equal to ``h_out`` where the cycle
@@ -114,7 +115,7 @@ class DirectModels:
         result = {k: out[k] for k in COMPONENT_OUTPUTS[component]}
         result["no_heat_flow"] = np.isin(out["status"], wrong_side_flags(bench.flags))
         if component == "evaporator":
-            result["frost_risk"] = np.isin(out["status"], EVAPORATOR_FROST_FLAGS).astype(float)
+            result["frost_risk"] = np.isin(out["status"], frost_risk_flags(bench.flags)).astype(float)
         result["reason"] = reasons
         return result
 
@@ -234,7 +235,7 @@ class _LutComponent:
         # The evaporator's frost risk (its bench status ``valid_frost_risk_surface_below_0C``):
         # the LUTs hold no surface temperature, so the final states interpolate the
         # indicator of that status (1 at frost-risk nodes, 0 at other valid nodes).
-        self.frost_codes = tuple(c for c, meaning in flags.items() if meaning.startswith("valid_frost_risk"))
+        self.frost_codes = frost_risk_flags(flags)
         self.frost = (
             lut.indicator("frost_risk", self.frost_codes, compiled)
             if component == "evaporator" and self.frost_codes
