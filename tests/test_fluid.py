@@ -87,3 +87,81 @@ def test_vapour_table_matches_coolprop(fluid):
     copy = VapourTable.from_tables(table.tables())
     assert copy.digest() == table.digest()
     assert np.array_equal(copy.enthalpy_above_saturation(p, superheat), table.enthalpy_above_saturation(p, superheat))
+
+
+def test_single_phase_ph_newton_matches_the_flash(fluid, monkeypatch):
+    """(p, h) states solved by Newton on (p, T) equal CoolProp's own (p, h) flash: every output,
+    the NaN pattern, and the two-phase, near-saturation, near-critical and out-of-range states
+    the Newton path leaves to the flash."""
+    import evtms.fluid as fluid_module
+
+    curve = fluid.saturation_curve()
+    rng = np.random.default_rng(7)
+    n = 3000
+    p = np.exp(rng.uniform(np.log(2e4), np.log(4.5e6), n))
+    h_l, h_v = curve.liquid_enthalpy(p), curve.vapour_enthalpy(p)
+    kind = rng.integers(0, 4, n)
+    h = np.select(
+        [kind == 0, kind == 1, kind == 2],
+        [h_v + rng.uniform(0.0, 1.5e5, n), h_l - rng.uniform(0.0, 1.5e5, n), h_v + rng.uniform(-300, 300, n)],
+        default=h_l + rng.uniform(-2e4, 2e4, n),
+    )
+    h = np.where(np.isfinite(h), h, rng.uniform(2e5, 5e5, n))  # above the critical pressure
+    p[:3], h[:3] = (-1.0, np.nan, 3e5), (3e5, 3e5, np.nan)  # invalid inputs stay NaN
+    outputs = ("T", "D", "H", "CP", "MU", "K", "Q", "S")
+    fast = fluid.state("PH", p, h, outputs)
+    calls = []
+    no_newton = lambda self, uniq, *a: calls.append(1) or np.zeros(len(uniq), bool)  # noqa: E731
+    monkeypatch.setattr(fluid_module.Fluid, "_single_phase_ph", no_newton)
+    flash = fluid.state("PH", p, h, outputs)
+    assert calls  # the reference did go through the flash alone
+    for name in outputs:
+        assert np.array_equal(np.isnan(fast[name]), np.isnan(flash[name])), name
+        ok = np.isfinite(flash[name])
+        np.testing.assert_allclose(fast[name][ok], flash[name][ok], rtol=2e-7, atol=1e-12, err_msg=name)
+    assert np.nanmax(np.abs(fast["T"] - flash["T"])) < 1e-6
+    assert np.isnan(fast["T"][:3]).all()
+
+
+def test_single_phase_ph_newton_solves_to_round_off_whatever_the_call(fluid):
+    """The states the Newton path takes are solved to the energy balance's round-off (h(p, T) - h
+    over cp below 1e-8 K), and a state's result does not depend on the call it came in: alone,
+    or among thousands (a sweep gives the same numbers in one process or in many)."""
+    import CoolProp.CoolProp as CP
+
+    from evtms.fluid import FAST_PH_MARGIN
+
+    curve = fluid.saturation_curve()
+    rng = np.random.default_rng(8)
+    n = 2000
+    p = np.exp(rng.uniform(np.log(5e4), np.log(3.5e6), n))
+    liquid = rng.random(n) < 0.5
+    rise = rng.uniform(1e3, 1e5, n)
+    h = np.where(liquid, curve.liquid_enthalpy(p) - rise, curve.vapour_enthalpy(p) + rise)
+    values = np.full((1, n), np.nan)
+    solved = fluid._single_phase_ph(np.stack([p, h], axis=1), ("T",), [fluid._state.T], values)
+    assert solved.mean() > 0.9
+    st = CP.AbstractState("HEOS", "R134a")
+    for i in np.nonzero(solved)[0][::10]:
+        st.update(CP.PT_INPUTS, p[i], values[0, i])
+        assert abs((st.hmass() - h[i]) / st.cpmass()) < 1e-8
+    together = fluid.state("PH", p, h, ("T", "D"))
+    fresh = Fluid()  # its guess table built anew
+    for i in range(0, n, 97):
+        alone = fresh.state("PH", p[i], h[i], ("T", "D"))
+        assert alone["T"] == together["T"][i] and alone["D"] == together["D"][i]
+    assert FAST_PH_MARGIN > 30.0  # wider than the tabulated saturation curve's error (30 J/kg)
+
+
+def test_vapour_table_superheat_inverts_the_enthalpy_rise(fluid):
+    from evtms.fluid import VapourTable
+
+    table = VapourTable(fluid, n=120, superheat_max=120.0, step=3.0)
+    rng = np.random.default_rng(9)
+    p = np.exp(rng.uniform(np.log(3e4), np.log(3e6), 500))
+    superheat = rng.uniform(0.0, 160.0, 500)  # beyond superheat_max: the linear continuation
+    rise = table.enthalpy_above_saturation(p, superheat)
+    ok = np.isfinite(rise)  # not beyond the equation of state's highest temperature
+    assert ok.mean() > 0.9
+    np.testing.assert_allclose(table.superheat_of(p[ok], rise[ok]), superheat[ok], atol=1e-9)
+    assert np.isnan(table.superheat_of(np.array([1e3]), np.array([1e4]))).all()
