@@ -100,18 +100,24 @@ def _grid_points(component: str, grid: str) -> int:
     return int(np.prod([len(v) for v in BENCHES[component].presets[grid].values()]))
 
 
-def _compute_lut(component: str, grid: str, params: Parameters, path: str) -> tuple[str, float]:
-    """Worker: sweep one bench on a preset grid and write its LUT (runs in a child process).
+def _compute_lut(component: str, grid: str, params: Parameters, path: str, workers: int = 1) -> tuple[str, float]:
+    """Sweep one bench on a preset grid and write its LUT (in a child process, or in this one
+    with its chunks spread over ``workers`` processes).
 
     The same chunked writer as ``evtms bench``: memory bounded by the chunk.
     """
     from evtms.benches import BENCHES
-    from evtms.benches.chunked import sweep_to_file
+    from evtms.benches.chunked import PoolRunner, sweep_to_file
     from evtms.benches.grid import build_grid
 
     t0 = time.perf_counter()
     bench = BENCHES[component]
-    sweep_to_file(bench, build_grid(bench, grid, {}), params, path, grid_name=grid)
+    runner = PoolRunner(workers) if workers > 1 else None
+    try:
+        sweep_to_file(bench, build_grid(bench, grid, {}), params, path, grid_name=grid, runner=runner)
+    finally:
+        if runner is not None:
+            runner.close()
     return f"{grid}/{component}", time.perf_counter() - t0
 
 
@@ -148,13 +154,27 @@ def ensure_luts(
         # Largest grids first, so that the workers finish together.
         jobs.sort(key=lambda j: -_grid_points(j[0], j[1]))
         notify(f"computing {len(jobs)} {grid} LUTs in {workers} processes")
+
+        def record(name: str, seconds: float) -> None:
+            result.computed.append(name)
+            result.timings[name] = seconds
+            notify(f"wrote LUT {name} ({seconds:.1f} s)")
+
+        first, rest = jobs[0], jobs[1:]
+        if workers > 1 and rest and _grid_points(first[0], first[1]) > sum(_grid_points(c, g) for c, g, _ in rest):
+            # One grid outweighs the others together (the cycle evaporator's): one process per
+            # LUT would leave the other cores idle while it runs. Its chunks go to `workers`
+            # processes from here, the other LUTs to one more process, one after another.
+            with ProcessPoolExecutor(max_workers=1) as pool:
+                futures = [pool.submit(_compute_lut, c, g, params, str(p)) for c, g, p in rest]
+                record(*_compute_lut(first[0], first[1], params, str(first[2]), workers=workers))
+                for fut in as_completed(futures):
+                    record(*fut.result())
+            return result
         with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
             futures = [pool.submit(_compute_lut, c, g, params, str(p)) for c, g, p in jobs]
             for fut in as_completed(futures):
-                name, seconds = fut.result()
-                result.computed.append(name)
-                result.timings[name] = seconds
-                notify(f"wrote LUT {name} ({seconds:.1f} s)")
+                record(*fut.result())
     return result
 
 

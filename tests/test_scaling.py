@@ -81,6 +81,27 @@ def test_in_process_workers_and_cluster_give_identical_files(tmp_path, local_clu
     assert_same_lut(files["in"], one)
 
 
+def test_process_pool_runner_gives_the_in_process_file(tmp_path):
+    """PoolRunner (what 'evtms demo' spreads the cycle evaporator's chunks with): the same file as
+    a sweep in this process, each chunk saved by the worker that computed it."""
+    from evtms.benches import BENCHES
+    from evtms.benches.chunked import PoolRunner, sweep_to_file
+    from evtms.benches.grid import build_grid
+    from evtms.benches.parameters import Parameters
+
+    bench = BENCHES["evaporator"]
+    grid = build_grid(bench, "thesis", {})
+    here, pooled = tmp_path / "here.nc", tmp_path / "pooled.nc"
+    sweep_to_file(bench, grid, Parameters(), here, chunk_points=100)
+    runner = PoolRunner(2)
+    try:
+        summary = sweep_to_file(bench, grid, Parameters(), pooled, chunk_points=100, runner=runner)
+    finally:
+        runner.close()
+    assert summary.computed == summary.chunks > 2
+    assert_same_lut(here, pooled)
+
+
 def test_in_process_sweep_does_not_import_dask(tmp_path):
     code = (
         "import sys; from typer.testing import CliRunner; from evtms.cli import app;"

@@ -17,8 +17,9 @@ overlaps computing and memory is bounded by the chunk size and the number of
 chunks in flight, not by the grid.
 
 Runners compute chunks: :class:`InProcessRunner` (plain NumPy, no dask
-import) and :class:`DaskRunner` (a ``dask.distributed`` client: local worker
-processes or an existing cluster). Every mode evaluates the same points with
+import), :class:`PoolRunner` (local worker processes, no dask either) and
+:class:`DaskRunner` (a ``dask.distributed`` client: local worker processes or
+an existing cluster). Every mode evaluates the same points with
 the same code, so the files are identical but for their creation time. A
 dask worker that dies mid-chunk loses nothing: the scheduler reruns its task
 elsewhere (and ``retries`` reruns tasks that raised).
@@ -240,6 +241,45 @@ class InProcessRunner:
 
     def close(self) -> None:
         pass
+
+
+class PoolRunner:
+    """Compute chunks in local worker processes (``concurrent.futures``; no dask import).
+
+    What ``evtms demo`` and the tests use to spread one large grid over the
+    cores: the jobs are the same picklable :class:`_Job` as with dask, each
+    worker saves its chunks in the partial folder itself, and at most
+    :data:`WINDOW` chunks per worker are in flight.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes.
+    """
+
+    name = "processes"
+
+    def __init__(self, workers: int) -> None:
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.workers = max(1, int(workers))
+        self._pool = ProcessPoolExecutor(max_workers=self.workers)
+
+    def run(self, job: Callable[[int], dict], chunks: Iterable[int]) -> Iterator[tuple[int, dict]]:
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        pending = list(chunks)
+        futures: dict = {}
+        while pending or futures:
+            while pending and len(futures) < WINDOW * self.workers:
+                k = pending.pop(0)
+                futures[self._pool.submit(job, k)] = k
+            done, _ = wait(futures, return_when=FIRST_COMPLETED)
+            for fut in done:
+                yield futures.pop(fut), fut.result()
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
 
 
 class DaskRunner:
@@ -574,7 +614,7 @@ def sweep_to_file(
     path: str | Path,
     *,
     grid_name: str = "custom",
-    runner: InProcessRunner | DaskRunner | None = None,
+    runner: InProcessRunner | PoolRunner | DaskRunner | None = None,
     chunk_points: int = DEFAULT_CHUNK_POINTS,
     resume: bool = False,
     progress: Progress | None = None,
@@ -597,7 +637,7 @@ def sweep_to_file(
         The LUT file to write.
     grid_name : str, optional
         The grid preset's name, recorded in the file.
-    runner : InProcessRunner or DaskRunner, optional
+    runner : InProcessRunner, PoolRunner or DaskRunner, optional
         Where chunks are computed (default: in this process).
     chunk_points : int, optional
         Most points per chunk (bounds memory).
