@@ -11,7 +11,8 @@
 
 A LUT already in place with the same grid, parameters, air boundary, evtms
 and CoolProp versions is reused (``force`` recomputes it). The benches run in
-parallel processes, one per LUT.
+parallel processes, one per LUT, but for a grid larger than the others together
+(the cycle evaporator's), whose chunks are spread over the workers.
 """
 
 from __future__ import annotations
@@ -107,7 +108,7 @@ def _compute_lut(component: str, grid: str, params: Parameters, path: str, worke
     The same chunked writer as ``evtms bench``: memory bounded by the chunk.
     """
     from evtms.benches import BENCHES
-    from evtms.benches.chunked import PoolRunner, sweep_to_file
+    from evtms.benches.chunked import PoolRunner, SweepInterrupted, sweep_to_file
     from evtms.benches.grid import build_grid
 
     t0 = time.perf_counter()
@@ -115,6 +116,8 @@ def _compute_lut(component: str, grid: str, params: Parameters, path: str, worke
     runner = PoolRunner(workers) if workers > 1 else None
     try:
         sweep_to_file(bench, build_grid(bench, grid, {}), params, path, grid_name=grid, runner=runner)
+    except SweepInterrupted as exc:  # Ctrl-C, as the one-process-per-LUT path reports it
+        raise KeyboardInterrupt from exc
     finally:
         if runner is not None:
             runner.close()
@@ -132,10 +135,14 @@ def ensure_luts(
 ) -> DemoResult:
     """Every registered bench's LUT on preset ``grid`` in ``folder``, computed unless up to date.
 
-    The LUTs are swept in ``workers`` processes, largest grids first; a LUT
-    made with these parameters and versions on this preset is reused (unless
-    ``force``). Names go to ``result.computed`` / ``result.reused`` as
-    ``grid/component``.
+    The LUTs are swept in ``workers`` processes, largest grids first; a grid
+    with more points than the others together is swept from this process in
+    chunks over ``workers`` processes while one more process sweeps the others
+    (their "wrote LUT" notes then come after its own). A LUT made with these
+    parameters and versions on this preset is reused (unless ``force``). Names
+    go to ``result.computed`` / ``result.reused`` as ``grid/component``.
+    Ctrl-C raises KeyboardInterrupt (a sweep's saved chunks stay in its
+    partial folder).
     """
     notify = notify or (lambda message: None)
     result = result or DemoResult(index=folder / "index.html")
@@ -167,7 +174,11 @@ def ensure_luts(
             # processes from here, the other LUTs to one more process, one after another.
             with ProcessPoolExecutor(max_workers=1) as pool:
                 futures = [pool.submit(_compute_lut, c, g, params, str(p)) for c, g, p in rest]
-                record(*_compute_lut(first[0], first[1], params, str(first[2]), workers=workers))
+                try:
+                    record(*_compute_lut(first[0], first[1], params, str(first[2]), workers=workers))
+                except BaseException:
+                    pool.shutdown(wait=True, cancel_futures=True)  # not the other LUTs first
+                    raise
                 for fut in as_completed(futures):
                     record(*fut.result())
             return result

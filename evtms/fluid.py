@@ -186,7 +186,10 @@ class Fluid:
                     values[j, i] = get()
             except ValueError:
                 # Outside CoolProp's range, or a property undefined in the dome:
-                # the remaining outputs of this state stay NaN.
+                # the remaining outputs of this state stay NaN. A flash that fails near the
+                # critical point can leave a phase imposed on the state: clear it, or the
+                # next states of any pair would be solved in that phase.
+                self._state.unspecify_phase()
                 continue
         if "T" in outputs:  # e.g. a (p, h) state hotter than the EOS allows
             t = values[outputs.index("T")]
@@ -259,7 +262,9 @@ class Fluid:
             st.specify_phase(phase)
             try:
                 for i in idx:
-                    solved[i] = _newton_temperature(st, CP.PT_INPUTS, p[i], h[i], guess[i], only_T, getters, values, i)
+                    solved[i] = _newton_temperature(
+                        st, CP.PT_INPUTS, p[i], h[i], guess[i], (self.T_triple, self.T_max), only_T, getters, values, i
+                    )
             finally:
                 st.unspecify_phase()
         return solved
@@ -287,9 +292,13 @@ class Fluid:
         return self.state("TQ", T_ok, 0.0, ("P",))["P"]
 
 
-def _newton_temperature(st, key, p: float, h: float, T: float, only_T: bool, getters, values, i: int) -> bool:
+def _newton_temperature(
+    st, key, p: float, h: float, T: float, bounds: tuple[float, float], only_T: bool, getters, values, i: int
+) -> bool:
     """Newton on T for one (p, h) state from ``T`` [K] (see ``Fluid._single_phase_ph``); the outputs
-    go to column ``i`` of ``values``. False if it did not converge or CoolProp refused a state."""
+    go to column ``i`` of ``values``. False, with the column left NaN, if it did not converge, the
+    solution lies outside the equation of state's temperatures ``bounds`` [K] (the flash decides
+    those, as before), or CoolProp refused a state."""
     try:
         for _ in range(FAST_PH_ITERATIONS):
             st.update(key, p, T)
@@ -299,6 +308,8 @@ def _newton_temperature(st, key, p: float, h: float, T: float, only_T: bool, get
                 break
         else:
             return False
+        if not (bounds[0] <= T <= bounds[1]):
+            return False
         if only_T:
             values[0, i] = T
             return True
@@ -307,6 +318,7 @@ def _newton_temperature(st, key, p: float, h: float, T: float, only_T: bool, get
             values[j, i] = get()
         return True
     except ValueError:
+        values[:, i] = np.nan  # a getter that failed part-way
         return False
 
 
