@@ -561,3 +561,61 @@ def test_closing_the_cluster_after_an_interrupt_logs_nothing(caplog):
         assert caplog.records == []
         logging.getLogger("evtms.test").warning("after")  # logging is back on once closed
     assert [r.getMessage() for r in caplog.records] == ["after"]
+
+
+_ENSURE_LUTS_SCRIPT = """
+import sys
+from pathlib import Path
+
+import evtms.demo as demo
+from evtms.benches import BENCHES
+from evtms.benches.parameters import Parameters
+
+# A grid of 4,800 evaporator points outweighs the compressor's 36: ensure_luts sweeps it in
+# chunks over two PoolRunner workers while one more process sweeps the compressor.
+BENCHES["evaporator"].presets["big"] = {
+    "mdot": tuple(0.004 + 0.0005 * i for i in range(8)),
+    "blower": (0.2, 0.26, 0.32, 0.38, 0.44, 0.5),
+    "p_in": (0.1e6, 0.14e6, 0.18e6, 0.22e6, 0.25e6),
+    "T_in": tuple(250.0 + 1.25 * i for i in range(20)),
+    "T_res": (280.0,),
+}
+BENCHES["compressor"].presets["big"] = BENCHES["compressor"].presets["thesis"]
+demo._components = lambda: ["evaporator", "compressor"]
+import evtms.benches.chunked as chunked
+_sweep = chunked.sweep_to_file  # 48 chunks of 100 points: time to interrupt it
+chunked.sweep_to_file = lambda *a, **k: _sweep(*a, **{**k, "chunk_points": 100})
+try:
+    demo.ensure_luts(Path(sys.argv[1]), "big", Parameters(), workers=2)
+except KeyboardInterrupt:
+    print("interrupted")
+    sys.exit(130)
+print("done")
+"""
+
+
+def test_sigint_to_ensure_luts_spreading_one_grid_stops_promptly(tmp_path):
+    """Ctrl-C while ensure_luts spreads its largest grid over PoolRunner workers: KeyboardInterrupt
+    soon (not after the other LUTs), the saved chunks kept for a resume, no lock left behind;
+    uninterrupted, the same code writes both LUTs."""
+    folder = tmp_path / "luts"
+    partial = folder / "evaporator.nc.partial"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _ENSURE_LUTS_SCRIPT, str(folder)], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    deadline = time.monotonic() + 120
+    while not list(partial.glob("chunk_*.npy")):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, (out, err)
+    assert b"interrupted" in out
+    saved = len(list(partial.glob("chunk_*.npy")))
+    assert 1 <= saved < 48 and not (folder / "evaporator.nc").exists()
+    assert not (partial / LOCK).exists()
+    done = subprocess.run(
+        [sys.executable, "-c", _ENSURE_LUTS_SCRIPT, str(tmp_path / "whole")], capture_output=True, timeout=120
+    )
+    assert done.returncode == 0 and b"done" in done.stdout, done.stderr
+    assert (tmp_path / "whole" / "evaporator.nc").exists() and (tmp_path / "whole" / "compressor.nc").exists()

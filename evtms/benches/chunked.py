@@ -74,7 +74,7 @@ if TYPE_CHECKING:
 
 Progress = Callable[[int, int], None]
 DEFAULT_CHUNK_POINTS = 16384
-#: Chunks in flight per dask worker: enough to keep each busy while results come back.
+#: Chunks in flight per worker (dask or :class:`PoolRunner`): enough to keep each busy while results come back.
 WINDOW = 3
 
 
@@ -229,6 +229,12 @@ def _warm_up() -> None:
     _fluid_for(Parameters())
 
 
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 class InProcessRunner:
     """Compute chunks one after the other in this process."""
 
@@ -251,6 +257,11 @@ class PoolRunner:
     worker saves its chunks in the partial folder itself, and at most
     :data:`WINDOW` chunks per worker are in flight.
 
+    The workers start from a fork server (not forked from this process, which may
+    run threads, e.g. another pool's) and ignore SIGINT, as dask's local workers
+    do: Ctrl-C is the main process's business. A worker that dies fails the
+    sweep (its saved chunks are kept for ``resume``); dask would rerun the chunk.
+
     Parameters
     ----------
     workers : int
@@ -260,23 +271,32 @@ class PoolRunner:
     name = "processes"
 
     def __init__(self, workers: int) -> None:
+        import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers = max(1, int(workers))
-        self._pool = ProcessPoolExecutor(max_workers=self.workers)
+        self._pool = ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=multiprocessing.get_context("forkserver"),
+            initializer=_ignore_sigint,
+        )
 
     def run(self, job: Callable[[int], dict], chunks: Iterable[int]) -> Iterator[tuple[int, dict]]:
         from concurrent.futures import FIRST_COMPLETED, wait
 
         pending = list(chunks)
         futures: dict = {}
-        while pending or futures:
-            while pending and len(futures) < WINDOW * self.workers:
-                k = pending.pop(0)
-                futures[self._pool.submit(job, k)] = k
-            done, _ = wait(futures, return_when=FIRST_COMPLETED)
-            for fut in done:
-                yield futures.pop(fut), fut.result()
+        try:
+            while pending or futures:
+                while pending and len(futures) < WINDOW * self.workers:
+                    k = pending.pop(0)
+                    futures[self._pool.submit(job, k)] = k
+                done, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    yield futures.pop(fut), fut.result()
+        finally:  # stopped early (an error, Ctrl-C): the chunks not started are not started
+            for fut in futures:
+                fut.cancel()
 
     def close(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)
@@ -532,7 +552,7 @@ class SweepSummary:
     seconds : float
         Wall time.
     runner : str
-        ``in-process`` or ``dask``.
+        ``in-process``, ``processes`` (:class:`PoolRunner`) or ``dask``.
     damaged : int
         Saved chunks of an interrupted sweep that failed their checksum (or
         were incomplete) and were computed again.
