@@ -120,6 +120,10 @@ class CycleLut:
         return self._cached(name, recipe, build)
 
 
+#: Nodes per slice of the approach transform (:meth:`DatasetLut._approach`).
+_APPROACH_SLICE = 1 << 20
+
+
 class DatasetLut:
     """An in-memory LUT dataset with :class:`CycleLut`'s interface (nothing cached)."""
 
@@ -154,7 +158,13 @@ class DatasetLut:
         h_out = self.ds[OUTLET].values
         p_out = self.ds["p_out"].values
         T_sec = np.broadcast_to(np.asarray(self.secondary_inlet(), float), h_out.shape)
-        return approach_log(h_out, p_out, T_sec, vapour)
+        # In slices: the table lookups hold a dozen temporaries the size of their input.
+        flat = [a.reshape(-1) for a in (h_out, p_out, np.ascontiguousarray(T_sec))]
+        out = np.empty(h_out.size)
+        for start in range(0, out.size, _APPROACH_SLICE):
+            part = slice(start, start + _APPROACH_SLICE)
+            out[part] = approach_log(flat[0][part], flat[1][part], flat[2][part], vapour)
+        return out.reshape(h_out.shape)
 
     def secondary_inlet(self) -> np.ndarray | float:
         """The secondary inlet temperature [K] at the nodes: its axis (broadcast) or the value the LUT was made at."""
