@@ -596,8 +596,7 @@ print("done")
 
 def test_sigint_to_ensure_luts_spreading_one_grid_stops_promptly(tmp_path):
     """Ctrl-C while ensure_luts spreads its largest grid over PoolRunner workers: KeyboardInterrupt
-    soon (not after the other LUTs), the saved chunks kept for a resume, no lock left behind;
-    uninterrupted, the same code writes both LUTs."""
+    soon (not after the other LUTs), the saved chunks kept for a resume, no lock left behind."""
     folder = tmp_path / "luts"
     partial = folder / "evaporator.nc.partial"
     proc = subprocess.Popen(
@@ -614,8 +613,4 @@ def test_sigint_to_ensure_luts_spreading_one_grid_stops_promptly(tmp_path):
     saved = len(list(partial.glob("chunk_*.npy")))
     assert 1 <= saved < 48 and not (folder / "evaporator.nc").exists()
     assert not (partial / LOCK).exists()
-    done = subprocess.run(
-        [sys.executable, "-c", _ENSURE_LUTS_SCRIPT, str(tmp_path / "whole")], capture_output=True, timeout=120
-    )
-    assert done.returncode == 0 and b"done" in done.stdout, done.stderr
-    assert (tmp_path / "whole" / "evaporator.nc").exists() and (tmp_path / "whole" / "compressor.nc").exists()
+    # Uninterrupted, this path writes every cycle LUT the suite's LUT tests use (conftest's background job).
