@@ -208,7 +208,7 @@ BENCH = Bench(
         # The ladder at half the ratio (35 nodes, 1.14x apart, 1.37-89 g/s, then 116 and 150): the
         # vapour zone's Nusselt number has corners at Re 2300 and 4000 (about 8-11 and 14-19 g/s),
         # and the outlet's response to the flow sets a valve's flow. 100 random points, against
-        # the 18-node ladder: cabin worst COP 0.78 % (1.29 %), p_A 0.87 % (0.76 %); cabin+chiller
+        # the 18-node ladder: cabin worst COP 0.78 % (1.29 %), p_A 0.87 % (0.92 %); cabin+chiller
         # COP 0.78 % (1.11 %), p_A 0.68 % (0.79 %), split 1.72 % of the total cooling (2.59 %), over
         # 1 % at 3 points (4). Doubling the humidity (13) or inlet-enthalpy (9) nodes instead left
         # the worst split at 2.6-2.75 %. 6.84 million points, 319 MB; `evtms bench evaporator
