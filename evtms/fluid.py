@@ -506,6 +506,10 @@ class SaturatedAir:
         """Temperature [K] of saturated air with enthalpy ``h`` [J/kg dry air]."""
         return np.interp(h, self.h, self.T, left=np.nan, right=np.nan)
 
+    def dew_point(self, w: np.ndarray) -> np.ndarray:
+        """Dew point [K] of air with humidity ratio ``w`` [kg/kg dry air]: where saturation holds ``w``."""
+        return np.interp(w, self.w, self.T, left=np.nan, right=np.nan)
+
 
 @functools.lru_cache(maxsize=8)
 def saturated_air(p: float) -> SaturatedAir:

@@ -124,6 +124,26 @@ def test_latent_follows_air_humidity(fluid, params, RH, expect_latent):
         assert (res["Q_latent"] == 0).all()
 
 
+def test_wetting_sets_in_smoothly_with_humidity(fluid, params):
+    """The two-phase zone wets from the air's exit side as the humidity rises (the partly wet
+    coil): the heat rate's slope in humidity grows from zero over several steps, not at
+    once (the larger of the dry and wet rates jumped from 0.03 to 3.1 W per step here,
+    a corner a LUT interpolates poorly)."""
+    RH = np.arange(0.30, 0.60, 0.0025)
+    n = RH.size
+    full = np.full
+    res = solve_coil(
+        fluid, params.evaporator, params.environment, full(n, 4.8e5), full(n, 294e3), full(n, 0.0156),
+        full(n, 0.46), "evaporator", T_air=full(n, 301.8), RH_air=RH,
+    )  # fmt: skip
+    latent, dQ = res["Q_latent"], np.diff(res["Q"])
+    onset = int(np.argmax(latent < 0))
+    assert 10 < onset < n - 40 and (latent[:onset] == 0).all() and (latent[onset:] < 0).all()
+    assert np.abs(dQ[: onset - 2]).max() < 0.05  # dry: only the humid air's heat capacity moves
+    assert np.abs(np.diff(dQ)).max() < 0.5 * np.abs(dQ).max()  # no step in the slope
+    assert -dQ[onset - 1] < 0.3 * -dQ[onset + 8]  # the slope starts small
+
+
 def test_second_law_refrigerant_never_warmer_than_air(ds, params, fluid):
     T_air = params.environment.T
     assert (ds["T_out"].values <= T_air + 1e-6).all()

@@ -28,12 +28,15 @@ geometry from the coil parameters (:func:`coil_geometry`). Its data cover
 louver-pitch Reynolds numbers 100 to 3000; ``air_outside_range`` marks the
 points outside, which the benches flag.
 
-Moist air (evaporator): each zone is evaluated both dry (sensible) and wet
-with the enthalpy-potential method of Threlkeld (1970) in the
-effectiveness-NTU form of Braun, Klein and Mitchell (1989), and the air loses
-the larger heat rate, their recommended rule for partly wet coils. The
-moisture condensed follows from the effective surface state of the same
-method; the condensate drains off at that surface's temperature, so the
+Moist air (evaporator): the two-phase zone, at one refrigerant temperature,
+is dry along the air's path until its surface falls to the air's dew point
+and wet beyond (the partly wet coil of Elmahdy and Mitalas 1977 and Braun
+1988); the wet part follows the enthalpy-potential method of Threlkeld (1970)
+in the effectiveness-NTU form of Braun, Klein and Mitchell (1989). The vapour
+and liquid zones are evaluated both dry and wet, and the air loses the larger
+heat rate, Braun et al.'s rule for partly wet coils
+(:meth:`evtms.hx.sides.MoistAirSide.zone_model`). The moisture condensed
+follows from the effective surface state of the wet analysis; the condensate drains off at that surface's temperature, so the
 refrigerant gains the air's loss less the condensate's enthalpy (Braun et
 al. give the refrigerant the whole loss; with the condensate's enthalpy on
 top, air at blower 0.1 left up to 0.25 K colder than the refrigerant on
@@ -51,10 +54,15 @@ zone lengths) sets the outlet pressure at which the outlet state is reported.
 References
 ----------
 ASHRAE (2017). Handbook - Fundamentals, ch. 1 (Psychrometrics).
+Braun, J. E. (1988). Methodologies for the design and control of central
+cooling plants. PhD thesis, University of Wisconsin-Madison.
 Braun, J. E., Klein, S. A., Mitchell, J. W. (1989). Effectiveness models for
 cooling towers and cooling coils. ASHRAE Trans. 95(2), 164-174.
 Chang, Y.-J., Wang, C.-C. (1997). A generalized heat transfer correlation for
 louver fin geometry. Int. J. Heat Mass Transfer 40(3), 533-544.
+Elmahdy, A. H., Mitalas, G. P. (1977). A simple model for cooling and
+dehumidifying coils for use in calculating energy requirements for
+buildings. ASHRAE Trans. 83(2), 103-117.
 Threlkeld, J. L. (1970). Thermal Environmental Engineering, 2nd ed.,
 Prentice-Hall, ch. 13.
 Incropera, F. P. et al. (2007). Fundamentals of Heat and Mass Transfer, 6th ed.

@@ -9,7 +9,9 @@ that order; boiling follows Gungor and Winterton (1987); the air side is moist
 and, where the coil surface is below the dew point, wet: the enthalpy-potential
 method of Threlkeld (1970) in the form of Braun, Klein and Mitchell (1989)
 gives the total and, through the effective surface state, the moisture
-condensed. ``Q_latent`` is the latent heat of that condensate (<= 0, part of
+condensed; the two-phase zone is dry up to where its surface meets the dew
+point along the air's path and wet beyond (the partly wet coil,
+:meth:`evtms.hx.sides.MoistAirSide.zone_model`). ``Q_latent`` is the latent heat of that condensate (<= 0, part of
 ``Q``).
 
 Inlet states the thesis grid produces and how they are treated:

@@ -117,15 +117,15 @@ def dry_rate(f: float, C_ref: float, R_tot: float, C_air: float, dT: float) -> f
 
 
 @jit
-def condensate_enthalpy(f, q_air, air_h, air_w, m_air, decay, sat_T, sat_h, sat_w):
+def condensate_enthalpy(f, q_air, air_h, air_w, m_air, decay, wet_h, wets, sat_T, sat_h, sat_w):
     """One point of :meth:`evtms.hx.sides.Moisture.condensate`'s third result: the enthalpy
     flow [W] of the condensate a zone of fraction ``f`` drains, its air losing ``q_air`` [W]."""
     h_a_out = air_h - divide(q_air, f * m_air if f > 0 else 1.0)
-    h_s_eff = air_h - divide(air_h - h_a_out, 1.0 - decay)
+    h_s_eff = wet_h - divide(wet_h - h_a_out, 1.0 - decay)
     T_s_eff = interp(h_s_eff, sat_h, sat_T)
     w_s_eff = interp(T_s_eff, sat_T, sat_w)
     w_out = w_s_eff + (air_w - w_s_eff) * decay
-    m_w = f * m_air * nan_max(air_w - w_out, 0.0) if f > 0 else 0.0
+    m_w = f * m_air * nan_max(air_w - w_out, 0.0) if (f > 0 and wets > 0) else 0.0
     return m_w * (_WATER_CP * (T_s_eff - _WATER_T0)) if m_w > 0 else 0.0
 
 
@@ -133,15 +133,22 @@ def condensate_enthalpy(f, q_air, air_h, air_w, m_air, decay, sat_T, sat_h, sat_
 def zone_rate(f, dry, wet, moist, sat_T, sat_h, sat_w):
     """One point of :meth:`evtms.hx.crossflow.ZoneHeatRate.rate`.
 
-    ``dry`` and ``wet`` are ``(C_ref, R_tot, C_air, dT)`` of the zone's dry and
-    enthalpy-potential models (``wet[0]`` NaN: no wet model); ``moist`` is
-    ``(air_h, air_w, m_air, decay)`` (``moist[0]`` NaN: no moisture).
+    ``dry`` is ``(C_ref, R_tot, C_air, dT)`` of the zone's dry model, ``wet``
+    the same of its enthalpy-potential model and the zone's dry depth
+    (``wet[0]`` NaN: no wet model; ``wet[4]`` NaN: the larger rate counts);
+    ``moist`` is ``(air_h, air_w, m_air, decay, wet_h, wets)`` (``moist[0]``
+    NaN: no moisture).
     """
     q = dry_rate(f, dry[0], dry[1], dry[2], dry[3])
     if wet[0] == wet[0]:
-        q = nan_max(q, dry_rate(f, wet[0], wet[1], wet[2], wet[3]))
+        x = wet[4]
+        if x == x:
+            q = dry_rate(f, dry[0], divide(dry[1], x), dry[2], dry[3])
+            q = q + dry_rate(f, wet[0], divide(wet[1], 1.0 - x), wet[2], wet[3])
+        else:
+            q = nan_max(q, dry_rate(f, wet[0], wet[1], wet[2], wet[3]))
     if moist[0] == moist[0]:
-        H_w = condensate_enthalpy(f, q, moist[0], moist[1], moist[2], moist[3], sat_T, sat_h, sat_w)
+        H_w = condensate_enthalpy(f, q, moist[0], moist[1], moist[2], moist[3], moist[4], moist[5], sat_T, sat_h, sat_w)
         q = q - (H_w if math.isfinite(H_w) else 0.0)
     return q
 

@@ -104,7 +104,11 @@ class ZoneHeatRate:
     Cross flow, both streams unmixed; the secondary stream through the zone
     is ``f C_air`` and its conductance ``f / R_tot``. ``wet`` holds the same
     model in enthalpy-potential form (capacities in kg/s, potential in J/kg);
-    the air then loses the larger of the two (Braun et al. 1989), and the
+    the air then loses the larger of the two (Braun et al. 1989) or, where
+    ``dry_depth`` is given (a zone at one refrigerant temperature), the sum
+    of the dry analysis over that fraction of the air's path through the coil
+    and the wet one over the rest (the partly wet coil,
+    :meth:`evtms.hx.sides.MoistAirSide.zone_model`); the
     refrigerant gains that less the enthalpy of the condensate draining off
     the coil (``moisture``, :class:`evtms.hx.sides.Moisture`): the air's
     enthalpy cannot fall below that of saturated air at the refrigerant
@@ -120,6 +124,8 @@ class ZoneHeatRate:
     dT: np.ndarray
     wet: ZoneHeatRate | None = None
     moisture: Any = None
+    #: Fraction [1] of the air's path that is dry, per point (NaN: the larger-rate rule).
+    dry_depth: np.ndarray | None = None
 
     def dry(self, f: np.ndarray) -> np.ndarray:
         C_af = f * self.C_air
@@ -132,9 +138,23 @@ class ZoneHeatRate:
             return crossflow_effectiveness(ntu, cr) * C_min * self.dT
 
     def air_rate(self, f: np.ndarray) -> np.ndarray:
-        """Heat rate the secondary stream loses [W]: the larger of the dry and wet analyses."""
-        q = self.dry(f)
-        return q if self.wet is None else np.maximum(q, self.wet.dry(f))
+        """Heat rate the secondary stream loses [W]: the larger of the dry and wet analyses,
+        or the dry part's and the wet part's together where :attr:`dry_depth` is set."""
+        if self.wet is None:
+            return self.dry(f)
+        x = self.dry_depth
+        if x is None:
+            return np.maximum(self.dry(f), self.wet.dry(f))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            parts = self.over_depth(x).dry(f) + self.wet.over_depth(1.0 - x).dry(f)
+        larger = np.isnan(x)
+        if larger.any():
+            parts = np.where(larger, np.maximum(self.dry(f), self.wet.dry(f)), parts)
+        return parts
+
+    def over_depth(self, depth: np.ndarray) -> ZoneHeatRate:
+        """The same zone over a fraction ``depth`` of the air's path: its conductance times ``depth``."""
+        return ZoneHeatRate(self.C_ref, self.R_tot / depth, self.C_air, self.dT)
 
     def rate(self, f: np.ndarray) -> np.ndarray:
         """Heat rate the refrigerant gains [W]: :meth:`air_rate` less the condensate's enthalpy."""
@@ -157,15 +177,15 @@ class ZoneHeatRate:
         from evtms.hx import _kernels
 
         n = target.size
-        missing = np.full((n, 4), np.nan)
         dry = _kernels.columns(n, self.C_ref, self.R_tot, self.C_air, self.dT)
         w = self.wet
-        wet = missing if w is None else _kernels.columns(n, w.C_ref, w.R_tot, w.C_air, w.dT)
+        depth = np.nan if self.dry_depth is None else self.dry_depth
+        wet = np.full((n, 5), np.nan) if w is None else _kernels.columns(n, w.C_ref, w.R_tot, w.C_air, w.dT, depth)
         if self.moisture is None:
-            moist, tables = missing, (np.zeros(2), np.zeros(2), np.zeros(2))
+            moist, tables = np.full((n, 6), np.nan), (np.zeros(2), np.zeros(2), np.zeros(2))
         else:
             m = self.moisture
-            moist = _kernels.columns(n, m.air_h, m.air_w, m.m_air, m.decay)
+            moist = _kernels.columns(n, m.air_h, m.air_w, m.m_air, m.decay, m.wet_h, m.wets)
             tables = (m.sat_air.T, m.sat_air.h, m.sat_air.w)
         return _kernels.bisect_zone_fraction(
             np.ascontiguousarray(target, float),
@@ -185,6 +205,7 @@ class ZoneHeatRate:
             self.dT[sub],
             None if self.wet is None else self.wet.subset(sub),
             None if self.moisture is None else self.moisture.subset(sub),
+            None if self.dry_depth is None else self.dry_depth[sub],
         )
 
     def fraction_needed(self, Q_needed: np.ndarray, two_phase: bool) -> np.ndarray:

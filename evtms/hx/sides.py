@@ -11,11 +11,14 @@ zone and what it records of a solved one; :class:`AirSide` is dry air
 (sensible only: the condenser), :class:`MoistAirSide` air that may condense
 on the coil (the evaporator).
 
-Moist air: each zone is evaluated both dry (sensible) and wet with the
-enthalpy-potential method of Threlkeld (1970) in the effectiveness-NTU form
-of Braun, Klein and Mitchell (1989), and the air loses the larger heat rate,
-their recommended rule for partly wet coils. The moisture condensed follows
-from the effective surface state of the same method; the condensate drains
+Moist air: a zone at one refrigerant temperature (two-phase) is dry along
+the air's path until its surface reaches the air's dew point and wet beyond
+(the partly wet coil, :meth:`MoistAirSide.zone_model`); the wet part follows
+the enthalpy-potential method of Threlkeld (1970) in the effectiveness-NTU
+form of Braun, Klein and Mitchell (1989). Zones whose refrigerant warms or
+cools are evaluated both dry and wet, and the air loses the larger heat rate,
+Braun et al.'s rule for partly wet coils. The moisture condensed follows
+from the effective surface state of the wet analysis; the condensate drains
 off at that surface's temperature, so the refrigerant gains the air's loss
 less the condensate's enthalpy. The zones' outlet streams mix; where the
 mixture lies beyond saturation the excess water condenses and the air leaves
@@ -24,8 +27,13 @@ saturated, the energy balance kept (:func:`condense_excess`).
 References
 ----------
 ASHRAE (2017). Handbook - Fundamentals, ch. 1 (Psychrometrics).
+Braun, J. E. (1988). Methodologies for the design and control of central
+cooling plants. PhD thesis, University of Wisconsin-Madison.
 Braun, J. E., Klein, S. A., Mitchell, J. W. (1989). Effectiveness models for
 cooling towers and cooling coils. ASHRAE Trans. 95(2), 164-174.
+Elmahdy, A. H., Mitalas, G. P. (1977). A simple model for cooling and
+dehumidifying coils for use in calculating energy requirements for
+buildings. ASHRAE Trans. 83(2), 103-117.
 Threlkeld, J. L. (1970). Thermal Environmental Engineering, 2nd ed.,
 Prentice-Hall, ch. 13.
 """
@@ -217,10 +225,17 @@ class Moisture:
     m_air : numpy.ndarray
         Dry-air flow through the whole coil [kg/s].
     decay : numpy.ndarray
-        ``exp(-NTU_o)`` [1], with the air-side number of transfer units
-        ``NTU_o = 1 / (R_air C_air)`` (the same for every zone).
+        ``exp(-NTU_o)`` [1] over the wet part of the air's path, with the
+        air-side number of transfer units ``NTU_o = 1 / (R_air C_air)`` over
+        the whole path (the same for every zone).
     sat_air : SaturatedAir
         Saturated-air curve at the air pressure.
+    wet_h : numpy.ndarray
+        Enthalpy [J/kg dry air] of the air where the wet part begins: ``air_h``
+        unless the zone is dry over the first part of the path.
+    wets : numpy.ndarray
+        1 where the zone may condense, 0 where its whole surface stays above the
+        dew point (partly wet zones, :meth:`MoistAirSide.zone_model`).
     """
 
     air_h: np.ndarray
@@ -228,29 +243,40 @@ class Moisture:
     m_air: np.ndarray
     decay: np.ndarray
     sat_air: SaturatedAir
+    wet_h: np.ndarray
+    wets: np.ndarray
 
     def subset(self, sub: np.ndarray) -> Moisture:
-        return Moisture(self.air_h[sub], self.air_w[sub], self.m_air[sub], self.decay[sub], self.sat_air)
+        return Moisture(
+            self.air_h[sub],
+            self.air_w[sub],
+            self.m_air[sub],
+            self.decay[sub],
+            self.sat_air,
+            self.wet_h[sub],
+            self.wets[sub],
+        )
 
     def condensate(self, f: np.ndarray, q_air: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Condensate [kg/s], effective surface temperature [K] and condensate enthalpy flow [W].
 
         For a zone of coil fraction ``f`` whose air loses ``q_air`` [W]: the
-        air leaves at ``h_a,out = h_a,in - q_air / (f m_a)``; the effective
-        surface lies at ``h_s,eff = h_a,in - (h_a,in - h_a,out) / (1 -
+        air leaves at ``h_a,out = h_a,in - q_air / (f m_a)``; over the wet
+        part of its path, entered at ``h_a,w`` (:attr:`wet_h`), the effective
+        surface lies at ``h_s,eff = h_a,w - (h_a,w - h_a,out) / (1 -
         exp(-NTU_o))``, saturated at ``T_s,eff``; the air leaves at ``w_out =
-        w_s,eff + (w_in - w_s,eff) exp(-NTU_o)``; the zone is wet where
-        that lies below ``w_in`` (the effective surface below the entering
-        dew point) and the condensate leaves at ``T_s,eff``.
+        w_s,eff + (w_in - w_s,eff) exp(-NTU_o)`` (``NTU_o`` of that part);
+        the zone is wet where that lies below ``w_in`` (the effective surface
+        below the entering dew point) and the condensate leaves at ``T_s,eff``.
         """
         sat = self.sat_air
         with np.errstate(divide="ignore", invalid="ignore"):
             h_a_out = self.air_h - q_air / np.where(f > 0, f * self.m_air, 1.0)
-        h_s_eff = self.air_h - (self.air_h - h_a_out) / (1.0 - self.decay)
+            h_s_eff = self.wet_h - (self.wet_h - h_a_out) / (1.0 - self.decay)
         T_s_eff = sat.temperature(h_s_eff)
         w_s_eff = sat.humidity_ratio(T_s_eff)
         w_out = w_s_eff + (self.air_w - w_s_eff) * self.decay
-        m_w = np.where(f > 0, f * self.m_air * np.maximum(self.air_w - w_out, 0.0), 0.0)
+        m_w = np.where((f > 0) & (self.wets > 0), f * self.m_air * np.maximum(self.air_w - w_out, 0.0), 0.0)
         H_w = np.where(m_w > 0, m_w * water_liquid_enthalpy(T_s_eff), 0.0)
         return m_w, T_s_eff, H_w
 
@@ -331,25 +357,72 @@ class MoistAirSide(AirSide):
     sat_air: SaturatedAir | None = None
 
     def zone_model(self, idx: np.ndarray, C_ref: np.ndarray, R_ref: np.ndarray, Tr0: np.ndarray) -> ZoneHeatRate:
-        """The dry model with its wet twin (Braun et al. 1989) and the zone's moisture bookkeeping."""
+        r"""The dry model with its wet twin (Braun et al. 1989) and the zone's moisture bookkeeping.
+
+        A zone at one refrigerant temperature ``T_r`` (two-phase: ``C_ref``
+        infinite) is partly wet: along the air's path through the coil the
+        air cools as ``T_a - T_r = (T_a,in - T_r) exp(-NTU x)`` (``NTU = 1 /
+        (R_tot C_air)``, ``x`` the fraction of the path) and the surface lies
+        at ``T_s - T_r = (T_a - T_r) R_ref / R_tot``; it is dry up to the
+        depth ``x_d`` where ``T_s`` falls to the entering air's dew point and
+        wet beyond (Elmahdy and Mitalas 1977; Braun 1988, the
+        partially wet coil). The zone's rate is the dry analysis over ``x_d``
+        plus the wet one over ``1 - x_d`` from the air state at the boundary,
+        with the saturated-air slope ``c_s`` the secant between ``T_r`` and the
+        dew point, the wet surface's temperature range: the two analyses' heat
+        fluxes are then equal at the boundary, so the rate changes smoothly as
+        the air's humidity moves the boundary through the coil (the larger of
+        the two rates has a corner there, which a LUT interpolates poorly).
+        Zones whose refrigerant temperature changes (vapour, liquid) keep the
+        larger-rate rule with ``c_s`` the secant to the entering air temperature.
+
+        References
+        ----------
+        Braun, J. E. (1988). Methodologies for the design and control of central
+        cooling plants. PhD thesis, University of Wisconsin-Madison, ch. 2.
+        Elmahdy, A. H., Mitalas, G. P. (1977). A simple model for cooling and
+        dehumidifying coils for use in calculating energy requirements for
+        buildings. ASHRAE Trans. 83(2), 103-117.
+        """
         model = super().zone_model(idx, C_ref, R_ref, Tr0)
         air, sat_air, Ta = self.air, self.sat_air, self.T_in[idx]
-        # Enthalpy potential (Braun et al. 1989): saturated-air enthalpy slope
-        # c_s as the secant between refrigerant and entering-air temperature.
+        h_a, w_a, m_da, C_a = air["h"][idx], air["w"][idx], self.m_da[idx], self.C[idx]
+        ntu_air = 1.0 / (self.R[idx] * C_a)
         h_s_r = sat_air.enthalpy(Tr0)
-        c_s = (sat_air.enthalpy(Ta) - h_s_r) / np.maximum(Ta - Tr0, 1e-9)
+        partly = np.isinf(C_ref)
+        T_dew = sat_air.dew_point(w_a)
+        # Secant of h_sat(T) from T_r to the entering air (Braun et al. 1989), or to the
+        # dew point (at least one table step above T_r) for a partly wet zone.
+        T_top = np.where(partly, np.maximum(T_dew, Tr0 + 0.05), Ta)
+        c_s = (sat_air.enthalpy(T_top) - h_s_r) / np.maximum(T_top - Tr0, 1e-9)
+        # Dry depth: where the surface reaches the dew point (1: dry, 0: wet from the face).
+        dT = model.dT
+        with np.errstate(divide="ignore", invalid="ignore"):
+            at_dew = (T_dew - Tr0) * model.R_tot / R_ref  # air-refrigerant difference there [K]
+            depth = np.log(dT / at_dew) * model.R_tot * C_a
+        depth = np.where(at_dew <= 0.0, 1.0, np.where(at_dew >= dT, 0.0, np.minimum(depth, 1.0)))
+        depth = np.where(partly, depth, np.nan)
+        dry_part = np.where(partly, 1.0 - np.exp(-depth / (model.R_tot * C_a)), 0.0)
+        wet_h = h_a - C_a / m_da * dT * dry_part  # air entering the wet part
+        # Only zones at one refrigerant temperature carry a dry depth; where none do, the
+        # model skips the partly wet analysis (the single-phase zones' bisection).
+        model.dry_depth = depth if partly.any() else None
         model.wet = ZoneHeatRate(
             C_ref=C_ref / c_s,
             R_tot=air["cp"][idx] * self.R[idx] + c_s * R_ref,  # (J/kg)/W
-            C_air=self.m_da[idx],
-            dT=np.maximum(air["h"][idx] - h_s_r, 0.0),
+            C_air=m_da,
+            dT=np.maximum(wet_h - h_s_r, 0.0),
         )
+        wets = ~partly | (depth < 1.0)
+        after_dry = partly & wets
         model.moisture = Moisture(
-            air_h=air["h"][idx],
-            air_w=air["w"][idx],
-            m_air=self.m_da[idx],
-            decay=np.exp(-1.0 / (self.R[idx] * self.C[idx])),
+            air_h=h_a,
+            air_w=w_a,
+            m_air=m_da,
+            decay=np.exp(-ntu_air * np.where(after_dry, 1.0 - depth, 1.0)),
             sat_air=sat_air,
+            wet_h=np.where(after_dry, wet_h, h_a),
+            wets=wets.astype(float),
         )
         return model
 
