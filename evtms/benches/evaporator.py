@@ -207,22 +207,25 @@ BENCH = Bench(
         # often runs at 6-7 g/s, where the 5.05-8.51 g/s cell put its outlet 0.3-1 kJ/kg off the
         # physics; the worst COP error of the 100 cabin+chiller points fell from 1.30 to 1.00 %
         # and the points with the split over 1 % of the total cooling from 11 to 4.
-        # The ladder at half the ratio (35 nodes, 1.14x apart, 1.37-89 g/s, then 116 and 150): the
-        # vapour zone's Nusselt number has corners at Re 2300 and 4000 (about 8-11 and 14-19 g/s),
-        # and the outlet's response to the flow sets a valve's flow. 100 random points, against
-        # the 18-node ladder: cabin worst COP 0.78 % (1.29 %), p_A 0.87 % (0.92 %); cabin+chiller
-        # COP 0.78 % (1.11 %), p_A 0.68 % (0.79 %), split 1.72 % of the total cooling (2.59 %), over
-        # 1 % at 3 points (4). Doubling the humidity (13) or inlet-enthalpy (9) nodes instead left
-        # the worst split at 2.6-2.75 %. 6.84 million points, 319 MB; `evtms bench evaporator
-        # --grid cycle --workers 2` 79 s (with the faster (p, h) states of evtms.fluid; 134 s before).
+        # The ladder at half the ratio (1.14x apart) where the vapour zone's Nusselt number has its
+        # corners, Re 2300 and 4000 (about 8-11 and 14-19 g/s): 6.6-31 g/s; 1.3x apart below and
+        # above (25 nodes). There the outlet's response to the flow sets a valve's flow: with the
+        # 1.3x ladder throughout, 100 random cabin+chiller points split the cooling between the
+        # branches up to 2.7 % off the direct physics (at 9-18 g/s).
+        # Humidity every 0.05 and h_in nodes closer over the liquid lines' 230-300 kJ/kg: the
+        # two-phase zone wets from the air's exit side as the humidity rises (evtms.hx.sides,
+        # the partly wet coil), and the outlet's response turns from flat to steep within a few
+        # hundredths of RH; with humidity every 0.1 the worst split of the 100 cabin+chiller
+        # points was 1.32 %, with the h_in nodes evenly spaced 1.64 %. 9.07 million points, 420 MB;
+        # `evtms bench evaporator --grid cycle --workers 2` about 120 s.
         "cycle": {
-            "mdot": tuple(0.003 * np.sqrt(_LADDER) ** np.r_[np.arange(-6, 27), 28, 30]),
+            "mdot": tuple(0.003 * np.sqrt(_LADDER) ** np.r_[-6:6:2, 6:19, 20:31:2]),
             "blower": tuple(np.geomspace(0.1, 1.0, 12)),
             "p_in": pressure_nodes(np.r_[-35.0, -28.0, np.arange(-21.0, 26.0, 2.0), np.arange(29.0, 42.0, 3.0)]),
-            "h_in": tuple(np.linspace(185e3, 350e3, 5)),
+            "h_in": (185e3, 232.5e3, 262.5e3, 292.5e3, 350e3),
             "T_res": (280.0,),
             "T_air_in": tuple(np.r_[10.0, np.arange(15.0, 35.1, 2.0), 40.0, 45.0, 50.0] + 273.15),
-            "RH_air_in": tuple(np.linspace(0.2, 0.8, 7)),
+            "RH_air_in": tuple(np.linspace(0.2, 0.8, 13)),
         },
     },
 )
