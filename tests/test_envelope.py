@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
-from evtms.cycle.solver import VALID_CYCLE_FLAGS
+from evtms.cycle.solver import _MIX_TOL, VALID_CYCLE_FLAGS
 from evtms.cycle.topology import TOPOLOGIES
 
 #: Figures a valid point must have finite (a closed branch's heat flow is 0, not NaN).
@@ -53,4 +53,7 @@ def test_every_point_of_the_wide_envelope_is_a_state_or_a_reason(cycle_luts_dir,
     assert (r["Q_evap"][valid] <= 0).all() and (r["Q_chiller"][valid] <= 0).all()
     assert (r["COP"][valid] > 0).all()
     np.testing.assert_allclose(r["mdot_evap"][valid] + r["mdot_chiller"][valid], r["mdot"][valid], rtol=1e-12)
-    assert np.abs(r["balance_relative"][valid]).max() < 1e-4
+    # The residual is mdot (h_A - the branch outlets' mixture): bounded by the suction closure's
+    # tolerance on that mixture (1 J/kg, about 1 mK of superheat), not by a fraction of the work
+    # (at a -8 degC ambient W_fluid is 137 W: 1e-4 of it is 0.3 J/kg of the 45 g/s).
+    assert (np.abs(r["balance_residual"][valid]) <= _MIX_TOL * r["mdot"][valid]).all()

@@ -251,7 +251,8 @@ def test_coolant_colder_than_the_cabin_evaporation_closes_the_chiller_on_luts(cy
     cabin = run_cycle(COLD_COOLANT, load_cycle_luts(cycle_luts_dir, "cabin"), circuit="cabin")
     r = run_cycle(COLD_COOLANT, load_cycle_luts(cycle_luts_dir, "cabin+chiller"), circuit="cabin+chiller")
     _check_cold_coolant(r, cabin["p_A"])
-    assert r["p_A"][0] == pytest.approx(581.4e3, rel=0.01)  # the physics' (measured)
+    assert r["p_A"][0] == pytest.approx(588.3e3, rel=0.01)  # the physics' (measured; 581.4 kPa with the
+    # larger-rate rule for the two-phase zone, before the partly wet coil)
 
 
 def test_a_closed_branchs_lut_does_not_bound_the_suction(cycle_luts_dir):

@@ -36,11 +36,12 @@ in the effectiveness-NTU form of Braun, Klein and Mitchell (1989). The vapour
 and liquid zones are evaluated both dry and wet, and the air loses the larger
 heat rate, Braun et al.'s rule for partly wet coils
 (:meth:`evtms.hx.sides.MoistAirSide.zone_model`). The moisture condensed
-follows from the effective surface state of the wet analysis; the condensate drains off at that surface's temperature, so the
-refrigerant gains the air's loss less the condensate's enthalpy (Braun et
-al. give the refrigerant the whole loss; with the condensate's enthalpy on
-top, air at blower 0.1 left up to 0.25 K colder than the refrigerant on
-4,000 random points of the cycle envelope).
+follows from the effective surface state of the wet analysis; the
+condensate drains off at that surface's temperature, so the refrigerant
+gains the air's loss less the condensate's enthalpy (Braun et al. give the
+refrigerant the whole loss; with the condensate's enthalpy on top, air at
+blower 0.1 left up to 0.25 K colder than the refrigerant on 4,000 random
+points of the cycle envelope).
 The zones' outlet streams mix; where the mixture lies beyond saturation (a
 mixture of nearly saturated streams can, the saturation curve being convex;
 humid air on a very cold coil does so strongly) the excess water condenses
