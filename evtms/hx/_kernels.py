@@ -1,7 +1,7 @@
 """Compiled per-point twins of the exchanger cores' inner searches (numba, :func:`evtms._jit.jit`).
 
 The cores search a heat rate (counter flow) or a zone's coil fraction (cross
-flow) by 60 bisection steps over arrays of points. On the few points a cycle
+flow) by 40 bisection steps over arrays of points. On the few points a cycle
 solver passes per call, NumPy's per-call overhead dominates those steps; these
 kernels run the same arithmetic per point in machine code. Each function here
 is the scalar twin of an array function named in its docstring, and the tests

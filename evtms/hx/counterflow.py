@@ -48,8 +48,9 @@ import numpy as np
 from evtms._jit import numba_enabled
 from evtms.hx.sides import SecondaryStream
 
-#: Bisection steps on the heat rate (each halves the bracket; 60 reach round-off).
-BISECTION_STEPS = 60
+#: Bisection steps on the heat rate (each halves the bracket): 2^-40 of the largest rate, 1e-12
+#: relative (60, to round-off, cost the chiller's sweeps more time for nothing).
+BISECTION_STEPS = 40
 #: Zones of the refrigerant, in the order an evaporating refrigerant meets them.
 LIQUID, TWO_PHASE, VAPOUR = 0, 1, 2
 #: Cap of the capacity ratio (exchanger area available over needed), for finite LUT values.
