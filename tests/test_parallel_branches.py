@@ -18,6 +18,7 @@ from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
 from evtms.cycle.solver import (
     CYCLE_FLAGS,
     STATUS_BRANCH_CLOSED,
+    STATUS_NOT_CONVERGED,
     STATUS_VALVE_SATURATED,
     VALID_CYCLE_FLAGS,
     CycleStatus,
@@ -304,3 +305,26 @@ def test_lut_models_take_the_status_codes_from_the_file(thesis):
     mid = {d: np.array([0.5 * (ds[d].values[0] + ds[d].values[1])]) for d in ds["status"].dims}
     r = chiller(mid)
     assert r["no_heat_flow"].tolist() == [True] and r["reason"].tolist() == [""]
+
+
+def test_a_branch_starved_by_the_search_is_not_reported_closed():
+    """A hot, humid cabin at low speed: the cabin valve saturates, the two-valve split fails, and the
+    search closed the chiller valve, leaving the cabin branch alone (the state was reported as valid).
+    But at the least flow its model covers, the chiller branch, on 24 degC coolant, leaves 8.9 K above
+    its setpoint: its thermostatic valve would open, so that is not a state of the circuit. The bench
+    physics, about 3 s."""
+    point = OperatingPoints(
+        speed=0.284,
+        fan=0.204,
+        blower=0.582,
+        T_amb=270.81,
+        T_cabin=308.32,
+        RH_cabin=0.785,
+        mdot_coolant=0.142,
+        T_coolant_in=297.54,
+        superheat=5.55,
+    )
+    r = run_cycle(point, circuit="cabin+chiller")
+    assert r["status"].tolist() == [STATUS_NOT_CONVERGED], r["reason"]
+    assert "battery chiller valve" in r["reason"][0] and "its valve would open" in r["reason"][0]
+    assert np.isnan(r["p_A"]).all() and np.isnan(r["COP"]).all()

@@ -172,6 +172,9 @@ _CLAMP_FIRST_LEAST, _CLAMP_SECOND_LEAST, _CLAMP_OTHER = 1, 2, 3
 
 #: Largest difference [J/kg] between the suction state and the branches' mixture at a solved parallel point.
 _MIX_TOL = 1.0
+#: Outlet excess [J/kg, about 2 K] over its setpoint of a closed branch at its least flow beyond
+#: which its valve would open: the closing is not a state of the circuit.
+_STARVED_EXCESS = 2000.0
 
 #: Scale [J/(kg K)] that turns the suction enthalpy residual into about kelvin of superheat.
 _CP_SCALE = 1000.0
@@ -1106,7 +1109,6 @@ class CycleSolver:
         within ``_MIX_TOL`` (the energy balance closes on it); one where the
         suction closure stopped on a jump of the mixture is status 4.
         """
-        names = [b.component for b in self.circuit.branches]
         labels = [b.label for b in self.circuit.branches]
         mode = ops["branch_mode"]
         above_top = self._above_top.copy()  # of the first solve (a re-solve below resets it)
@@ -1195,28 +1197,28 @@ class CycleSolver:
         self._closed_notes = np.full(mode.size, "", dtype=object)
         idx = np.nonzero((res["status"] == STATUS_CONVERGED) & ((mode == _FIRST_CLOSED) | (mode == _SECOND_CLOSED)))[0]
         if idx.size:
-            sub = {k: v[idx] for k, v in ops.items()}
-            p_A, h_C = res["p_A"][idx], res["h_C"][idx]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                h_set = self.models.compressor(
-                    sub["speed"], self.sat.temperature(p_A) + sub["setpoint"], p_A, res["p_B"][idx] / p_A
-                )["h_in"]
-            closed = np.where(mode[idx] == _FIRST_CLOSED, 0, 1)
-            for b in (0, 1):
-                k = np.nonzero(closed == b)[0]
-                if k.size == 0:
-                    continue
-                o = {c: v[k] for c, v in sub.items()}
-                least = np.full(k.size, self.models.flow_range(names[b])[0] * (1 + 1e-6))
-                drop = self._converged_drop(names[b], o, least, p_A[k], h_C[k], np.zeros(k.size))
-                h_out = self._branch(names[b], o, least, p_A[k] + drop, h_C[k])["h_out_continued"]
-                opens = h_out > h_set[k] + _OUTER_FTOL * _CP_SCALE
-                duty = least * (h_out - h_C[k])
-                for i, d in zip(idx[k[opens]], duty[opens], strict=True):
-                    self._closed_notes[i] = (
-                        f"; nearly closed: its flow lies between 0 and that least flow, its duty below "
-                        f"{d / 1e3:.2g} kW is left out"
-                    )
+            excess, duty = self._closed_branch_at_least_flow(ops, res, idx, mode[idx] == _FIRST_CLOSED)
+            # A closed branch whose outlet at its least flow lies kelvins above its setpoint needs
+            # more flow, so its valve would open: the search starved it (e.g. the other valve, at
+            # its maximum, taking the compressor's flow at a low suction iterate), its bulb did not
+            # close it. Not a state of the circuit: not converged, said so.
+            starved = excess > _STARVED_EXCESS
+            for i, x in zip(idx[starved], excess[starved], strict=True):
+                closed = labels[int(mode[i] != _FIRST_CLOSED)]
+                res["reason"][i] = (
+                    f"the search closed the {closed} valve, but at the least flow its model covers that "
+                    f"branch leaves {x / _CP_SCALE:.3g} K above its setpoint: its valve would open (not converged)"
+                )
+            res["status"][idx[starved]] = STATUS_NOT_CONVERGED
+            for v in res.values():
+                if v.dtype.kind == "f":
+                    v[idx[starved]] = np.nan
+            opens = (excess > _OUTER_FTOL * _CP_SCALE) & ~starved
+            for i, d in zip(idx[opens], duty[opens], strict=True):
+                self._closed_notes[i] = (
+                    f"; nearly closed: its flow lies between 0 and that least flow, its duty below "
+                    f"{d / 1e3:.2g} kW is left out"
+                )
         # The suction state must be the branches' mixture (the energy balance closes on it); where the
         # suction closure stopped on a jump of the mixture (the split changing branch between two
         # suction iterates), it did not converge.
@@ -1232,6 +1234,30 @@ class CycleSolver:
                 v[jump] = np.nan
         saturated &= ~jump
         return saturated
+
+    def _closed_branch_at_least_flow(
+        self, ops: dict, res: dict, idx: np.ndarray, first_closed: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The closed branch of points ``idx`` run at the least flow its model covers, at the solved
+        suction: its outlet's excess [J/kg] over the setpoint state, and its duty [W] there."""
+        names = [b.component for b in self.circuit.branches]
+        sub = {k: v[idx] for k, v in ops.items()}
+        p_A, h_C = res["p_A"][idx], res["h_C"][idx]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            h_set = self.models.compressor(
+                sub["speed"], self.sat.temperature(p_A) + sub["setpoint"], p_A, res["p_B"][idx] / p_A
+            )["h_in"]
+        excess, duty = np.full(idx.size, np.nan), np.full(idx.size, np.nan)
+        for b in (0, 1):
+            k = np.nonzero(first_closed == (b == 0))[0]
+            if k.size == 0:
+                continue
+            o = {c: v[k] for c, v in sub.items()}
+            least = np.full(k.size, self.models.flow_range(names[b])[0] * (1 + 1e-6))
+            drop = self._converged_drop(names[b], o, least, p_A[k], h_C[k], np.zeros(k.size))
+            h_out = self._branch(names[b], o, least, p_A[k] + drop, h_C[k])["h_out_continued"]
+            excess[k], duty[k] = h_out - h_set[k], least * (h_out - h_C[k])
+        return excess, duty
 
     def _solve_again(self, ops: dict, res: dict, idx: np.ndarray, modes: np.ndarray) -> None:
         """Solve the points ``idx`` again with their branch modes set to ``modes`` (``ops`` and ``res`` in place)."""
