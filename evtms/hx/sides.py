@@ -379,7 +379,7 @@ class MoistAirSide(AirSide):
         References
         ----------
         Braun, J. E. (1988). Methodologies for the design and control of central
-        cooling plants. PhD thesis, University of Wisconsin-Madison, ch. 2.
+        cooling plants. PhD thesis, University of Wisconsin-Madison.
         Elmahdy, A. H., Mitalas, G. P. (1977). A simple model for cooling and
         dehumidifying coils for use in calculating energy requirements for
         buildings. ASHRAE Trans. 83(2), 103-117.
