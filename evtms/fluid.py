@@ -514,8 +514,14 @@ class SaturatedAir:
         return np.interp(h, self.h, self.T, left=np.nan, right=np.nan)
 
     def dew_point(self, w: np.ndarray) -> np.ndarray:
-        """Dew point [K] of air with humidity ratio ``w`` [kg/kg dry air]: where saturation holds ``w``."""
-        return np.interp(w, self.w, self.T, left=np.nan, right=np.nan)
+        """Dew point [K] of air with humidity ratio ``w`` [kg/kg dry air]: where saturation holds ``w``.
+
+        Air drier than the table's coldest saturated state (about 6.7e-6 kg/kg at
+        -60 degC and 1 atm) gets ``-inf``: its dew point is below any surface a
+        refrigerant coil reaches, which is all a coil model needs. NaN above the
+        table's warmest state.
+        """
+        return np.interp(w, self.w, self.T, left=-np.inf, right=np.nan)
 
 
 @functools.lru_cache(maxsize=8)

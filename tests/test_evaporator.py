@@ -144,6 +144,22 @@ def test_wetting_sets_in_smoothly_with_humidity(fluid, params):
     assert -dQ[onset - 1] < 0.3 * -dQ[onset + 8]  # the slope starts small
 
 
+def test_bone_dry_air_gives_the_dry_rate(fluid, params):
+    """Air drier than the saturated-air table's coldest state (RH 0, or w below ~6.7e-6) has its
+    dew point below any surface: the two-phase zone is dry, not NaN nor another rate (it was
+    2.9 % off on the array path once the partly wet coil needed a dew point)."""
+    RH = np.array([0.0, 1e-7, 1e-4, 0.01])
+    n = RH.size
+    full = np.full
+    res = solve_coil(
+        fluid, params.evaporator, params.environment, full(n, 3.5e5), full(n, 250e3), full(n, 0.02),
+        full(n, 0.5), "evaporator", T_air=full(n, 308.15), RH_air=RH,
+    )  # fmt: skip
+    assert np.isfinite(res["Q"]).all() and (res["Q_latent"] == 0).all()
+    # Only the vapour's heat capacity in the air moves the rate: a few parts in 1e5.
+    np.testing.assert_allclose(res["Q"], res["Q"][-1], rtol=1e-4)
+
+
 def test_second_law_refrigerant_never_warmer_than_air(ds, params, fluid):
     T_air = params.environment.T
     assert (ds["T_out"].values <= T_air + 1e-6).all()

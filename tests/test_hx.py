@@ -244,7 +244,7 @@ _KERNEL_CASES = {
         "p_in": rng.uniform(0.8e5, 9e5, n),
         "h_in": rng.uniform(180e3, 420e3, n),
         "T_air_in": rng.choice([283.15, 298.15, 313.15], n),
-        "RH_air_in": rng.choice([0.2, 0.5, 0.8], n),
+        "RH_air_in": rng.choice([0.0, 0.2, 0.5, 0.8], n),  # 0: no dew point in the table
     },
     "condenser": lambda rng, n: {
         "mdot": np.exp(rng.uniform(np.log(1e-3), np.log(0.15), n)),

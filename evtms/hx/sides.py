@@ -413,7 +413,9 @@ class MoistAirSide(AirSide):
             C_air=m_da,
             dT=np.maximum(wet_h - h_s_r, 0.0),
         )
-        wets = ~partly | (depth < 1.0)
+        # A wet part thinner than 1e-9 of the coil drains nothing measurable, and its decay
+        # would round to 1 (0/0 in the effective surface state).
+        wets = ~partly | (depth < 1.0 - 1e-9)
         after_dry = partly & wets
         model.moisture = Moisture(
             air_h=h_a,
