@@ -58,7 +58,8 @@ the superheat reached. This is the undersized (or, at a low condensing
 pressure, under-driven) valve starving its evaporator: less flow at a lower
 suction pressure and a higher superheat. A saturated valve never floods the
 evaporator. A flooded evaporator, whose outlet stays two-phase however low
-the suction pressure (here down to evaporating 45 K below the cabin air),
+the suction pressure (here down to evaporating 45 K below the cabin air or
+coolant, or at -30 degC where that is lower),
 has no steady state the models describe: the compressor would draw liquid
 (slugging), which its model, on superheated suction states, does not cover
 and an automotive circuit with a receiver (no suction accumulator) must
@@ -175,6 +176,11 @@ _MIX_TOL = 1.0
 #: Outlet excess [J/kg, about 2 K] over its setpoint of a closed branch at its least flow beyond
 #: which its valve would open: the closing is not a state of the circuit.
 _STARVED_EXCESS = 2000.0
+
+#: The suction search's low end: evaporating this far [K] below the coldest open branch's
+#: secondary inlet, or at _SUCTION_LOW_FLOOR [K] where that is lower.
+_SUCTION_LOW_BELOW = 45.0
+_SUCTION_LOW_FLOOR = 243.15
 
 #: Scale [J/(kg K)] that turns the suction enthalpy residual into about kelvin of superheat.
 _CP_SCALE = 1000.0
@@ -1305,9 +1311,13 @@ class CycleSolver:
         # A hair inside the compressor's pressure-ratio range, so that p_B/p_A stays on its grid.
         self._pr = (max(limits["pr"][0], 1.0) * (1 + 1e-9), limits["pr"][1] * (1 - 1e-9))
         self._axes = limits["axes"]
-        # Evaporating 45 K below the (coldest) secondary stream leaves a large superheat: the low end.
+        # The low end: evaporating 45 K below the (coldest) secondary stream, which leaves a large
+        # superheat, or at -30 degC where that is lower. Against hot coolant a starved branch runs
+        # further below it (valve at its maximum, full speed, coolant at 45 degC: -1 degC at the
+        # outlet, 46 K below), which a bound relative to the stream alone cut off.
         T_sec = self._secondary_temperature(ops)
-        lows, highs = [(self.sat.pressure(T_sec - 45.0), None)], [(self.sat.pressure(T_sec - 0.5), None)]
+        floor = np.minimum(T_sec - _SUCTION_LOW_BELOW, _SUCTION_LOW_FLOOR)
+        lows, highs = [(self.sat.pressure(floor), None)], [(self.sat.pressure(T_sec - 0.5), None)]
         for where, lim in self._suction_limits(ops, limits):
             (p_lo_lim, p_hi_lim), (lo_name, hi_name) = lim["p_suction"], lim["axes"]["p_suction"]
             lows.append((np.where(where, p_lo_lim * (1 + 1e-9), -np.inf), lo_name))
@@ -1354,15 +1364,15 @@ class CycleSolver:
         # secondary inlet): with branches in parallel, the one on that stream caps the search.
         self._above_top = (status == STATUS_EVAPORATOR_NO_ROOT) & br["hi_is_end"] & np.isfinite(f_hi) & (f_hi >= 0)
         # Superheat below its setpoint down to the physical low end (evaporating 45 K below
-        # the cabin air): where the outlet is still two-phase there, the evaporator floods.
+        # the secondary, or at -30 degC): where the outlet is still two-phase there, it floods.
         low = np.nonzero((status == STATUS_EVAPORATOR_NO_ROOT) & br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0))[0]
         if low.size:
             wet = self._suction_side({k: v[low] for k, v in ops.items()}, lo[low], low)["outlet_wet"]
             status[low[wet]] = STATUS_EVAPORATOR_WET
             reason[low[wet]] = (
                 "the evaporator outlet stays two-phase down to the lowest suction pressure searched "
-                "(evaporating 45 K below the secondary inlet): the evaporator floods and the compressor "
-                "would draw liquid"
+                "(evaporating 45 K below the secondary inlet, or at -30 degC): the evaporator floods and "
+                "the compressor would draw liquid"
             )
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
