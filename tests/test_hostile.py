@@ -321,6 +321,7 @@ CASES: list[Case] = [
     ),
     Case("cycle-speed-nan", ["cycle", "run", "--luts", "luts", "--speed", "nan"], "speed"),
     Case("cycle-t-amb-words", ["cycle", "run", "--luts", "luts", "--t-amb", "hot"], "--t-amb"),
+    Case("cycle-superheat-zero", ["cycle", "run", "--luts", "luts", "--superheat", "0"], "0.1"),
     # Reports: nothing half-written, no empty folder.
     Case("report-surface-twice", ["report", "bench", "c.nc", "-o", "rep", "--surface", "p_in,p_in"], "twice"),
     Case("report-surface-unknown", ["report", "bench", "c.nc", "-o", "rep", "--surface", "p_in,zzz"], "zzz"),

@@ -93,7 +93,9 @@ INPUTS: dict[str, CycleInput] = {
         CycleInput(
             "T_coolant_in", "K", "coolant temperature entering the chiller", 253.15, 333.15, 303.15, celsius=True
         ),
-        CycleInput("superheat", "K", "superheat setpoint of the expansion valves", 0.0, 50.0, 10.0),
+        # The compressor takes its suction as (p, T): a state on the saturation line (0 K) is not
+        # one, and no thermostatic valve holds less than its static superheat of a few kelvin.
+        CycleInput("superheat", "K", "superheat setpoint of the expansion valves", 0.1, 50.0, 10.0),
         CycleInput("subcooling", "K", "subcooling at the condenser outlet (0 = saturated liquid)", 0.0, 30.0, 0.0),
     )
 }
