@@ -15,6 +15,7 @@ from evtms.cycle.models import LutModels
 from evtms.cycle.solver import (
     CYCLE_FLAGS,
     FROST_RISK_FLAGS,
+    STATUS_CONDENSER_NO_ROOT,
     STATUS_CONVERGED,
     STATUS_EVAPORATOR_WET,
     STATUS_OUTSIDE_ENVELOPE,
@@ -341,6 +342,32 @@ def test_a_starved_chiller_on_hot_coolant_floats_its_superheat():
     assert (sh > 10.0).all() and (np.diff(sh) > 0).all() and (np.diff(r["p_A"]) > 0).all()
     assert (T_coolant - (r["T_A"] - sh) > 45.0)[1:].all()  # beyond the old low end
     assert (np.abs(r["balance_relative"]) < 1e-5).all()
+
+
+def test_cold_coolant_points_close_their_energy_balance_or_say_why():
+    """Coolant at -20 to -6 degC: the chiller evaporates near 0.5-1 bar and drops 30-45 % of its inlet
+    pressure. Below -11.4 degC the suction search's low end (45 K below the coolant) fell off the
+    saturation table and every point failed; above it, points were reported converged with the
+    suction state kilojoules per kilogram off the chiller's outlet (energy balance off by up to 6 %
+    of the fluid work). Now a point is valid with its balance closed, or not converged with the
+    reason (most of them still: the suction residual jumps there; outside the chiller LUT's 0-50 degC)."""
+    T = np.array([-20.0, -15.0, -12.5, -10.0, -7.5]) + 273.15
+    points = OperatingPoints(speed=0.6, T_coolant_in=np.r_[T, T], mdot_coolant=np.repeat([0.15, 2.0], T.size))
+    r = run_cycle(points, circuit="chiller")
+    valid = np.isin(r["status"], VALID_CYCLE_FLAGS)
+    assert valid.any()
+    assert (np.abs(r["balance_relative"][valid]) < 1e-5).all()
+    assert all("suction closure stopped" in x for x in r["reason"][~valid]), r["reason"][~valid]
+
+
+def test_a_condenser_too_weak_at_every_suction_pressure_says_so_in_its_status():
+    """Fan 0.05-0.1 at 45 degC ambient, full speed: at no discharge pressure does the condenser
+    reach its outlet condition, at any suction pressure tried. The status was 1 (outside a model's
+    envelope) with the condenser's reason; it is the condenser's own status 2."""
+    r = run_cycle(OperatingPoints(speed=1.0, fan=np.array([0.05, 0.1]), T_amb=318.15))
+    assert (r["status"] == STATUS_CONDENSER_NO_ROOT).all(), r["status"]
+    assert CYCLE_FLAGS[STATUS_CONDENSER_NO_ROOT] == "condenser_outlet_condition_not_reachable"
+    assert all("condenser cannot reach its outlet" in x for x in r["reason"])
 
 
 def test_frost_risk_is_flagged_in_both_modes(cycle_luts, cycle_luts_dir):

@@ -69,6 +69,15 @@ CURVED = {
     "chiller": ("h_out_continued",),
 }
 
+#: The operating inputs each component's model takes as they are, by the component's axis name:
+#: a LUT whose axis does not cover one cannot give that point at any refrigerant state.
+OPERATING_AXES = {
+    "compressor": {"speed": "speed"},
+    "condenser": {"fan": "fan", "T_air_in": "T_amb", "RH_air_in": "RH_amb"},
+    "evaporator": {"blower": "blower", "T_air_in": "T_cabin", "RH_air_in": "RH_cabin"},
+    "chiller": {"mdot_coolant": "mdot_coolant", "T_coolant_in": "T_coolant_in"},
+}
+
 #: Variables each component model returns for the final states.
 COMPONENT_OUTPUTS = {
     "compressor": ("mdot", "h_in", "h_out", "T_out", "W"),
@@ -160,6 +169,10 @@ class DirectModels:
         """Refrigerant flows [kg/s] a branch's flow split may give it: from 0.1 g/s (a valve
         nearly closed; the cycle LUTs start at 1-3 g/s)."""
         return 1e-4, np.inf
+
+    def outside_axes(self, component: str, ops: dict[str, np.ndarray]) -> np.ndarray:
+        """No LUT axes: every operating input is the bench's to judge (empty reasons)."""
+        return _reasons(len(next(iter(ops.values()))))
 
     def detailed(self, on: bool) -> None:
         """The bench functions always return every variable."""
@@ -426,6 +439,21 @@ class LutModels:
         return self.luts["chiller"](
             {"mdot": mdot, "p_in": p_in, "h_in": h_in, "mdot_coolant": mdot_coolant, "T_coolant_in": T_coolant_in}
         )
+
+    def outside_axes(self, component: str, ops: dict[str, np.ndarray]) -> np.ndarray:
+        """Per point, why its operating inputs lie outside ``component``'s LUT axes
+        (:data:`OPERATING_AXES`; the first such axis in the LUT's order), else ''."""
+        lut = self.luts[component]
+        n = len(next(iter(ops.values())))
+        reasons = _reasons(n)
+        for axis, name in OPERATING_AXES[component].items():
+            if axis not in lut.ranges or name not in ops:
+                continue
+            lo, hi = lut.ranges[axis]
+            x = np.broadcast_to(np.asarray(ops[name], float), (n,))
+            for i in np.nonzero(~((x >= lo) & (x <= hi)) & (reasons == ""))[0]:
+                reasons[i] = f"{component} LUT axis {axis} = {x[i]:.6g} outside [{lo:.6g}, {hi:.6g}]"
+        return reasons
 
     def flow_range(self, component: str) -> tuple[float, float]:
         """Refrigerant flows [kg/s] a branch's LUT covers (its ``mdot`` axis)."""

@@ -801,13 +801,14 @@ class CycleSolver:
         reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
         return {"T_A": T_A, "comp": comp, "cond": cond, "residual": residual, "reason": reason}
 
-    def _pressure_root(self, residual, br, idx, ftol, status, reason, what) -> np.ndarray:
+    def _pressure_root(self, residual, br, idx, ftol, status, reason, what, codes=None) -> np.ndarray:
         """Root in pressure of ``residual(p, idx)`` for the points ``idx`` of a bracket.
 
         Iterates on the saturation temperature, in which both closures are close
         to linear, from the bracket ``br`` of :meth:`_bracket`. Marks
-        points whose model left its envelope (with its reason) or that did not
-        converge in ``status`` and ``reason``.
+        points whose model left its envelope (with its reason; status 1, or the
+        status ``codes`` gives for that reason) or that did not converge in
+        ``status`` and ``reason``.
         """
 
         def fun(t_sat, i):
@@ -825,7 +826,8 @@ class CycleSolver:
             why_lo=br["why_lo"][idx],
             why_hi=br["why_hi"][idx],
         )
-        status[idx[state == 2]] = STATUS_OUTSIDE_ENVELOPE
+        codes = codes or {}
+        status[idx[state == 2]] = [codes.get(w, STATUS_OUTSIDE_ENVELOPE) for w in why[state == 2]]
         status[idx[state == 3]] = STATUS_NOT_CONVERGED
         reason[idx] = np.where(state == 3, f"{what} iteration did not converge", why)
         return self.sat.pressure(root)
@@ -1043,6 +1045,9 @@ class CycleSolver:
         if self.circuit.parallel:
             ops["branch_mode"] = np.zeros(len(points), np.int8)
             ops["setpoint"] = ops["superheat"].copy()
+        # Operating inputs beyond a LUT's axes (a cabin at -20 degC against an evaporator LUT from
+        # 10 degC): no refrigerant state helps; said up front, not as whichever bound the search met.
+        outside = self._outside_axes(ops)
         res = self._solve_at(ops)
         valve, _ = self.models.valve()
         self.max_opening = valve.capacity_max / valve.capacity_nominal
@@ -1053,7 +1058,13 @@ class CycleSolver:
             idx = np.nonzero(saturated)[0]
             if idx.size:
                 self._float_superheat(ops, res, idx)
+        self._check_suction_closure(res, saturated)
         self._flag(res, ops, saturated)
+        off = outside != ""
+        res["status"][off], res["reason"][off] = STATUS_OUTSIDE_ENVELOPE, outside[off]
+        for v in res.values():
+            if v.dtype.kind == "f":
+                v[off] = np.nan
         return res
 
     def _parallel_limits(self, ops: dict, res: dict) -> np.ndarray:
@@ -1225,21 +1236,41 @@ class CycleSolver:
                     f"; nearly closed: its flow lies between 0 and that least flow, its duty below "
                     f"{d / 1e3:.2g} kW is left out"
                 )
-        # The suction state must be the branches' mixture (the energy balance closes on it); where the
-        # suction closure stopped on a jump of the mixture (the split changing branch between two
-        # suction iterates), it did not converge.
+        return saturated
+
+    def _outside_axes(self, ops: dict) -> np.ndarray:
+        """Per point, the first operating input outside a component model's axes (its reason), else ''.
+
+        Of parallel branches none is checked: the search may close a branch whose model cannot
+        take its stream (coolant below the chiller LUT, colder than the cabin's evaporation)."""
+        branches = [] if self.circuit.parallel else [b.component for b in self.circuit.branches]
+        components = ["compressor", "condenser", *branches]
+        reasons = np.full(ops["speed"].size, "", dtype=object)
+        for component in components:
+            why = self.models.outside_axes(component, ops)
+            reasons = np.where(reasons == "", why, reasons)
+        return reasons
+
+    def _check_suction_closure(self, res: dict, saturated: np.ndarray) -> None:
+        """Not converged where the suction state is not the evaporating branches' outlet (mixture).
+
+        The energy balance closes on it. The closure can stop off it on a jump of the mixture (the
+        split changing branch between two suction iterates), or where a branch's pressure drop did
+        not settle between iterates (the chiller on coolant below -10 degC drops 40 % of its
+        inlet pressure, and its drop's fixed point moved the outlet kilojoules per kilogram).
+        """
         with np.errstate(invalid="ignore"):
-            jump = np.isin(res["status"], (STATUS_CONVERGED,)) & (np.abs(res["h_A_evap"] - res["h_A"]) > _MIX_TOL)
-        res["status"][jump] = STATUS_NOT_CONVERGED
-        res["reason"][jump] = [
-            f"the suction closure stopped {abs(x):.3g} J/kg off the branches' mixture (not converged)"
-            for x in (res["h_A_evap"] - res["h_A"])[jump]
+            off = (res["status"] == STATUS_CONVERGED) & (np.abs(res["h_A_evap"] - res["h_A"]) > _MIX_TOL)
+        what = "the branches' mixture" if self.circuit.parallel else "the evaporating branch's outlet"
+        res["status"][off] = STATUS_NOT_CONVERGED
+        res["reason"][off] = [
+            f"the suction closure stopped {abs(x):.3g} J/kg off {what} (not converged)"
+            for x in (res["h_A_evap"] - res["h_A"])[off]
         ]
         for v in res.values():
             if v.dtype.kind == "f":
-                v[jump] = np.nan
-        saturated &= ~jump
-        return saturated
+                v[off] = np.nan
+        saturated &= ~off
 
     def _closed_branch_at_least_flow(
         self, ops: dict, res: dict, idx: np.ndarray, first_closed: np.ndarray
@@ -1317,6 +1348,8 @@ class CycleSolver:
         # outlet, 46 K below), which a bound relative to the stream alone cut off.
         T_sec = self._secondary_temperature(ops)
         floor = np.minimum(T_sec - _SUCTION_LOW_BELOW, _SUCTION_LOW_FLOOR)
+        # Not below the saturation table (its pressure would be NaN, and the search with it).
+        floor = np.maximum(floor, self.sat.T[0] + 0.01)
         lows, highs = [(self.sat.pressure(floor), None)], [(self.sat.pressure(T_sec - 0.5), None)]
         for where, lim in self._suction_limits(ops, limits):
             (p_lo_lim, p_hi_lim), (lo_name, hi_name) = lim["p_suction"], lim["axes"]["p_suction"]
@@ -1333,8 +1366,14 @@ class CycleSolver:
         self._slope = np.full(n, np.nan)
         self.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
 
+        # The status each failure reason came with (the discharge side's own: a condenser that
+        # cannot reach its outlet at any discharge pressure is not the end of a model's envelope).
+        failure_status: dict[str, int] = {}
+
         def residual(pa, i):
             r = self._suction_side({k: v[i] for k, v in ops.items()}, pa, i)
+            failed = (r["status"] != STATUS_CONVERGED) & (r["reason"] != "")
+            failure_status.update(zip(r["reason"][failed], r["status"][failed].tolist(), strict=True))
             return r["residual"], r["reason"]
 
         # First guess: evaporating 23 K below the cabin air, the middle of the default
@@ -1376,12 +1415,14 @@ class CycleSolver:
             )
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
-        status[both] = STATUS_OUTSIDE_ENVELOPE
         reason[both] = np.where(br["why_lo"][both] != "", br["why_lo"][both], br["why_hi"][both])
+        status[both] = [failure_status.get(x, STATUS_OUTSIDE_ENVELOPE) for x in reason[both]]
         p_A = np.full(n, np.nan)
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
-            p_A[idx] = self._pressure_root(residual, br, idx, _OUTER_FTOL, status, reason, "suction-pressure")
+            p_A[idx] = self._pressure_root(
+                residual, br, idx, _OUTER_FTOL, status, reason, "suction-pressure", failure_status
+            )
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
 
