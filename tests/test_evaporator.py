@@ -124,6 +124,15 @@ def test_latent_follows_air_humidity(fluid, params, RH, expect_latent):
         assert (res["Q_latent"] == 0).all()
 
 
+def _coil_over_humidity(fluid, params, RH, p_in, h_in, mdot, blower, T_air):
+    """The evaporator at one refrigerant and air state [SI] over the humidities ``RH``."""
+    n = RH.size
+    return solve_coil(
+        fluid, params.evaporator, params.environment, np.full(n, p_in), np.full(n, h_in), np.full(n, mdot),
+        np.full(n, blower), "evaporator", T_air=np.full(n, T_air), RH_air=RH,
+    )  # fmt: skip
+
+
 def test_wetting_sets_in_smoothly_with_humidity(fluid, params):
     """The two-phase zone wets from the air's exit side as the humidity rises (the partly wet
     coil): the heat rate's slope in humidity grows from zero over several steps, not at
@@ -131,11 +140,7 @@ def test_wetting_sets_in_smoothly_with_humidity(fluid, params):
     a corner a LUT interpolates poorly)."""
     RH = np.arange(0.30, 0.60, 0.0025)
     n = RH.size
-    full = np.full
-    res = solve_coil(
-        fluid, params.evaporator, params.environment, full(n, 4.8e5), full(n, 294e3), full(n, 0.0156),
-        full(n, 0.46), "evaporator", T_air=full(n, 301.8), RH_air=RH,
-    )  # fmt: skip
+    res = _coil_over_humidity(fluid, params, RH, p_in=4.8e5, h_in=294e3, mdot=0.0156, blower=0.46, T_air=301.8)
     latent, dQ = res["Q_latent"], np.diff(res["Q"])
     onset = int(np.argmax(latent < 0))
     assert 10 < onset < n - 40 and (latent[:onset] == 0).all() and (latent[onset:] < 0).all()
@@ -149,12 +154,7 @@ def test_bone_dry_air_gives_the_dry_rate(fluid, params):
     dew point below any surface: the two-phase zone is dry, not NaN nor another rate (it was
     2.9 % off on the array path once the partly wet coil needed a dew point)."""
     RH = np.array([0.0, 1e-7, 1e-4, 0.01])
-    n = RH.size
-    full = np.full
-    res = solve_coil(
-        fluid, params.evaporator, params.environment, full(n, 3.5e5), full(n, 250e3), full(n, 0.02),
-        full(n, 0.5), "evaporator", T_air=full(n, 308.15), RH_air=RH,
-    )  # fmt: skip
+    res = _coil_over_humidity(fluid, params, RH, p_in=3.5e5, h_in=250e3, mdot=0.02, blower=0.5, T_air=308.15)
     assert np.isfinite(res["Q"]).all() and (res["Q_latent"] == 0).all()
     # Only the vapour's heat capacity in the air moves the rate: a few parts in 1e5.
     np.testing.assert_allclose(res["Q"], res["Q"][-1], rtol=1e-4)
