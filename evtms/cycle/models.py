@@ -202,6 +202,11 @@ class DirectModels:
         }
 
 
+def _outside_axis(component: str, axis: str, value: float, lo: float, hi: float) -> str:
+    """Why a query lies outside a component LUT's axis."""
+    return f"{component} LUT axis {axis} = {value:.6g} outside [{lo:.6g}, {hi:.6g}]"
+
+
 class _LutComponent:
     """One component's LUT: interpolators, axes, and the fixed values of absent axes."""
 
@@ -286,14 +291,7 @@ class _LutComponent:
                 x = np.broadcast_to(np.asarray(x, float), (n,))
             off = ~((x >= lo) & (x <= hi))
             if off.any():
-                outside.append(
-                    (
-                        off,
-                        lambda i, d=d, x=x, lo=lo, hi=hi: (
-                            f"{self.component} LUT axis {d} = {x[i]:.6g} outside [{lo:.6g}, {hi:.6g}]"
-                        ),
-                    )
-                )
+                outside.append((off, lambda i, d=d, x=x, lo=lo, hi=hi: _outside_axis(self.component, d, x[i], lo, hi)))
             cols[d] = x
         for axis, fixed in self.fixed.items():
             if axis in query and axis not in self.dims and fixed is not None:
@@ -452,7 +450,7 @@ class LutModels:
             lo, hi = lut.ranges[axis]
             x = np.broadcast_to(np.asarray(ops[name], float), (n,))
             for i in np.nonzero(~((x >= lo) & (x <= hi)) & (reasons == ""))[0]:
-                reasons[i] = f"{component} LUT axis {axis} = {x[i]:.6g} outside [{lo:.6g}, {hi:.6g}]"
+                reasons[i] = _outside_axis(component, axis, x[i], lo, hi)
         return reasons
 
     def flow_range(self, component: str) -> tuple[float, float]:

@@ -1061,10 +1061,7 @@ class CycleSolver:
         self._check_suction_closure(res, saturated)
         self._flag(res, ops, saturated)
         off = outside != ""
-        res["status"][off], res["reason"][off] = STATUS_OUTSIDE_ENVELOPE, outside[off]
-        for v in res.values():
-            if v.dtype.kind == "f":
-                v[off] = np.nan
+        self._mark_invalid(res, off, STATUS_OUTSIDE_ENVELOPE, outside[off])
         return res
 
     def _parallel_limits(self, ops: dict, res: dict) -> np.ndarray:
@@ -1158,9 +1155,10 @@ class CycleSolver:
         ok = res["status"] == STATUS_CONVERGED
         over = [ok & (res[key] > self.max_opening) for key in ("valve_opening", "valve_opening_chiller")]
         both = over[0] & over[1]
-        self._branch_invalid(
+        self._mark_invalid(
             res,
             both,
+            STATUS_BRANCH_VALVE_SATURATED,
             [
                 f"both valves would need more than their maximum {self.max_opening:.3g} x nominal "
                 f"({a:.3g} and {b:.3g}): two saturated valves in parallel are not modelled"
@@ -1197,9 +1195,10 @@ class CycleSolver:
         for b, key in enumerate(("valve_opening_chiller", "valve_opening")):
             held = (res["status"] == STATUS_CONVERGED) & (mode == (_FIRST_FLOATS, _SECOND_FLOATS)[b])
             held &= res[key] > self.max_opening
-            self._branch_invalid(
+            self._mark_invalid(
                 res,
                 held,
+                STATUS_BRANCH_VALVE_SATURATED,
                 [
                     f"with the {labels[b]} valve at its maximum opening, the {labels[1 - b]} valve would need "
                     f"{x:.3g} x its nominal opening, beyond its maximum {self.max_opening:.3g}: two saturated "
@@ -1220,16 +1219,17 @@ class CycleSolver:
             # its maximum, taking the compressor's flow at a low suction iterate), its bulb did not
             # close it. Not a state of the circuit: not converged, said so.
             starved = excess > _STARVED_EXCESS
-            for i, x in zip(idx[starved], excess[starved], strict=True):
-                closed = labels[int(mode[i] != _FIRST_CLOSED)]
-                res["reason"][i] = (
-                    f"the search closed the {closed} valve, but at the least flow its model covers that "
-                    f"branch leaves {x / _CP_SCALE:.3g} K above its setpoint: its valve would open (not converged)"
-                )
-            res["status"][idx[starved]] = STATUS_NOT_CONVERGED
-            for v in res.values():
-                if v.dtype.kind == "f":
-                    v[idx[starved]] = np.nan
+            self._mark_invalid(
+                res,
+                idx[starved],
+                STATUS_NOT_CONVERGED,
+                [
+                    f"the search closed the {labels[int(mode[i] != _FIRST_CLOSED)]} valve, but at the least flow "
+                    f"its model covers that branch leaves {x / _CP_SCALE:.3g} K above its setpoint: its valve "
+                    "would open (not converged)"
+                    for i, x in zip(idx[starved], excess[starved], strict=True)
+                ],
+            )
             opens = (excess > _OUTER_FTOL * _CP_SCALE) & ~starved
             for i, d in zip(idx[opens], duty[opens], strict=True):
                 self._closed_notes[i] = (
@@ -1262,14 +1262,15 @@ class CycleSolver:
         with np.errstate(invalid="ignore"):
             off = (res["status"] == STATUS_CONVERGED) & (np.abs(res["h_A_evap"] - res["h_A"]) > _MIX_TOL)
         what = "the branches' mixture" if self.circuit.parallel else "the evaporating branch's outlet"
-        res["status"][off] = STATUS_NOT_CONVERGED
-        res["reason"][off] = [
-            f"the suction closure stopped {abs(x):.3g} J/kg off {what} (not converged)"
-            for x in (res["h_A_evap"] - res["h_A"])[off]
-        ]
-        for v in res.values():
-            if v.dtype.kind == "f":
-                v[off] = np.nan
+        self._mark_invalid(
+            res,
+            off,
+            STATUS_NOT_CONVERGED,
+            [
+                f"the suction closure stopped {abs(x):.3g} J/kg off {what} (not converged)"
+                for x in (res["h_A_evap"] - res["h_A"])[off]
+            ],
+        )
         saturated &= ~off
 
     def _closed_branch_at_least_flow(
@@ -1304,11 +1305,10 @@ class CycleSolver:
             res[k][idx] = v
 
     @staticmethod
-    def _branch_invalid(res: dict, where: np.ndarray, reasons: list[str]) -> None:
-        """Mark the points ``where`` status 9 with their ``reasons``, their states NaN (in place)."""
-        if not where.any():
-            return
-        res["status"][where] = STATUS_BRANCH_VALVE_SATURATED
+    def _mark_invalid(res: dict, where: np.ndarray, status: int, reasons) -> None:
+        """Mark the points ``where`` (mask or indices) ``status`` with their ``reasons``, their
+        states NaN (in place)."""
+        res["status"][where] = status
         res["reason"][where] = reasons
         for v in res.values():
             if v.dtype.kind == "f":
