@@ -60,6 +60,11 @@ class DriveCycle:
         Road grade (rise over run) [1] at the samples.
     source : str
         Where the trace came from (file path).
+    key_off : numpy.ndarray or None
+        Per sample, True where the interval from this sample to the next is a
+        key-off soak (propulsion, auxiliaries, HVAC, pumps and DC-DC off; the
+        thermal network runs on). None: the key is on throughout. Range tests
+        (SAE J1634 MCT) build their soaks with it.
     """
 
     name: str
@@ -67,6 +72,7 @@ class DriveCycle:
     speed: np.ndarray
     grade: np.ndarray
     source: str
+    key_off: np.ndarray | None = None
 
     @property
     def duration(self) -> float:

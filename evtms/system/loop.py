@@ -275,7 +275,7 @@ def mlp_eval(net, offset, f, out, h0, h1):
 def run_loop(
     par, dts, p_motor_el, soc_ocv, cell_T, cell_ocv, cell_r0, sat_T, sat_p,
     ac_knots, ac_starts, ac_table, ch_knots, ch_starts, ch_table, acch_knots, acch_starts, acch_table,
-    states, out, modes, flags, start, source, mem, held, tol, net, net_index,
+    states, out, modes, flags, ext, start, source, mem, held, tol, net, net_index,
 ):  # fmt: skip
     """Run the loop from step ``start`` to ``dts.size``; returns the number of steps done (fewer when SOC hits
     its floor), or ``-(n + 1)`` when step ``n`` needs a refrigerant point solved (``source`` SRC_HELD).

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,6 +23,7 @@ import numpy as np
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
 from evtms.system.drive_cycles import DriveCycle
+from evtms.system.inputs import InputValue, per_step
 from evtms.system.mode_model import MODE_CODES, ModeModels
 from evtms.system.params import WALLS, SystemParams
 from evtms.system.refrigerant import Refrigerant
@@ -311,6 +313,7 @@ def simulate(
     model: str = "lut",
     mode_models: ModeModels | None = None,
     keep_trace: bool = False,
+    inputs: Mapping[str, InputValue] | None = None,
 ) -> SimulationResult:
     """Simulate the vehicle's thermal system over a drive cycle.
 
@@ -355,6 +358,10 @@ def simulate(
         The mode models of ``model='surrogate'``.
     keep_trace : bool
         Keep the loop's arrays in :attr:`SimulationResult.trace`.
+    inputs : mapping of str to float or Trace, optional
+        External inputs (:mod:`evtms.system.inputs`: battery heat, HVAC inlet
+        air, evaporator and heater-core setpoints, a fixed blower), SI; traces
+        on the cycle's clock (preconditioning shifts them with the cycle).
 
     Returns
     -------
@@ -371,7 +378,10 @@ def simulate(
     dts = np.diff(edges)
     seg = {regen: drive_segments(cycle, T_amb, params.vehicle, regen=regen) for regen in (True, False)}
     plugged = (edges[1:] <= precondition + 1e-9).astype(float)
-    p_motor = np.column_stack([*(_step_means(cycle.time, seg[r].P_motor_el, edges) for r in (True, False)), plugged])
+    p_motor = np.column_stack(
+        [*(_step_means(cycle.time, seg[r].P_motor_el, edges) for r in (True, False)), plugged, _key_off(cycle, edges)]
+    )
+    ext = per_step(inputs, edges - precondition)
     tables = battery_cell_tables()
     par = pack_parameters(params, T_amb, RH_amb, sun, MODES[mode], refrigerant.coolant_mdot_max)
     p_eq = float(np.interp(T_amb if T_init is None else T_init, refrigerant.sat_T, refrigerant.sat_p))
@@ -384,7 +394,7 @@ def simulate(
     ocv = np.ascontiguousarray(tables.ocv_V[:, 0])
     args = (
         par, dts, p_motor, tables.soc, tables.temperature_K, ocv, np.ascontiguousarray(tables.r0_ohm),
-        refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), states, out, modes, flags,
+        refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), states, out, modes, flags, ext,
     )  # fmt: skip
     loop0 = time.perf_counter()
     done, solves = _run_loop(args, model, refrigerant, mode_models)
@@ -533,9 +543,18 @@ def check_run_options(
 def _with_precondition(cycle: DriveCycle, seconds: float) -> DriveCycle:
     """``cycle`` after ``seconds`` parked."""
     t = np.concatenate(([0.0], seconds + cycle.time))
+    key_off = None if cycle.key_off is None else np.concatenate(([False], cycle.key_off))
     return DriveCycle(
-        cycle.name, t, np.concatenate(([0.0], cycle.speed)), np.concatenate(([0.0], cycle.grade)), cycle.source
-    )
+        cycle.name, t, np.concatenate(([0.0], cycle.speed)), np.concatenate(([0.0], cycle.grade)), cycle.source,
+        key_off,
+    )  # fmt: skip
+
+
+def _key_off(cycle: DriveCycle, edges: np.ndarray) -> np.ndarray:
+    """Per step 1 where the key is off for at least half of it (the cycle's key-off intervals), else 0."""
+    if cycle.key_off is None:
+        return np.zeros(edges.size - 1)
+    return (_step_means(cycle.time, np.asarray(cycle.key_off[:-1], float), edges) >= 0.5).astype(float)
 
 
 def usable_energy(params: SystemParams) -> float:
