@@ -246,8 +246,9 @@ def test_failed_write_leaves_the_old_file(tmp_path, monkeypatch):
 
 
 def test_training_pairs_split_by_mode(refrigerant):
-    """A warm battery and cabin at 30 degC in auto: cc+bc, then bc; every step lands in exactly one mode's pairs."""
-    p = system_params_from_dict({"controls": {"mode_hold": 0.0}})
+    """A warm battery at 30 degC in auto, the cabin soaked at its setpoint: bc, then cc+bc once the cabin warms
+    past its band; every step lands in exactly one mode's pairs."""
+    p = system_params_from_dict({"controls": {"mode_hold": 0.0}, "cabin": {"T_set": 300.15}})
     r = simulate(_trip(400), 303.15, refrigerant, p, soak_cabin=300.15, T_init=309.0, keep_trace=True)
     pairs = mm.training_pairs(r.trace)
     modes = r.trace["modes"]

@@ -54,11 +54,18 @@ class BatteryParams:
         State of charge at the start [1] (``SOC_start`` 0.9).
     heat_capacity : float
         Pack heat capacity [J/K] (760 J/(kg K) x 0.07 kg x 3072 cells = 163.4 kJ/K).
-    g_coolant : float
-        Conductance pack to coolant [W/K] (68: cells-to-plate 1216 W/K in series
-        with plate-to-coolant laminar convection, about 72 W/K; to calibrate).
+    g_cells_plate : float
+        Conductance cells to cooling plate [W/K] (MW P ``CoolantResistance``: 1216).
+    plate_channels, plate_channel_diameter, plate_channel_length : int, float, float
+        The plate's coolant channels [1], [m], [m] (MW P: 12 x 9 mm x 1.3 m).
+    g_coolant_fixed : float or None
+        A constant pack-to-coolant conductance [W/K]; None (default): cells to
+        plate in series with the channels' laminar convection at the step's
+        pump flow (:func:`plate_conductance`).
     g_ambient : float
-        Conductance pack to ambient [W/K] (3072 cells at 45 K/W each: 68.3).
+        Conductance pack to ambient [W/K] (15: the pack's 3.42 m2 of top and
+        bottom at 5 W/(m2 K) behind 5 mm of foam, 10 W/K parked to 19 W/K
+        driving; a time constant of 3.3 h with the coolant).
     T_init : float or None
         Initial pack temperature [K]; None = the ambient.
     """
@@ -73,8 +80,12 @@ class BatteryParams:
     soc_max: float = 0.98
     soc_init: float = 0.9
     heat_capacity: float = 163.4e3
-    g_coolant: float = 68.0
-    g_ambient: float = 68.3
+    g_cells_plate: float = 1216.0
+    plate_channels: int = 12
+    plate_channel_diameter: float = 0.009
+    plate_channel_length: float = 1.3
+    g_coolant_fixed: float | None = None
+    g_ambient: float = 15.0
     T_init: float | None = None
 
     @property

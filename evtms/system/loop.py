@@ -1,35 +1,61 @@
 """The system simulator's time loop: one compiled function over flat arrays.
 
-Per step ``n`` (length ``dt_n`` [s]), as the project's system spec 2.6 says:
+Per step ``n`` (length ``dt_n`` [s]), as the project's system spec (v1 2.6,
+v2 sections 2-3) says:
 
-(a) controls from the states at ``t_n``: hysteresis flags, the mode (auto
-    with a minimum hold, or forced), the blower, compressor and PTC PI
-    controllers (parallel form, saturated to [0, 1], conditional
-    integration: the integrator is frozen while its output is saturated in
-    the direction of the error, so it cannot wind up at any step), heater
-    relay and pump;
-(b) the refrigerant loop: the steady cycle map's target ``y(u)``
-    (:mod:`evtms.system.maps`, multilinear) or, with the compressor off,
-    zero flows and equalised pressures; every output follows the same
-    first-order lag ``tau`` exactly, ``y_f,n+1 = y + (y_f,n - y) e^(-dt/tau)``,
-    and the step's sources are the interval means
-    ``y + (y_f,n - y) (tau/dt)(1 - e^(-dt/tau))``: a linear filter common to
-    every output keeps the map's closure ``Q_condenser = Q_evaporator +
-    Q_chiller + W_fluid`` at every step;
-(c) the battery: terminal power of motor, auxiliaries and HVAC (PTC and
-    heater cut first above the voltage cap), current from the quadratic
-    ``v i = P`` with the RC branch's exact interval mean, Joule heat, SOC;
+(a) controls from the states at ``t_n``, in the structure of production
+    climate controls (cabin target -> vent-air target -> evaporator target
+    -> air mix; SM-M, SM-S, SM-F, SM-L of the spec):
+
+    - the vent-air target ``T_v* = T_v,ff + K_v e + I_c`` with the
+      feed-forward of the cabin's steady balance
+      ``T_v,ff = T_set - (UA_shell (T_amb - T_set) + Q_sun + Q_occ) / (m_a c_p)``;
+    - cooling, heating, dehumidifying (RH) and fresh-air economy requests on
+      first-order filtered cabin and vent-target temperatures, each with its
+      set and exit rules and a minimum hold; the mode follows the requests
+      and the battery relays (MW M), forced modes skip only the requests;
+    - the blower from the vent-target gap, never off while the climate is on,
+      in heating capped by what the heater can warm, rate limited;
+    - the compressor on the evaporator outlet air (a PI between its minimum
+      speed and 1) that cycles on and off with minimum on and off times where
+      even its minimum capacity exceeds the load, and a frost relay on the
+      evaporator air and the suction pressure that overrides both; the
+      chiller's own suction PI for the battery;
+    - heat after the evaporator (air PTC, or a coolant PTC through a heater
+      core and an air-mix door) only in heating or to reheat under an RH
+      request, never to trim a cooling temperature;
+    - safety relays in every mode: the coolant heater off above its coolant
+      and battery limits, battery cooling off below its battery limit;
+    - every PI integrates conditionally: frozen while its output, or an
+      actuator downstream of it, is saturated in the direction of its error
+      (Astrom and Hagglund 2006, 3.5), so none can wind up;
+
+(b) the refrigerant loop: the steady cycle map's target ``y(u)`` for the
+    step's circuit (:mod:`evtms.system.maps`, multilinear) or, with the
+    compressor off, zero flows and equalised pressures; every output follows
+    the same first-order lag ``tau`` exactly, ``y_f,n+1 = y + (y_f,n - y)
+    e^(-dt/tau)``, and the step's sources are the interval means ``y + (y_f,n
+    - y) (tau/dt)(1 - e^(-dt/tau))``: a linear filter common to every output
+    keeps the map's closure ``Q_condenser = Q_evaporator + Q_chiller +
+    W_fluid`` at every step. A step whose evaporator air would end at or
+    below the frost relay's threshold is run again with the relay open, so
+    the air never crosses it within a step;
+(c) the battery: terminal power of motor, auxiliaries and HVAC (heaters cut
+    first above the voltage cap), current from the quadratic ``v i = P`` with
+    the RC branch's exact interval mean, Joule heat, SOC;
 (d) the thermal network by backward Euler with the sources of (b)-(c) held:
-    battery and coolant as one 2 x 2 system; cabin air with the walls and
-    the interior eliminated in closed form (each wall mass sees only the air
-    and the ambient), so no matrix is factorised; the cabin humidity ratio
-    likewise. Flows computed from the new temperatures close every node's
-    ledger to round-off.
+    battery and coolant as one 2 x 2 system (the plate's conductance at the
+    step's pump flow); the heater-core loop implicit in its own temperature;
+    cabin air with the walls and the interior eliminated in closed form
+    (each wall mass sees only the air and the ambient), so no matrix is
+    factorised; the cabin humidity ratio likewise. Flows computed from the
+    new temperatures close every node's ledger to round-off.
 
 Everything is float64 scalars and arrays so that :func:`evtms._jit.jit`
 compiles it (numba); with ``EVTMS_NO_NUMBA=1`` the same code runs as Python.
 Parameters travel packed in one array (``P_*`` indices), per-step outputs in
-one 2-D array (``O_*`` columns), states in another (``S_*`` columns).
+one 2-D array (``O_*`` columns), states in another (``S_*`` columns), the
+controllers' memory in ``mem`` (``M_*``).
 
 References
 ----------
@@ -37,6 +63,9 @@ Astrom, K. J., Hagglund, T. (2006). Advanced PID Control. ISA, section 3.5
 (integrator windup, conditional integration).
 Alduchov, O. A., Eskridge, R. E. (1996). Improved Magnus form approximation
 of saturation vapor pressure. J. Appl. Meteorol. 35, 601-609.
+Incropera, F. P. et al. (2007). Fundamentals of Heat and Mass Transfer, 6th
+ed. Wiley: eq. 8.57 (Hausen's developing laminar flow), eq. 11.32 (cross
+flow, one fluid mixed).
 """
 
 from __future__ import annotations
@@ -53,15 +82,10 @@ OFF, BH, BC, CC, CH, CH_BH, CH_BC, CC_BC = range(8)
 MODE_NAMES = ("off", "BH", "BC", "CC", "CH", "CH+BH", "CH+BC", "CC+BC")
 
 # Flag bits of the output's ``flags``.
-F_POWER_LIMITED, F_REF_CLIPPED, F_SURROGATE_OOR, F_REGEN_CUT, F_FREEZE_CUTOFF, F_TRACTION_CUT, F_PHYSICS_FALLBACK = (
-    1,
-    2,
-    4,
-    8,
-    16,
-    32,
-    64,
-)
+(
+    F_POWER_LIMITED, F_REF_CLIPPED, F_SURROGATE_OOR, F_REGEN_CUT, F_FREEZE_CUTOFF, F_TRACTION_CUT,
+    F_PHYSICS_FALLBACK, F_ECONOMY, F_REHEAT, F_KEY_OFF, F_SAFETY_RELAY,
+) = (1 << i for i in range(11))  # fmt: skip
 FLAG_NAMES = (
     "power_limited",
     "ref_clipped",
@@ -70,49 +94,68 @@ FLAG_NAMES = (
     "freeze_cutoff",
     "traction_cut",
     "physics_fallback",
+    "economy",
+    "reheat",
+    "key_off",
+    "safety_relay",
 )
 
 # Where the refrigerant loop's steady targets come from (``source``).
 SRC_MAPS, SRC_HELD, SRC_SURROGATE = 0, 1, 2
 # Map ids of ``held`` (and of the physics requests).
 MAP_AC, MAP_CHILLER, MAP_ACCH = 0, 1, 2
+# Refrigerant circuits (output ``circuit``): none, the cabin evaporator, the chiller, both.
+CIRCUIT_NONE, CIRCUIT_CABIN, CIRCUIT_CHILLER, CIRCUIT_BOTH = range(4)
+CIRCUIT_NAMES = ("none", "cabin", "chiller", "cabin+chiller")
+# Cabin heating options (``hvac.heating``).
+HEATING_PTC_AIR, HEATING_PTC_COOLANT = 0, 1
 
 # ``held``: the last refrigerant point the caller solved (SRC_HELD): map id, inputs, targets, fallback.
 H_MAP, H_X, H_Y, H_FALLBACK = 0, 1, 7, 16
 N_H = 17
 
-# ``mem``: controller memory at the start of the step the loop stopped at (resumable runs).
+# ``mem``: the controllers' memory at the start of the next step (resumable runs restart a step from it).
 (
-    M_SET, M_MODE, M_T_MODE, M_BC, M_CRIT, M_BH, M_CC, M_CH, M_BLOWER_AT_MIN, M_I_BLOWER, M_I_COMP, M_I_PTC,
-    M_BLOWER_WAS_ON, M_COMP_WAS_ON, M_PTC_WAS_ON, M_Q_PTC_PREV, M_T,
+    M_SET, M_MODE, M_BC, M_CRIT, M_BH, M_COOL, M_HEAT, M_ECON, M_RHQ, M_WARM,
+    M_T_COOL, M_T_HEAT, M_CLR_COOL, M_CLR_HEAT, M_TCAB_F, M_TVS_F, M_I_VENT, M_SAT_UP, M_SAT_DN,
+    M_COMP_ON, M_T_COMP, M_I_EV, M_FROST_OK, M_CH_FROST_OK, M_I_CH, M_I_PTC, M_I_PTCW, M_I_BLEND,
+    M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
     N_M,
-) = range(18)  # fmt: skip
+) = range(39)  # fmt: skip
 
 # Map output slots (evtms.system.maps.MAP_OUTPUTS order).
 Y_PS, Y_PD, Y_MDOT, Y_QEVAP, Y_QLAT, Y_QCH, Y_QCOND, Y_W, Y_WFLUID = range(9)
 N_Y = 9
 
+# Columns of ``ext``, the external inputs per step (evtms.system.inputs.INPUT_NAMES order; NaN: not given).
+X_Q_BATTERY, X_INLET_T, X_INLET_RH, X_SP_EVAP, X_SP_COHX, X_BLOWER = range(6)
+N_X = 6
+
 # Packed parameters.
 (
     P_T_AMB, P_W_AMB, P_P_ATM, P_FORCED_MODE, P_AUX,
     P_NS, P_R_SCALE, P_R2, P_C2, P_VMIN, P_CAP_AS, P_SOC_MIN, P_SOC_MAX,
-    P_C_BAT, P_G_BC, P_G_BA, P_C_COOL, P_HEATER_MAX, P_PUMP_REF, P_PUMP_NMAX,
-    P_C_AIR, P_M_AIR, P_C_INT, P_G_INT, P_RECIRC, P_Q_OCC, P_MOIST, P_Q_SUN,
-    P_BLOWER_FLOW, P_BLOWER_POWER, P_T_SET,
-    P_BL_KP, P_BL_KI, P_CP_KP, P_CP_KI, P_PS_TARGET, P_CUT_LO, P_CUT_HI,
-    P_PTC_KP, P_PTC_KI, P_PTC_TOUT, P_PTC_MAX, P_SPEED_MIN, P_BLOWER_MIN,
-    P_FAN, P_FAN_POWER, P_DRIVE_EFF, P_TAU,
-    P_BC_ON, P_BC_OFF, P_CRIT_ON, P_CRIT_OFF, P_BH_ON, P_BH_OFF, P_BH_AMB_MAX, P_DEADBAND,
+    P_C_BAT, P_G_BA, P_C_COOL, P_HEATER_MAX, P_PUMP_REF, P_PUMP_NMAX,
+    P_G_BC_FIXED, P_G_CP, P_PLATE_RE1, P_PLATE_PR, P_PLATE_DL, P_PLATE_KA,
+    P_C_AIR, P_M_AIR, P_C_INT, P_G_INT, P_Q_OCC, P_MOIST, P_Q_SUN, P_UA_SHELL,
+    P_BLOWER_FLOW, P_BLOWER_POWER, P_T_SET, P_RC_COOL, P_RC_HEAT, P_RC_WARM,
+    P_CH_KP, P_CH_KI, P_CH_PS, P_SPEED_MIN, P_FAN_POWER, P_DRIVE_EFF, P_TAU,
+    P_BC_ON, P_BC_OFF, P_CRIT_ON, P_CRIT_OFF, P_BH_ON, P_BH_OFF, P_BH_AMB_MAX,
     P_PUMP_IDLE, P_PUMP_BC, P_PUMP_CRIT, P_HOLD, P_COOLANT_MDOT_MAX,
     P_G_GLASS, P_G_DOORS, P_G_ROOF, P_C_GLASS, P_C_DOORS, P_C_ROOF,
+    P_VENT_KP, P_VENT_TI, P_TV_MIN, P_TV_MAX, P_BLOWER_MIN, P_BL_DT0, P_BL_DT1, P_BL_RATE, P_WARMUP_MAX,
+    P_BAND, P_T_CLEAR, P_TAU_REQ, P_TEV_MIN, P_TEV_MAX, P_EV_KP, P_EV_KI, P_DT_CYC, P_T_ON_MIN, P_T_OFF_MIN,
+    P_TFR_OFF, P_TFR_ON, P_PF_OFF, P_PF_ON, P_AC_TAMB_MIN, P_RH_DEHUM, P_BLEND_KP, P_BLEND_KI,
+    P_HEATING, P_PTC_MAX, P_PTC_KP, P_PTC_KI, P_PTCW_MAX, P_PTCW_KP, P_PTCW_KI, P_TH_MAX, P_C_H,
+    P_MDOT_H, P_CP_H, P_PUMP_H_POWER, P_HC_UA, P_HC_AIR_REF, P_BH_TC_MAX, P_BH_TB_MAX, P_BC_TB_MIN,
     N_P,
-) = range(68)  # fmt: skip
+) = range(109)  # fmt: skip
 
 # States at the step boundaries.
 (
-    S_SOC, S_VRC, S_TB, S_TC, S_TA, S_TGLASS, S_TDOORS, S_TROOF, S_TINT, S_W,
+    S_SOC, S_VRC, S_TB, S_TC, S_TA, S_TGLASS, S_TDOORS, S_TROOF, S_TINT, S_W, S_TH,
     S_YF,
-) = range(11)  # fmt: skip
+) = range(12)  # fmt: skip
 N_S = S_YF + N_Y
 
 # Per-step outputs (means over the step; commands as held over the step).
@@ -121,8 +164,10 @@ N_S = S_YF + N_Y
     O_Q_EVAP, O_Q_LATENT, O_Q_CHILLER, O_Q_COND, O_W, O_W_FLUID, O_P_SUCTION, O_P_DISCHARGE, O_MDOT_REF,
     O_Q_GEN, O_EMF, O_V, O_I, O_E_RC, O_SPEED_CMD, O_BLOWER, O_U_PUMP, O_MDOT_AIR, O_Q_HEATER,
     O_Q_AIR_SOURCES, O_Q_SUN_INT, O_T_SUPPLY, O_P_DEFICIT, O_REGEN, O_P_GRID,
+    O_T_EVAP_AIR, O_T_VENT_TARGET, O_T_EVAP_TARGET, O_RECIRC, O_G_IN, O_T_IN_SRC, O_W_IN_SRC, O_G_BC, O_Q_EXT,
+    O_Q_HC, O_P_PTCW, O_P_PUMP_H, O_BLEND, O_T_H_TARGET, O_COMP_ON, O_CIRCUIT, O_P_AUX,
     N_O,
-) = range(35)  # fmt: skip
+) = range(52)  # fmt: skip
 
 #: State columns a mode model carries (:data:`evtms.system.mode_model.STATE_NAMES` order).
 SURROGATE_STATES = (
@@ -143,6 +188,7 @@ _MLP_WIDTH = 512  # widest network layer the kernel evaluates
 _H_FG = 2.45e6  # latent heat of condensing water at cabin conditions [J/kg]
 _CP_AIR = 1006.0  # dry air [J/(kg K)]
 _R_AIR = 287.05  # [J/(kg K)]
+_NU_STAGNANT = 2.0  # plate channels with the pump off: natural convection (A, spec v2 section 8)
 
 
 @jit
@@ -272,6 +318,74 @@ def mlp_eval(net, offset, f, out, h0, h1):
 
 
 @jit
+def dew_point(w: float, p: float) -> float:
+    """Dew point [K] of air with humidity ratio ``w`` [kg/kg] at ``p`` [Pa] (the Magnus form inverted)."""
+    pw = max(w * p / (0.621945 + w), 1e-3)
+    g = math.log(pw / 610.94)
+    return 273.15 + 243.04 * g / (17.625 - g)
+
+
+@jit
+def plate_conductance(u_pump: float, re_1: float, pr: float, d_over_l: float, k_area: float, g_cp: float) -> float:
+    """Pack-to-coolant conductance [W/K]: cells to plate ``g_cp`` in series with the channels' convection.
+
+    Hausen's thermally developing laminar flow (Incropera eq. 8.57),
+    ``Nu = 3.66 + 0.0668 Gz / (1 + 0.04 Gz^(2/3))``, ``Gz = (D/L) Re Pr``,
+    with ``Re = u_pump re_1``; with the pump off the channels keep
+    ``Nu = 2`` (natural convection, A). ``k_area`` [W/K] is ``k / D`` times
+    the channels' wetted area.
+    """
+    if u_pump <= 0.0:
+        nu = _NU_STAGNANT
+    else:
+        gz = d_over_l * u_pump * re_1 * pr
+        nu = 3.66 + 0.0668 * gz / (1.0 + 0.04 * gz ** (2.0 / 3.0))
+    h_a = nu * k_area
+    return 1.0 / (1.0 / g_cp + 1.0 / h_a)
+
+
+@jit
+def crossflow_effectiveness(c_air: float, c_liquid: float, ua: float) -> float:
+    """Effectiveness [1] of a cross-flow coil, liquid mixed and air unmixed (Incropera eq. 11.32-11.33).
+
+    Air the smaller stream: ``eps = (1/C_r)(1 - exp(-C_r (1 - e^-NTU)))``;
+    liquid the smaller: ``eps = 1 - exp(-(1 - e^(-C_r NTU))/C_r)``; both tend
+    to ``1 - e^-NTU`` as ``C_r -> 0`` and coincide at ``C_r = 1``.
+    """
+    c_min = min(c_air, c_liquid)
+    if c_min <= 0.0:
+        return 0.0
+    c_r = c_min / max(c_air, c_liquid)
+    ntu = ua / c_min
+    if c_r < 1e-9:
+        return 1.0 - math.exp(-ntu)
+    if c_air <= c_liquid:
+        return (1.0 - math.exp(-c_r * (1.0 - math.exp(-ntu)))) / c_r
+    return 1.0 - math.exp(-(1.0 - math.exp(-c_r * ntu)) / c_r)
+
+
+@jit
+def _pi_range(e, integral, kp, ki, dt, lo, hi):
+    """Parallel PI saturated to [lo, hi]; returns (output, integral, saturated in e's direction)."""
+    u = kp * e + integral
+    out = min(max(u, lo), hi)
+    blocked = (u >= hi and e > 0.0) or (u <= lo and e < 0.0)
+    if not blocked:
+        integral += ki * e * dt
+    return out, integral, blocked
+
+
+@jit
+def _filter(y, yf, s1, dt, tau):
+    """Advance the common first-order filter: ``s1`` gets the step-end values, ``y`` becomes the interval mean."""
+    decay = math.exp(-dt / tau)
+    mean_f = tau / dt * (1.0 - decay)
+    for k in range(N_Y):
+        s1[S_YF + k] = y[k] + (yf[S_YF + k] - y[k]) * decay
+        y[k] = y[k] + (yf[S_YF + k] - y[k]) * mean_f
+
+
+@jit
 def run_loop(
     par, dts, p_motor_el, soc_ocv, cell_T, cell_ocv, cell_r0, sat_T, sat_p,
     ac_knots, ac_starts, ac_table, ch_knots, ch_starts, ch_table, acch_knots, acch_starts, acch_table,
@@ -282,9 +396,12 @@ def run_loop(
 
     ``states`` (steps + 1, N_S) holds the initial state in row 0 and is filled
     row by row; ``out`` (steps, N_O), ``modes`` and ``flags`` (steps) per step.
-    ``p_motor_el`` (steps, 3): the step's mean motor electrical power [W]
-    with regeneration and with it cut, and 1 where the car is plugged in
-    (preconditioning: the grid, not the battery, feeds auxiliaries and HVAC).
+    ``p_motor_el`` (steps, 4): the step's mean motor electrical power [W]
+    with regeneration and with it cut, 1 where the car is plugged in
+    (preconditioning: the grid, not the battery, feeds auxiliaries and HVAC)
+    and 1 where the key is off (a soak: no propulsion, auxiliaries, HVAC,
+    pumps or DC-DC). ``ext`` (steps, N_X): external inputs, NaN where not
+    given (:mod:`evtms.system.inputs`).
 
     ``source`` says where the refrigerant targets come from: SRC_MAPS the
     cycle maps; SRC_HELD the caller's solved point in ``held``, reused while
@@ -293,13 +410,16 @@ def run_loop(
     ``held[H_Y:]`` and calls again from that step); SRC_SURROGATE the mode
     models packed in ``net`` (``net_index[mode, head]``: offset, -1 none)
     replace the refrigerant loop and the thermal network. ``mem`` (N_M)
-    carries the controllers' memory between calls.
+    carries the controllers' memory between steps and calls.
     """
     T_amb = par[P_T_AMB]
     w_amb = par[P_W_AMB]
     p_atm = par[P_P_ATM]
     forced = int(par[P_FORCED_MODE])
-    recirc = par[P_RECIRC]
+    T_set, band, hold = par[P_T_SET], par[P_BAND], par[P_HOLD]
+    u_min = par[P_SPEED_MIN]
+    heating_opt = int(par[P_HEATING])
+    forced_cabin = forced == CC or forced == CC_BC or forced == CH or forced == CH_BH or forced == CH_BC
     y = np.zeros(N_Y)
     x = np.zeros(6)
     g_w = np.array([par[P_G_GLASS], par[P_G_DOORS], par[P_G_ROOF]])
@@ -311,44 +431,40 @@ def run_loop(
     pred = np.zeros(len(SURROGATE_STATES))
     h0 = np.empty(_MLP_WIDTH)
     h1 = np.empty(_MLP_WIDTH)
-    # Controller and mode memory.
-    if mem[M_SET] > 0.0:
-        mode = int(mem[M_MODE])
-        t_mode = mem[M_T_MODE]
-        bc, crit, bh, cc, ch = mem[M_BC] > 0.0, mem[M_CRIT] > 0.0, mem[M_BH] > 0.0, mem[M_CC] > 0.0, mem[M_CH] > 0.0
-        blower_at_min = mem[M_BLOWER_AT_MIN] > 0.0
-        i_blower, i_comp, i_ptc = mem[M_I_BLOWER], mem[M_I_COMP], mem[M_I_PTC]
-        blower_was_on, comp_was_on = mem[M_BLOWER_WAS_ON] > 0.0, mem[M_COMP_WAS_ON] > 0.0
-        ptc_was_on = mem[M_PTC_WAS_ON] > 0.0
-        q_ptc_prev = mem[M_Q_PTC_PREV]
-        t = mem[M_T]
-    else:
-        mode = OFF if forced < 0 else forced
-        t_mode = -1e300
-        bc = crit = bh = cc = ch = False
-        blower_at_min = True
-        i_blower = i_comp = i_ptc = 0.0
-        blower_was_on = comp_was_on = ptc_was_on = False
-        q_ptc_prev = 0.0
-        t = 0.0
-    n_steps = dts.size
-    for n in range(start, n_steps):
-        dt = dts[n]
-        # The step's starting memory: a request returns here, and the step reruns from it.
+    if mem[M_SET] == 0.0:
+        for k in range(N_M):
+            mem[k] = 0.0
         mem[M_SET] = 1.0
-        mem[M_MODE] = mode
-        mem[M_T_MODE] = t_mode
-        mem[M_BC], mem[M_CRIT], mem[M_BH], mem[M_CC], mem[M_CH] = bc, crit, bh, cc, ch
-        mem[M_BLOWER_AT_MIN] = blower_at_min
-        mem[M_I_BLOWER], mem[M_I_COMP], mem[M_I_PTC] = i_blower, i_comp, i_ptc
-        mem[M_BLOWER_WAS_ON], mem[M_COMP_WAS_ON], mem[M_PTC_WAS_ON] = blower_was_on, comp_was_on, ptc_was_on
-        mem[M_Q_PTC_PREV] = q_ptc_prev
-        mem[M_T] = t
+        mem[M_MODE] = OFF if forced < 0 else forced
+        mem[M_T_COOL] = mem[M_T_HEAT] = mem[M_T_COMP] = -1e300
+        mem[M_TCAB_F] = mem[M_TVS_F] = mem[M_TV] = np.nan
+        mem[M_FROST_OK] = mem[M_CH_FROST_OK] = 1.0
+        mem[M_HEATER_OK] = mem[M_HEATER_BAT_OK] = mem[M_CHILL_OK] = 1.0
+        mem[M_CAB_OFF] = 1.0
+    n_steps = dts.size
+    n = start
+    attempt = 0
+    while n < n_steps:
+        dt = dts[n]
+        t = mem[M_T]
         s0 = states[n]
+        s1 = states[n + 1]
+        o = out[n]
         soc, v_rc, Tb, Tc, Ta = s0[S_SOC], s0[S_VRC], s0[S_TB], s0[S_TC], s0[S_TA]
-        w_cab = s0[S_W]
+        w_cab, T_H = s0[S_W], s0[S_TH]
+        key_off = p_motor_el[n, 3] > 0.0
+        q_ext = ext[n, X_Q_BATTERY] if not math.isnan(ext[n, X_Q_BATTERY]) else 0.0
         flag = 0
         # (a) controls ------------------------------------------------------------
+        bc, crit, bh = mem[M_BC] > 0.0, mem[M_CRIT] > 0.0, mem[M_BH] > 0.0
+        cool, heat, econ, rhq, warm = (
+            mem[M_COOL] > 0.0,
+            mem[M_HEAT] > 0.0,
+            mem[M_ECON] > 0.0,
+            mem[M_RHQ] > 0.0,
+            mem[M_WARM] > 0.0,
+        )
+        # Battery relays (MW M): requests, skipped by forced modes.
         if Tb > par[P_BC_ON]:
             bc = True
         elif Tb < par[P_BC_OFF]:
@@ -361,118 +477,276 @@ def run_loop(
             bh = True
         elif Tc > par[P_BH_OFF]:
             bh = False
-        T_set, band = par[P_T_SET], par[P_DEADBAND]
-        # A cabin request ends past the far side of the band only once the blower PI has
-        # wound down to its minimum: ending it earlier (the integrator still high after a
-        # pull-down) stops the blower for the mode hold while sun and walls reheat the
-        # 3.4 kJ/K air by several kelvin a minute, a limit cycle of +-7 K (hot soak, 40 degC).
-        if T_amb > T_set and Ta > T_set + band:
-            cc = True
-        elif Ta < T_set - band and (blower_at_min or not cc):
-            cc = False
-        if T_amb < T_set and Ta < T_set - band:
-            ch = True
-        elif Ta > T_set + band and (blower_at_min or not ch):
-            ch = False
-        if forced >= 0:
+        # Safety relays, kept in every mode (spec v2 section 3).
+        heater_ok, heater_bat_ok, chill_ok = mem[M_HEATER_OK] > 0.0, mem[M_HEATER_BAT_OK] > 0.0, mem[M_CHILL_OK] > 0.0
+        if Tc > par[P_BH_TC_MAX]:
+            heater_ok = False
+        elif Tc < par[P_BH_TC_MAX] - 5.0:
+            heater_ok = True
+        if Tb >= par[P_BH_TB_MAX]:
+            heater_bat_ok = False
+        elif Tb < par[P_BH_TB_MAX] - 1.0:
+            heater_bat_ok = True
+        if Tb < par[P_BC_TB_MIN] or Tc < 278.15:
+            chill_ok = False
+        elif Tb > par[P_BC_TB_MIN] + 1.0 and Tc > 279.15:
+            chill_ok = True
+        # Inlet air: fixed (Table 12 Tin) or the mix of cabin and ambient air.
+        fixed_inlet = not math.isnan(ext[n, X_INLET_T])
+        rc, rh_, rw = par[P_RC_COOL], par[P_RC_HEAT], par[P_RC_WARM]
+        rh_cab = min(max(relative_humidity(Ta, w_cab, p_atm), 0.0), 1.5)
+        # Vent-air target: feed-forward of the cabin's steady balance, proportional and integral terms.
+        m_max = par[P_BLOWER_FLOW] * p_atm / (_R_AIR * Ta)
+        mdot_ff = max(mem[M_MDOT], par[P_BLOWER_MIN] * m_max)
+        q_load = par[P_UA_SHELL] * (T_amb - T_set) + par[P_Q_SUN] + par[P_Q_OCC]
+        e_cab = T_set - Ta
+        tvs_raw = T_set - q_load / (mdot_ff * _CP_AIR) + par[P_VENT_KP] * e_cab + mem[M_I_VENT]
+        T_vs = min(max(tvs_raw, par[P_TV_MIN]), par[P_TV_MAX])
+        up_blocked = tvs_raw >= par[P_TV_MAX] or mem[M_SAT_UP] > 0.0
+        dn_blocked = tvs_raw <= par[P_TV_MIN] or mem[M_SAT_DN] > 0.0
+        i_vent = mem[M_I_VENT]
+        cabin_was_on = not key_off and (forced < 0 or forced_cabin)
+        if cabin_was_on and not ((e_cab > 0.0 and up_blocked) or (e_cab < 0.0 and dn_blocked)):
+            i_vent += par[P_VENT_KP] / par[P_VENT_TI] * e_cab * dt
+        span = par[P_TV_MAX] - par[P_TV_MIN]
+        i_vent = min(max(i_vent, -span), span)
+        # Request filters (tau_request): what the requests are tested on.
+        a_req = 1.0 - math.exp(-dt / par[P_TAU_REQ])
+        tcab_f = Ta if math.isnan(mem[M_TCAB_F]) else mem[M_TCAB_F] + (Ta - mem[M_TCAB_F]) * a_req
+        tvs_f = T_vs if math.isnan(mem[M_TVS_F]) else mem[M_TVS_F] + (T_vs - mem[M_TVS_F]) * a_req
+        t_cool, t_heat = mem[M_T_COOL], mem[M_T_HEAT]
+        clr_cool, clr_heat = mem[M_CLR_COOL], mem[M_CLR_HEAT]
+        climate = not key_off and forced != OFF
+        if key_off:
+            cool = heat = econ = warm = False
+            clr_cool = clr_heat = 0.0
+        elif forced < 0:
+            T_in_c = rc * tcab_f + (1.0 - rc) * T_amb
+            T_in_h = rh_ * tcab_f + (1.0 - rh_) * T_amb
+            if rh_cab > par[P_RH_DEHUM]:
+                rhq = True
+            elif rh_cab < par[P_RH_DEHUM] - 0.05:
+                rhq = False
+            if econ:
+                if T_amb > tvs_f - 0.5 or tvs_f > tcab_f + 0.5 or rhq:
+                    econ = False
+            elif T_amb <= tvs_f - 1.0 and tvs_f <= tcab_f and not rhq:
+                econ = True
+            if cool:
+                # A request ends on the clock only once the compressor has stayed off that long with the cabin
+                # cold: counting its minimum speed too ends it while on/off cycling holds the band.
+                if mem[M_CAB_OFF] > 0.0 and tcab_f < T_set:
+                    clr_cool += dt
+                else:
+                    clr_cool = 0.0
+                if t - t_cool >= hold and (tvs_f > T_in_c - 0.5 or clr_cool >= par[P_T_CLEAR] or econ):
+                    cool = False
+            elif tvs_f < T_in_c - 2.0 and tcab_f > T_set + band and T_amb >= par[P_AC_TAMB_MIN] and not econ:
+                cool = True
+                t_cool = t
+                clr_cool = 0.0
+            if heat:
+                if mem[M_Q_HEAT] <= 0.0 and tcab_f > T_set + band:
+                    clr_heat += dt
+                else:
+                    clr_heat = 0.0
+                if cool or (t - t_heat >= hold and (tvs_f < T_in_h + 0.5 or clr_heat >= par[P_T_CLEAR])):
+                    heat = False
+            elif tvs_f > T_in_h + 2.0 and tcab_f < T_set - band and not cool:
+                heat = True
+                t_heat = t
+                clr_heat = 0.0
+                warm = True
+                mem[M_T_WARM] = t
+            if tcab_f >= T_set:
+                warm = False
+        # The mode: requests and battery relays, or forced.
+        if key_off:
+            mode = OFF
+        elif forced >= 0:
             mode = forced
         else:
-            want = _pick_mode(bc, crit, bh, cc, ch)
-            if want != mode and t - t_mode >= par[P_HOLD]:
-                mode = want
-                t_mode = t
+            mode = _pick_mode(bc, crit, bh, cool, heat)
         cab_cool = mode == CC or mode == CC_BC
         cab_heat = mode == CH or mode == CH_BH or mode == CH_BC
-        chill = mode == BC or mode == CH_BC or mode == CC_BC
-        heat_bat = mode == BH or mode == CH_BH
-        T_mix = recirc * Ta + (1.0 - recirc) * T_amb
-        w_mix = recirc * w_cab + (1.0 - recirc) * w_amb
-        rho_mix = p_atm / (_R_AIR * T_mix)
-        # Blower.
+        chill = (mode == BC or mode == CH_BC or mode == CC_BC) and chill_ok
+        heat_bat = (mode == BH or mode == CH_BH) and heater_ok and heater_bat_ok
+        if (mode == BH or mode == CH_BH) and not (heater_ok and heater_bat_ok):
+            flag |= F_SAFETY_RELAY
+        if (mode == BC or mode == CH_BC or mode == CC_BC) and not chill_ok:
+            flag |= F_SAFETY_RELAY
+        cabin_on = climate and (forced < 0 or cab_cool or cab_heat)
+        # Dehumidifying: the compressor on the cabin coil with reheat; in the cold, fresh air instead.
+        rh_active = cabin_on and forced < 0 and rhq and T_amb >= par[P_AC_TAMB_MIN]
+        if econ:
+            flag |= F_ECONOMY
+        # Recirculated share.
+        if forced < 0 and econ and abs(Ta - T_amb) > 0.1:
+            r = min(max((T_vs - T_amb) / (Ta - T_amb), 0.0), rc)
+        elif forced < 0 and rhq and not rh_active:
+            r = 0.0
+        elif cab_cool or (not cab_heat and T_amb > Ta):
+            r = rc
+        elif cab_heat and warm:
+            r = rw * min(max((par[P_RH_DEHUM] - rh_cab) / 0.1, 0.0), 1.0)
+        else:
+            r = rh_
+        if fixed_inlet:
+            r = 0.0
+            T_in = ext[n, X_INLET_T]
+            rh_fix = ext[n, X_INLET_RH]
+            w_in = w_amb if math.isnan(rh_fix) else humidity_ratio(T_in, rh_fix, p_atm)
+            w_in = min(w_in, humidity_ratio(T_in, 1.0, p_atm))
+            T_src, w_src = T_in, w_in
+        else:
+            T_in = r * Ta + (1.0 - r) * T_amb
+            w_in = r * w_cab + (1.0 - r) * w_amb
+            T_src, w_src = T_amb, w_amb
+        rho_in = p_atm / (_R_AIR * T_in)
+        # Heater capability for the blower cap.
+        p_heat_max = par[P_PTC_MAX] if heating_opt == HEATING_PTC_AIR else par[P_PTCW_MAX]
         blower = 0.0
-        if cab_cool or cab_heat:
-            if not blower_was_on:
-                i_blower = 0.0
-            e = (Ta - T_set) if cab_cool else (T_set - Ta)
-            u, i_blower = _pi(e, i_blower, par[P_BL_KP], par[P_BL_KI], dt)
-            blower = max(u, par[P_BLOWER_MIN])
-            blower_at_min = u <= par[P_BLOWER_MIN]
-        else:
-            blower_at_min = True
-        blower_was_on = blower > 0.0
-        mdot_air = blower * par[P_BLOWER_FLOW] * rho_mix
-        # Compressor: PI on the filtered suction pressure, freeze cutoff, speed floor.
-        speed = 0.0
-        p_suction_f = s0[S_YF + Y_PS]
-        if cab_cool or chill:
-            cut_lo, cut_hi = par[P_CUT_LO], par[P_CUT_HI]
-            cutoff = min(max((p_suction_f - cut_lo) / (cut_hi - cut_lo), 0.0), 1.0)
-            if not comp_was_on:
-                i_comp = 0.0
-            e = (p_suction_f - par[P_PS_TARGET]) * 1e-6
-            u, i_comp = _pi(e, i_comp, par[P_CP_KP], par[P_CP_KI], dt)
-            if cutoff > 0.0:
-                speed = max(u * cutoff, par[P_SPEED_MIN])
+        blower_prev = mem[M_BLOWER]
+        if cabin_on:
+            if not math.isnan(ext[n, X_BLOWER]):
+                blower = ext[n, X_BLOWER]
             else:
-                flag |= F_FREEZE_CUTOFF
-            comp_was_on = True
+                b_min = par[P_BLOWER_MIN]
+                gap = (abs(T_vs - Ta) - par[P_BL_DT0]) / par[P_BL_DT1]
+                law = b_min + (1.0 - b_min) * min(max(gap, 0.0), 1.0)
+                if cab_heat:
+                    cap = p_heat_max / (max(T_vs - T_in, 1.0) * par[P_BLOWER_FLOW] * rho_in * _CP_AIR)
+                    law = max(b_min, min(law, cap))
+                    tv_prev = mem[M_TV]
+                    if (math.isnan(tv_prev) or tv_prev < Ta + 5.0) and t - mem[M_T_WARM] < par[P_WARMUP_MAX]:
+                        law = b_min
+                step = par[P_BL_RATE] * dt
+                blower = max(min(law, max(blower_prev, b_min) + step), blower_prev - step, b_min)
+        mdot_air = blower * par[P_BLOWER_FLOW] * rho_in
+        g_in = mdot_air * _CP_AIR * (1.0 - r)
+        # Evaporator air: inlet less the filtered sensible duty (its tail after a stop included).
+        ps_f = s0[S_YF + Y_PS]
+        sens_f = s0[S_YF + Y_QEVAP] - s0[S_YF + Y_QLAT]
+        T_ev = T_in - sens_f / (mdot_air * _CP_AIR) if mdot_air > 0.0 else T_in
+        sp_evap_given = not math.isnan(ext[n, X_SP_EVAP])
+        if sp_evap_given:
+            T_ev_t = ext[n, X_SP_EVAP]
         else:
-            comp_was_on = False
-        # PTC: PI on its outlet air temperature; off when the ambient is warmer than the setpoint.
-        p_ptc = 0.0
-        if cab_heat and T_amb <= T_set and mdot_air > 0.0:
-            if not ptc_was_on:
-                i_ptc = 0.0
-            T_out = T_mix + q_ptc_prev / (mdot_air * _CP_AIR)
-            u, i_ptc = _pi(par[P_PTC_TOUT] - T_out, i_ptc, par[P_PTC_KP], par[P_PTC_KI], dt)
-            p_ptc = u * par[P_PTC_MAX]
-            ptc_was_on = True
+            T_ev_t = max(min(T_vs, par[P_TEV_MAX], T_in - 2.0), par[P_TEV_MIN])
+        if rh_active:
+            T_dp = dew_point(w_cab, p_atm)
+            T_ev_t = min(T_ev_t, min(max(T_dp - 2.0, par[P_TEV_MIN]), par[P_TEV_MAX]))
+        # Frost relays (re-armed only on a step's first attempt: a retried step keeps what tripped it).
+        frost_ok, ch_frost_ok = mem[M_FROST_OK] > 0.0, mem[M_CH_FROST_OK] > 0.0
+        if attempt == 0:
+            if T_ev <= par[P_TFR_OFF] or ps_f <= par[P_PF_OFF]:
+                frost_ok = False
+            elif T_ev >= par[P_TFR_ON] and ps_f >= par[P_PF_ON]:
+                frost_ok = True
+            if ps_f <= par[P_PF_OFF]:
+                ch_frost_ok = False
+            elif ps_f >= par[P_PF_ON]:
+                ch_frost_ok = True
+        # Cabin compressor: PI on the evaporator air between u_min and 1, cycling with minimum times.
+        cab_coil = cabin_on and (cab_cool or rh_active) and mdot_air > 0.0
+        comp_on, t_comp, i_ev = mem[M_COMP_ON] > 0.0, mem[M_T_COMP], mem[M_I_EV]
+        u_cab = 0.0
+        if cab_coil and frost_ok:
+            e_ev = T_ev - T_ev_t
+            if not comp_on:
+                if T_ev > T_ev_t + par[P_DT_CYC] and T_ev >= par[P_TFR_ON] and t - t_comp >= par[P_T_OFF_MIN]:
+                    comp_on = True
+                    t_comp = t
+                    i_ev = u_min - par[P_EV_KP] * e_ev  # restart at the minimum speed
+            if comp_on:
+                u_cab, i_ev, _ = _pi_range(e_ev, i_ev, par[P_EV_KP], par[P_EV_KI], dt, u_min, 1.0)
+                # Off when the compressor can give no less cooling: at its minimum speed with the evaporator air
+                # below its target, or, once the cabin is colder than its setpoint, with the evaporator target
+                # clipped below a warmer vent target (its highest setting) and the air below that: then the
+                # duty of on/off cycling, not an ever colder cabin, meets the load. A given SP_evap is held
+                # whatever the cabin (the thesis's experiments).
+                T_want = min(T_vs, T_in - 2.0)
+                at_floor = u_cab <= u_min and T_ev < T_ev_t - par[P_DT_CYC]
+                clipped_warm = (
+                    not sp_evap_given and T_want > T_ev_t and T_ev < T_want - par[P_DT_CYC] and tcab_f < T_set
+                )
+                # While a critical battery holds the compressor faster, the cabin branch closes only once the
+                # cabin itself is too cold: closing it on its air alone stops the cabin's cooling for the minimum
+                # off time, and the 3.5 kJ/K air swings by several kelvin.
+                held_up = (
+                    crit and chill and ch_frost_ok and mem[M_I_CH] + par[P_CH_KP] * (ps_f - par[P_CH_PS]) * 1e-6 > u_min
+                )
+                overcooled = tcab_f < T_set - band or not held_up
+                if (at_floor or clipped_warm) and overcooled and t - t_comp >= par[P_T_ON_MIN]:
+                    comp_on = False
+                    t_comp = t
+                    u_cab = 0.0
+        elif comp_on:
+            comp_on = False
+            t_comp = t
+        if cab_coil and not frost_ok:
+            flag |= F_FREEZE_CUTOFF
+        # Chiller: suction-pressure PI (battery cooling), floor u_min, its own frost relay.
+        u_ch = 0.0
+        i_ch = mem[M_I_CH]
+        if chill and ch_frost_ok:
+            e_ch = (ps_f - par[P_CH_PS]) * 1e-6
+            u, i_ch, _ = _pi_range(e_ch, i_ch, par[P_CH_KP], par[P_CH_KI], dt, 0.0, 1.0)
+            u_ch = max(u, u_min)
+        elif chill:
+            flag |= F_FREEZE_CUTOFF
+            i_ch = 0.0
         else:
-            ptc_was_on = False
+            i_ch = 0.0
+        if u_cab > 0.0 and u_ch > 0.0:
+            circuit = CIRCUIT_BOTH
+        elif u_cab > 0.0:
+            circuit = CIRCUIT_CABIN
+        elif u_ch > 0.0:
+            circuit = CIRCUIT_CHILLER
+        else:
+            circuit = CIRCUIT_NONE
+        # One compressor for both branches: the cabin's PI sets its speed and the chiller takes what its valve
+        # passes, unless the battery is critical. The larger of the two would run the cabin coil at the
+        # chiller's suction target (6-7 degC air), overcool the cabin and close its branch for the minimum off
+        # time, which swings the 3.5 kJ/K air by 6 K.
+        speed = max(u_cab, u_ch) if (crit or u_cab <= 0.0) else u_cab
         p_heater = par[P_HEATER_MAX] if heat_bat else 0.0
         u_pump = 0.0
-        if crit:
-            u_pump = par[P_PUMP_CRIT]
-        elif chill:
-            u_pump = par[P_PUMP_BC]
-        elif mode != OFF:
-            u_pump = par[P_PUMP_IDLE]
+        if not key_off:
+            if crit:
+                u_pump = par[P_PUMP_CRIT]
+            elif mode == BC or mode == CH_BC or mode == CC_BC:
+                u_pump = par[P_PUMP_BC]
+            elif mode != OFF:
+                u_pump = par[P_PUMP_IDLE]
+        if par[P_G_BC_FIXED] >= 0.0:
+            g_bc = par[P_G_BC_FIXED]
+        else:
+            g_bc = plate_conductance(
+                u_pump, par[P_PLATE_RE1], par[P_PLATE_PR], par[P_PLATE_DL], par[P_PLATE_KA], par[P_G_CP]
+            )
         # (b) refrigerant target and filter ---------------------------------------
-        s1 = states[n + 1]
-        o = out[n]
         surrogate = source == SRC_SURROGATE
         n_z = len(SURROGATE_STATES)
+        p_comp = 0.0
         if surrogate:
             # The mode model replaces the loop's refrigerant and thermal network: no heat flows, no filter.
             for k in range(N_Y):
                 y[k] = np.nan
                 s1[S_YF + k] = np.nan
-            for k in range(n_z):
-                feat[k] = s0[SURROGATE_STATES[k]]
-            feat[n_z], feat[n_z + 1], feat[n_z + 2] = speed, blower, u_pump
-            feat[n_z + 3], feat[n_z + 4], feat[n_z + 5], feat[n_z + 6] = p_ptc, p_heater, T_amb, w_amb
-            feat[n_z + 7] = par[P_Q_SUN]
-            p_comp = 0.0
-            at = net_index[mode, 0]
-            if at < 0:
-                flag |= F_SURROGATE_OOR
-            else:
-                if mlp_eval(net, at, feat, pred, h0, h1):
-                    flag |= F_SURROGATE_OOR
-                if speed > 0.0:
-                    p_comp = max(pred[0], 0.0)
         else:
             for k in range(N_Y):
                 y[k] = 0.0
             if speed > 0.0:
                 clipped = 0
-                if mode == CC:
+                rh_in = min(max(relative_humidity(T_in, w_in, p_atm), 0.0), 1.0)
+                if circuit == CIRCUIT_CABIN:
                     map_id, nx = MAP_AC, 5
-                    rh_mix = min(max(relative_humidity(T_mix, w_mix, p_atm), 0.0), 1.0)
-                    x[0], x[1], x[2], x[3], x[4] = speed, blower, T_amb, T_mix, rh_mix
-                elif mode == CC_BC:
+                    x[0], x[1], x[2], x[3], x[4] = speed, blower, T_amb, T_in, rh_in
+                elif circuit == CIRCUIT_BOTH:
                     map_id, nx = MAP_ACCH, 6
-                    x[0], x[1], x[2], x[3], x[4], x[5] = speed, blower, u_pump, T_amb, T_mix, Tc
+                    x[0], x[1], x[2], x[3], x[4], x[5] = speed, blower, u_pump, T_amb, T_in, Tc
                 else:
                     map_id, nx = MAP_CHILLER, 4
                     x[0], x[1], x[2], x[3] = speed, u_pump, T_amb, Tc
@@ -491,27 +765,129 @@ def run_loop(
                         y[k] = held[H_Y + k]
                     if held[H_FALLBACK] > 0.0:
                         flag |= F_PHYSICS_FALLBACK
-                elif mode == CC:
+                elif circuit == CIRCUIT_CABIN:
                     clipped = map_interp(ac_knots, ac_starts, ac_table, x[:5], y)
-                elif mode == CC_BC:
+                elif circuit == CIRCUIT_BOTH:
                     clipped = map_interp(acch_knots, acch_starts, acch_table, x, y)
                 else:
                     clipped = map_interp(ch_knots, ch_starts, ch_table, x[:4], y)
                 if clipped:
                     flag |= F_REF_CLIPPED
             else:
-                T_ref = Tc if (mode == BC or mode == CH_BC or mode == BH) else T_mix
+                T_ref = Tc if (mode == BC or mode == CH_BC or mode == BH) else T_in
                 p_eq = np.interp(T_ref, sat_T, sat_p)
                 y[Y_PS] = p_eq
                 y[Y_PD] = p_eq
-            decay = math.exp(-dt / par[P_TAU])
-            mean_f = par[P_TAU] / dt * (1.0 - decay)
-            for k in range(N_Y):
-                yf = s0[S_YF + k]
-                s1[S_YF + k] = y[k] + (yf - y[k]) * decay
-                y[k] = y[k] + (yf - y[k]) * mean_f  # from here on: the interval mean
+            _filter(y, s0, s1, dt, par[P_TAU])
+            # Frost look-ahead: the relay opens before the air or the suction would cross it within the step.
+            if speed > 0.0:
+                trip = False
+                cab_in = circuit == CIRCUIT_CABIN or circuit == CIRCUIT_BOTH
+                if cab_in:
+                    sens_end = s1[S_YF + Y_QEVAP] - s1[S_YF + Y_QLAT]
+                    if T_in - sens_end / (mdot_air * _CP_AIR) <= par[P_TFR_OFF] or s1[S_YF + Y_PS] <= par[P_PF_OFF]:
+                        mem[M_FROST_OK] = 0.0
+                        trip = True
+                if circuit != CIRCUIT_CABIN and s1[S_YF + Y_PS] <= par[P_PF_OFF]:
+                    mem[M_CH_FROST_OK] = 0.0
+                    trip = True
+                if trip and attempt < 3:
+                    attempt += 1
+                    continue
             p_comp = y[Y_W] / par[P_DRIVE_EFF]
+        attempt = 0
         q_evap, q_lat, q_chill = y[Y_QEVAP], y[Y_QLAT], y[Y_QCH]
+        # Air after the evaporator over the step (interval-mean duty), then heat after it.
+        if surrogate:
+            T_ev_mean = T_ev
+        else:
+            T_ev_mean = T_in - (q_evap - q_lat) / (mdot_air * _CP_AIR) if mdot_air > 0.0 else T_in
+        reheat_ok = rh_active and u_cab > 0.0
+        heating_now = (cab_heat or reheat_ok) and mdot_air > 0.0
+        c_air = mdot_air * _CP_AIR
+        tv_prev = T_ev_mean if math.isnan(mem[M_TV]) else mem[M_TV]
+        e_v = T_vs - tv_prev
+        p_ptc = 0.0
+        i_ptc, i_ptcw, i_blend = mem[M_I_PTC], mem[M_I_PTCW], mem[M_I_BLEND]
+        heater_sat_up = False
+        heater_sat_dn = False
+        if heating_now and heating_opt == HEATING_PTC_AIR and tv_prev <= par[P_TV_MAX]:
+            ff = c_air * (T_vs - T_ev_mean)
+            kp, ki = par[P_PTC_KP] * par[P_PTC_MAX], par[P_PTC_KI] * par[P_PTC_MAX]
+            u = ff + kp * e_v + i_ptc
+            p_ptc = min(max(u, 0.0), par[P_PTC_MAX])
+            blocked = (u >= par[P_PTC_MAX] and e_v > 0.0) or (u <= 0.0 and e_v < 0.0)
+            if not blocked:
+                i_ptc += ki * e_v * dt
+            i_ptc = min(max(i_ptc, -par[P_PTC_MAX]), par[P_PTC_MAX])
+            heater_sat_up = u >= par[P_PTC_MAX]
+            heater_sat_dn = u <= 0.0
+        else:
+            i_ptc = 0.0
+        # Coolant PTC and heater core (loop H): the coolant PTC holds T_H*, the air-mix door the vent air.
+        p_ptcw = 0.0
+        beta = 0.0
+        mdot_h = 0.0
+        T_H_t = np.nan
+        eps_hc = 0.0
+        if heating_now and heating_opt == HEATING_PTC_COOLANT:
+            mdot_h = par[P_MDOT_H]
+            c_h = mdot_h * par[P_CP_H]
+            ua_full = par[P_HC_UA] * (mdot_air / par[P_HC_AIR_REF]) ** 0.6
+            eps_full = crossflow_effectiveness(c_air, c_h, ua_full)
+            if not math.isnan(ext[n, X_SP_COHX]):
+                T_H_t = ext[n, X_SP_COHX]
+            else:
+                T_H_t = T_in + (T_vs - T_in) / max(eps_full, 0.05)
+                T_H_t = max(min(T_H_t, par[P_TH_MAX]), min(T_vs + 3.0, par[P_TH_MAX]))
+            e_h = T_H_t - T_H
+            pmax = par[P_PTCW_MAX]
+            u = par[P_PTCW_KP] * pmax * e_h + i_ptcw
+            if T_H < par[P_TH_MAX]:
+                p_ptcw = min(max(u, 0.0), pmax)
+            if not ((u >= pmax and e_h > 0.0) or (u <= 0.0 and e_h < 0.0)):
+                i_ptcw += par[P_PTCW_KI] * pmax * e_h * dt
+            i_ptcw = min(max(i_ptcw, -pmax), pmax)
+            beta, i_blend, blk = _pi_range(e_v, i_blend, par[P_BLEND_KP], par[P_BLEND_KI], dt, 0.0, 1.0)
+            heater_sat_up = blk and e_v > 0.0
+            heater_sat_dn = blk and e_v < 0.0
+        else:
+            i_ptcw = 0.0
+            i_blend = 0.0
+        # Heater core: backward Euler in T_H with the air's inlet (the evaporator outlet) held.
+        c_hc_air = beta * c_air
+        g_hc = 0.0
+        if beta > 0.0 and mdot_h > 0.0:
+            ua = par[P_HC_UA] * (beta * mdot_air / par[P_HC_AIR_REF]) ** 0.6
+            eps_hc = crossflow_effectiveness(c_hc_air, mdot_h * par[P_CP_H], ua)
+            g_hc = eps_hc * min(c_hc_air, mdot_h * par[P_CP_H])
+        c_hh = par[P_C_H] / dt
+        T_H_new = (c_hh * T_H + p_ptcw + g_hc * T_ev_mean) / (c_hh + g_hc)
+        q_hc = g_hc * (T_H_new - T_ev_mean)
+        s1[S_TH] = T_H_new
+        p_pump_h = par[P_PUMP_H_POWER] if mdot_h > 0.0 else 0.0
+        if reheat_ok and p_ptc + q_hc > 100.0:
+            flag |= F_REHEAT
+        # Vent-target anti-windup for the next step: what saturates downstream, by direction.
+        # In cooling only a compressor cycled off gives no less cooling: at its minimum speed, or with its target
+        # at the evaporator's highest setting, a warmer vent target is what makes it cycle.
+        sat_up = (cab_heat and heater_sat_up) or (cab_cool and u_cab <= 0.0)
+        sat_dn = (cab_cool and u_cab >= 1.0) or (cab_heat and heater_sat_dn and not cab_cool)
+        if surrogate:
+            # The power head, once the step's heater power is known (the features it was trained on).
+            for k in range(n_z):
+                feat[k] = s0[SURROGATE_STATES[k]]
+            feat[n_z], feat[n_z + 1], feat[n_z + 2] = speed, blower, u_pump
+            feat[n_z + 3], feat[n_z + 4], feat[n_z + 5], feat[n_z + 6] = p_ptc, p_heater, T_amb, w_amb
+            feat[n_z + 7] = par[P_Q_SUN]
+            at = net_index[mode, 0]
+            if at < 0:
+                flag |= F_SURROGATE_OOR
+            else:
+                if mlp_eval(net, at, feat, pred, h0, h1):
+                    flag |= F_SURROGATE_OOR
+                if speed > 0.0:
+                    p_comp = max(pred[0], 0.0)
         p_fan = par[P_FAN_POWER] if speed > 0.0 else 0.0
         p_blower = par[P_BLOWER_POWER] * blower**3
         p_pump = par[P_PUMP_REF] * (u_pump * par[P_PUMP_NMAX] / 1000.0) ** 3
@@ -520,6 +896,11 @@ def run_loop(
         if not regen:
             flag |= F_REGEN_CUT
         p_mel = p_motor_el[n, 0] if regen else p_motor_el[n, 1]
+        p_aux = par[P_AUX]
+        if key_off:
+            flag |= F_KEY_OFF
+            p_mel = 0.0
+            p_aux = 0.0
         ns = par[P_NS]
         E = ns * np.interp(soc, soc_ocv, cell_ocv)
         R = _bilinear(soc_ocv, cell_T, cell_r0, soc, Tb) * par[P_R_SCALE]
@@ -538,7 +919,7 @@ def run_loop(
         src = E - a_rc
         v_min = ns * par[P_VMIN]
         cap = v_min * (src - v_min) / r_eff
-        p_loads = par[P_AUX] + p_comp + p_ptc + p_heater + p_blower + p_fan + p_pump
+        p_loads = p_aux + p_comp + p_ptc + p_ptcw + p_heater + p_blower + p_fan + p_pump + p_pump_h
         p_grid = 0.0
         if p_motor_el[n, 2] > 0.0:  # preconditioning, plugged in: the grid feeds the loads
             p_grid = p_loads
@@ -570,6 +951,8 @@ def run_loop(
         s1[S_SOC] = soc - current * dt / par[P_CAP_AS]
         s1[S_VRC] = v_rc_new
         # (d) thermal network: the mode model, or backward Euler ---------------------
+        q_air = np.nan
+        q_sun_int = np.nan
         if surrogate:
             feat[n_z + 3], feat[n_z + 4], feat[n_z + 8] = p_ptc, p_heater, q_gen
             at = net_index[mode, 1]
@@ -590,33 +973,28 @@ def run_loop(
                 s1[k] = max(s1[k], 0.0)
             if at < 0:
                 flag |= F_SURROGATE_OOR
-            q_air = np.nan
-            q_sun_int = np.nan
             # Filtered suction pressure and heat flows: the step's mean of the model's states.
             for k in (Y_PS, Y_QEVAP, Y_QCH):
                 y[k] = 0.5 * (s0[S_YF + k] + s1[S_YF + k])
             q_evap, q_chill = y[Y_QEVAP], y[Y_QCH]
         else:
             cb, cc_ = par[P_C_BAT] / dt, par[P_C_COOL] / dt
-            gbc, gba = par[P_G_BC], par[P_G_BA]
-            a11 = cb + gbc + gba
-            a22 = cc_ + gbc
+            gba = par[P_G_BA]
+            a11 = cb + g_bc + gba
+            a22 = cc_ + g_bc
             # Solved for the changes (not the temperatures): smaller numbers, ledgers closer to round-off.
-            r1 = q_gen - gbc * (Tb - Tc) - gba * (Tb - T_amb)
-            r2_ = gbc * (Tb - Tc) + p_heater - q_chill
-            det = a11 * a22 - gbc * gbc
-            Tb_new = Tb + (r1 * a22 + gbc * r2_) / det
-            Tc_new = Tc + (a11 * r2_ + gbc * r1) / det
-            s1[S_TB] = Tb_new
-            s1[S_TC] = Tc_new
+            r1 = q_gen + q_ext - g_bc * (Tb - Tc) - gba * (Tb - T_amb)
+            r2_ = g_bc * (Tb - Tc) + p_heater - q_chill
+            det = a11 * a22 - g_bc * g_bc
+            s1[S_TB] = Tb + (r1 * a22 + g_bc * r2_) / det
+            s1[S_TC] = Tc + (a11 * r2_ + g_bc * r1) / det
             # Cabin: wall w and interior eliminated, T_w' = alpha_w + beta_w T_air'.
             q_sun = par[P_Q_SUN]
             c_int = par[P_C_INT]
             q_sun_int = q_sun if c_int > 0.0 else 0.0
-            q_air = par[P_Q_OCC] + (q_sun - q_sun_int) + p_ptc - (q_evap - q_lat)
-            g_fresh = mdot_air * _CP_AIR * (1.0 - recirc)
-            lhs = par[P_C_AIR] / dt + g_fresh
-            rhs = par[P_C_AIR] / dt * Ta + g_fresh * T_amb + q_air
+            q_air = par[P_Q_OCC] + (q_sun - q_sun_int) + p_ptc + q_hc - (q_evap - q_lat)
+            lhs = par[P_C_AIR] / dt + g_in
+            rhs = par[P_C_AIR] / dt * Ta + g_in * T_src + q_air
             for k in range(3):
                 cw = c_w[k] / dt
                 den = cw + 2.0 * g_w[k]
@@ -638,21 +1016,32 @@ def run_loop(
             for k in range(3):
                 s1[S_TGLASS + k] = alphas[k] + betas[k] * Ta_new
             s1[S_TINT] = alpha_i + beta_i * Ta_new if c_int > 0.0 else Ta_new
-            # Cabin humidity ratio: fresh air, occupants, condensate.
+            # Cabin humidity ratio: inflow, occupants, condensate.
             m_air = par[P_M_AIR] / dt
-            g_w_fresh = mdot_air * (1.0 - recirc)
-            w_new = (m_air * w_cab + g_w_fresh * w_amb + par[P_MOIST] - q_lat / _H_FG) / (m_air + g_w_fresh)
+            g_w_in = mdot_air * (1.0 - r)
+            w_new = (m_air * w_cab + g_w_in * w_src + par[P_MOIST] - q_lat / _H_FG) / (m_air + g_w_in)
             s1[S_W] = max(w_new, 0.0)
-        # Supply air (diagnostic), no colder than the evaporating refrigerant.
-        T_supply = np.nan
-        if mdot_air > 0.0 and not surrogate:
-            T_supply = T_mix + (p_ptc - (q_evap - q_lat)) / (mdot_air * _CP_AIR)
-            T_floor = np.interp(y[Y_PS], sat_p, sat_T)
-            if speed > 0.0 and T_supply < T_floor:
-                T_supply = T_floor
-        q_ptc_prev = p_ptc
+        if surrogate:
+            s1[S_TH] = T_H
+        # Vent air (the air node's inflow temperature) over the step.
+        T_v = T_ev_mean + (p_ptc + q_hc) / c_air if mdot_air > 0.0 else np.nan
+        # Controller memory for the next step ---------------------------------------
+        mem[M_MODE] = mode
+        mem[M_BC], mem[M_CRIT], mem[M_BH] = bc, crit, bh
+        mem[M_COOL], mem[M_HEAT], mem[M_ECON], mem[M_RHQ], mem[M_WARM] = cool, heat, econ, rhq, warm
+        mem[M_T_COOL], mem[M_T_HEAT], mem[M_CLR_COOL], mem[M_CLR_HEAT] = t_cool, t_heat, clr_cool, clr_heat
+        mem[M_TCAB_F], mem[M_TVS_F], mem[M_I_VENT] = tcab_f, tvs_f, i_vent
+        mem[M_SAT_UP], mem[M_SAT_DN] = sat_up, sat_dn
+        mem[M_COMP_ON], mem[M_T_COMP], mem[M_I_EV] = comp_on, t_comp, i_ev
+        mem[M_FROST_OK], mem[M_CH_FROST_OK], mem[M_I_CH] = frost_ok, ch_frost_ok, i_ch
+        mem[M_I_PTC], mem[M_I_PTCW], mem[M_I_BLEND] = i_ptc, i_ptcw, i_blend
+        mem[M_BLOWER], mem[M_MDOT], mem[M_TV] = blower, mdot_air, T_v
+        mem[M_HEATER_OK], mem[M_HEATER_BAT_OK], mem[M_CHILL_OK] = heater_ok, heater_bat_ok, chill_ok
+        mem[M_Q_HEAT] = p_ptc + q_hc
+        mem[M_CAB_OFF] = u_cab <= 0.0
+        mem[M_T] = t + dt
         # Per-step record --------------------------------------------------------
-        p_hvac = p_comp + p_ptc + p_heater + p_blower + p_fan + p_pump
+        p_hvac = p_comp + p_ptc + p_ptcw + p_heater + p_blower + p_fan + p_pump + p_pump_h
         o[O_P_MOTOR_EL] = p_mel
         o[O_P_BATTERY] = volt * current
         o[O_P_HVAC] = p_hvac
@@ -683,13 +1072,30 @@ def run_loop(
         o[O_Q_HEATER] = p_heater
         o[O_Q_AIR_SOURCES] = q_air
         o[O_Q_SUN_INT] = q_sun_int
-        o[O_T_SUPPLY] = T_supply
+        o[O_T_SUPPLY] = T_v
         o[O_P_DEFICIT] = deficit
         o[O_REGEN] = 1.0 if regen else 0.0
         o[O_P_GRID] = p_grid
+        o[O_T_EVAP_AIR] = T_ev_mean if mdot_air > 0.0 else np.nan
+        o[O_T_VENT_TARGET] = T_vs
+        o[O_T_EVAP_TARGET] = T_ev_t if cab_coil else np.nan
+        o[O_RECIRC] = r
+        o[O_G_IN] = g_in
+        o[O_T_IN_SRC] = T_src
+        o[O_W_IN_SRC] = w_src
+        o[O_G_BC] = g_bc
+        o[O_Q_EXT] = q_ext
+        o[O_Q_HC] = q_hc
+        o[O_P_PTCW] = p_ptcw
+        o[O_P_PUMP_H] = p_pump_h
+        o[O_BLEND] = beta
+        o[O_T_H_TARGET] = T_H_t
+        o[O_COMP_ON] = 1.0 if speed > 0.0 else 0.0
+        o[O_CIRCUIT] = circuit
+        o[O_P_AUX] = p_aux
         modes[n] = mode
         flags[n] = flag
-        t += dt
+        n += 1
         if s1[S_SOC] < par[P_SOC_MIN]:
-            return n + 1
+            return n
     return n_steps

@@ -29,7 +29,10 @@ class CabinParams:
     Walls: area [m2], thickness [m], conductivity [W/(m K)] and heat capacity
     [J/K] each; ``wall_htc`` [W/(m2 K)] on both sides. ``interior_heat_capacity``
     [J/K] 0 turns the interior node off (the sun then heats the air).
-    ``recirculation`` [1] is the recirculated share of the blower's air;
+    ``recirc_cool``, ``recirc_heat``, ``recirc_warmup`` [1] are the
+    recirculated shares of the blower's air while cooling, heating and
+    warming up (the climate control chooses among them, or sets its own
+    share in fresh-air economy);
     ``sun`` [W/m2] (None: the scenario's) and ``sun_shield`` [1] give
     ``Q_sun = 3 sun sun_shield`` [W]; ``blower_flow_max`` [m3/s] and ``blower_power_max`` [W] (x u^3);
     ``T_set`` [K] the cabin setpoint; ``rh_cabin`` [1] the initial relative
@@ -51,16 +54,22 @@ class CabinParams:
     roof_heat_capacity: float = 15.0e3
     wall_htc: float = 40.0
     interior_heat_capacity: float = 80.0e3
-    interior_conductance: float = 100.0
-    recirculation: float = 1.0
+    interior_conductance: float = 300.0
+    recirc_cool: float = 0.85
+    recirc_heat: float = 0.5
+    recirc_warmup: float = 0.8
     n_occupants: int = 1
     rh_cabin: float = 0.5
     sun: float | None = None
     sun_shield: float = 0.5
     blower_flow_max: float = 0.3
     blower_power_max: float = 250.0
-    T_set: float = 298.15
+    T_set: float = 295.15
     T_init: float | None = None
+
+    def shell_conductance(self) -> float:
+        """Air-to-ambient conductance [W/K] of the three walls in parallel, each film-half-half-film in series."""
+        return sum(self.wall_conductance(w) / 2.0 for w in WALLS)
 
     def wall_conductance(self, wall: str) -> float:
         """Conductance [W/K] from the wall's mid-thickness mass to one side: film in series with half the wall."""
@@ -76,8 +85,9 @@ WALLS = ("glass", "doors", "roof")
 class CoolantParams:
     """Battery coolant loop: coolant, plate, heater and pump (MW P/M).
 
-    ``heat_capacity`` [J/K] of the loop; ``density`` [kg/m3] and ``cp``
-    [J/(kg K)] of the coolant; ``flow_max`` [m3/s] at pump command 1;
+    ``heat_capacity`` [J/K] of the loop; ``density`` [kg/m3], ``cp``
+    [J/(kg K)], ``viscosity`` [Pa s] and ``conductivity`` [W/(m K)] of the
+    coolant (50 % ethylene glycol at 20 degC); ``flow_max`` [m3/s] at pump command 1;
     ``pump_power_ref`` [W] at 1000 rpm, ``pump_speed_max`` [rpm] (affinity
     law, power ~ speed^3); ``heater_max_power`` [W]; ``T_init`` [K] (None:
     the ambient).
@@ -86,6 +96,8 @@ class CoolantParams:
     heat_capacity: float = 16.5e3
     density: float = 1070.0
     cp: float = 3300.0
+    viscosity: float = 3.8e-3
+    conductivity: float = 0.38
     flow_max: float = 4.0e-4
     pump_power_ref: float = 120.0
     pump_speed_max: float = 1200.0
@@ -95,29 +107,20 @@ class CoolantParams:
 
 @dataclass(frozen=True)
 class ControlParams:
-    """Controllers, thresholds and refrigerant-loop settings (MW M blocks; A = assumption).
+    """Battery relays, pumps, the chiller's compressor controller and refrigerant-loop settings (MW M; A).
 
-    PI gains in parallel form: blower per K and K s, compressor per MPa and
-    MPa s (the error is ``p_suction - p_suction_target``), PTC per K and K s.
-    Pressures [Pa], temperatures [K], powers [W], times [s], commands [1].
-    The condenser fan runs at ``condenser_fan`` while the compressor runs,
-    drawing ``fan_power_nominal`` at ``fan_flow_nominal`` [m3/s] scaled with
-    the flow cubed (``fan_flow_max`` [m3/s] at fan 1: the condenser bench's).
+    The chiller's suction PI (battery cooling) in parallel form per MPa and
+    MPa s on ``p_suction - chiller_p_suction``. Pressures [Pa], temperatures
+    [K], powers [W], times [s], commands [1]. The condenser fan runs at
+    ``condenser_fan`` while the compressor runs, drawing
+    ``fan_power_nominal`` at ``fan_flow_nominal`` [m3/s] scaled with the
+    flow cubed (``fan_flow_max`` [m3/s] at fan 1: the condenser bench's).
     """
 
-    blower_kp: float = 0.02
-    blower_ki: float = 0.02 / 3.0
-    compressor_kp: float = 1.0
-    compressor_ki: float = 0.2
-    p_suction_target: float = 0.3e6
-    freeze_cutoff_low: float = 0.15e6
-    freeze_cutoff_high: float = 0.25e6
-    ptc_kp: float = 0.07
-    ptc_ki: float = 1.0e-5
-    ptc_T_out: float = 313.15
-    ptc_max_power: float = 2500.0
+    chiller_kp: float = 1.0
+    chiller_ki: float = 0.2
+    chiller_p_suction: float = 0.3e6
     compressor_min_speed: float = 0.1
-    blower_min: float = 0.1
     condenser_fan: float = 1.0
     fan_power_nominal: float = 533.0
     fan_flow_nominal: float = 0.8
@@ -131,11 +134,88 @@ class ControlParams:
     bh_on: float = 278.15
     bh_off: float = 288.15
     bh_ambient_max: float = 278.15
-    cabin_deadband: float = 0.5
     pump_idle: float = 0.3
     pump_bc: float = 0.5
     pump_critical: float = 1.0
     mode_hold: float = 60.0
+
+
+@dataclass(frozen=True)
+class ClimateParams:
+    """Cabin climate control: vent target, blower law, requests, evaporator and frost (spec v2 section 2).
+
+    Gains: ``vent_kp`` [K/K] with integral time ``vent_Ti`` [s];
+    ``evap_kp`` [1/K], ``evap_ki`` [1/(K s)] (compressor speed on the
+    evaporator outlet air); ``blend_kp`` [1/K], ``blend_ki`` [1/(K s)] (air-mix
+    door of the heater core). Temperatures [K], pressures [Pa], times [s],
+    ``blower_rate`` [1/s], ``rh_dehum`` [1].
+    """
+
+    vent_kp: float = 2.0
+    vent_Ti: float = 300.0
+    T_vent_min: float = 276.15
+    T_vent_max: float = 333.15
+    blower_min: float = 0.4
+    blower_dT0: float = 2.0
+    blower_dT1: float = 15.0
+    blower_rate: float = 0.08
+    warmup_max: float = 150.0
+    cabin_band: float = 0.5
+    t_request_clear: float = 300.0
+    tau_request: float = 60.0
+    T_evap_min: float = 276.15
+    T_evap_max: float = 288.15
+    evap_kp: float = 0.1
+    evap_ki: float = 0.01
+    dT_cycle: float = 1.0
+    t_on_min: float = 30.0
+    t_off_min: float = 25.0
+    T_frost_off: float = 274.65
+    T_frost_on: float = 278.15
+    p_frost_off: float = 0.15e6
+    p_frost_on: float = 0.25e6
+    ac_T_amb_min: float = 277.15
+    rh_dehum: float = 0.6
+    blend_kp: float = 0.02
+    blend_ki: float = 0.002
+
+
+#: Cabin heating options (``hvac.heating``); the heat pump is a later version's.
+HEATING = ("ptc_air", "ptc_coolant")
+
+
+@dataclass(frozen=True)
+class HvacParams:
+    """Cabin heaters, the heater-core loop and the battery's safety limits (spec v2 sections 2.5-3).
+
+    ``heating``: ``ptc_air`` (an air PTC after the evaporator) or
+    ``ptc_coolant`` (a coolant PTC ``ptcw`` in loop H with a heater core).
+    PTC gains are per K and K s times the heater's maximum power.
+    ``heater_core_ua`` [W/K] at ``heater_core_air_ref`` [kg/s] of air through
+    the core, scaled with the air flow to the power 0.6; loop H holds
+    ``C_H`` [J/K], its pump moves ``pump_h_flow`` [m3/s] at ``pump_h_power``
+    [W]. Battery relays: the coolant heater is off above
+    ``bh_T_coolant_max`` (on 5 K below) and at ``bh_T_battery_max`` (on 1 K
+    below); battery cooling stops below ``bc_T_battery_min`` (restarts 1 K
+    above).
+    """
+
+    heating: str = "ptc_air"
+    ptc_max_power: float = 6000.0
+    ptc_kp: float = 0.01
+    ptc_ki: float = 0.001
+    ptcw_max_power: float = 6000.0
+    ptcw_kp: float = 0.1
+    ptcw_ki: float = 0.002
+    T_H_max: float = 363.15
+    C_H: float = 6600.0
+    pump_h_flow: float = 3.33e-4
+    pump_h_power: float = 120.0
+    heater_core_ua: float = 250.0
+    heater_core_air_ref: float = 0.15
+    bh_T_coolant_max: float = 318.15
+    bh_T_battery_max: float = 298.15
+    bc_T_battery_min: float = 288.15
 
 
 @dataclass(frozen=True)
@@ -147,13 +227,15 @@ class SystemParams:
     cabin: CabinParams = field(default_factory=CabinParams)
     coolant: CoolantParams = field(default_factory=CoolantParams)
     controls: ControlParams = field(default_factory=ControlParams)
+    climate: ClimateParams = field(default_factory=ClimateParams)
+    hvac: HvacParams = field(default_factory=HvacParams)
 
     def to_json(self) -> str:
         """Every parameter, by table, as JSON (recorded in the output file)."""
         return json.dumps({k: dataclasses.asdict(getattr(self, k)) for k in SECTIONS}, sort_keys=True)
 
 
-SECTIONS = ("vehicle", "battery", "cabin", "coolant", "controls")
+SECTIONS = ("vehicle", "battery", "cabin", "coolant", "controls", "climate", "hvac")
 
 _T = (173.15, 373.15)  # any temperature parameter [K]
 #: Allowed range per parameter (both ends included; ``None`` for an optional temperature too).
@@ -182,7 +264,11 @@ RANGES: dict[str, dict[str, tuple[float, float]]] = {
         "soc_max": (0.0, 1.0),
         "soc_init": (0.0, 1.0),
         "heat_capacity": (1.0, 1e8),
-        "g_coolant": (0.0, 1e5),
+        "g_cells_plate": (1.0, 1e6),
+        "plate_channels": (1, 1000),
+        "plate_channel_diameter": (1e-4, 0.1),
+        "plate_channel_length": (0.01, 100.0),
+        "g_coolant_fixed": (0.0, 1e5),
         "g_ambient": (0.0, 1e5),
         "T_init": _T,
     },
@@ -201,7 +287,9 @@ RANGES: dict[str, dict[str, tuple[float, float]]] = {
         "wall_htc": (0.1, 1000.0),
         "interior_heat_capacity": (0.0, 1e8),
         "interior_conductance": (0.0, 1e5),
-        "recirculation": (0.0, 1.0),
+        "recirc_cool": (0.0, 1.0),
+        "recirc_heat": (0.0, 1.0),
+        "recirc_warmup": (0.0, 1.0),
         "n_occupants": (0, 100),
         "rh_cabin": (0.0, 1.0),
         "sun": (0.0, 1500.0),
@@ -215,6 +303,8 @@ RANGES: dict[str, dict[str, tuple[float, float]]] = {
         "heat_capacity": (1.0, 1e8),
         "density": (100.0, 3000.0),
         "cp": (100.0, 1e4),
+        "viscosity": (1e-5, 1.0),
+        "conductivity": (0.01, 10.0),
         "flow_max": (1e-6, 0.1),
         "pump_power_ref": (0.0, 1e4),
         "pump_speed_max": (1.0, 1e5),
@@ -222,14 +312,10 @@ RANGES: dict[str, dict[str, tuple[float, float]]] = {
         "T_init": _T,
     },
     "controls": {
-        **{k: (0.0, 1e3) for k in ("blower_kp", "blower_ki", "compressor_kp", "compressor_ki", "ptc_kp", "ptc_ki")},
-        "p_suction_target": (0.05e6, 1.0e6),
-        "freeze_cutoff_low": (0.0, 1.0e6),
-        "freeze_cutoff_high": (0.0, 1.0e6),
-        "ptc_T_out": _T,
-        "ptc_max_power": (0.0, 1e5),
-        "compressor_min_speed": (0.0, 1.0),
-        "blower_min": (0.0, 1.0),
+        "chiller_kp": (0.0, 1e3),
+        "chiller_ki": (0.0, 1e3),
+        "chiller_p_suction": (0.05e6, 1.0e6),
+        "compressor_min_speed": (0.01, 1.0),
         "condenser_fan": (0.1, 1.0),
         "fan_power_nominal": (0.0, 1e4),
         "fan_flow_nominal": (0.01, 100.0),
@@ -238,12 +324,79 @@ RANGES: dict[str, dict[str, tuple[float, float]]] = {
         "tau_refrigerant": (0.1, 600.0),
         **{k: _T for k in ("bc_on", "bc_off", "bc_critical_on", "bc_critical_off", "bh_on", "bh_off")},
         "bh_ambient_max": _T,
-        "cabin_deadband": (0.0, 10.0),
         "pump_idle": (0.0, 1.0),
         "pump_bc": (0.0, 1.0),
         "pump_critical": (0.0, 1.0),
         "mode_hold": (0.0, 3600.0),
     },
+    "climate": {
+        "vent_kp": (0.0, 100.0),
+        "vent_Ti": (1.0, 1e5),
+        "T_vent_min": _T,
+        "T_vent_max": _T,
+        "blower_min": (0.05, 1.0),
+        "blower_dT0": (0.0, 50.0),
+        "blower_dT1": (0.1, 100.0),
+        "blower_rate": (1e-3, 100.0),
+        "warmup_max": (0.0, 3600.0),
+        "cabin_band": (0.0, 10.0),
+        "t_request_clear": (0.0, 3600.0),
+        "tau_request": (0.1, 3600.0),
+        "T_evap_min": _T,
+        "T_evap_max": _T,
+        "evap_kp": (0.0, 100.0),
+        "evap_ki": (0.0, 100.0),
+        "dT_cycle": (0.05, 20.0),
+        "t_on_min": (0.0, 3600.0),
+        "t_off_min": (0.0, 3600.0),
+        "T_frost_off": (263.15, 283.15),
+        "T_frost_on": (263.15, 293.15),
+        "p_frost_off": (0.0, 1.0e6),
+        "p_frost_on": (0.0, 1.0e6),
+        "ac_T_amb_min": _T,
+        "rh_dehum": (0.1, 1.0),
+        "blend_kp": (0.0, 100.0),
+        "blend_ki": (0.0, 100.0),
+    },
+    "hvac": {
+        "ptc_max_power": (0.0, 1e5),
+        "ptc_kp": (0.0, 100.0),
+        "ptc_ki": (0.0, 100.0),
+        "ptcw_max_power": (0.0, 1e5),
+        "ptcw_kp": (0.0, 100.0),
+        "ptcw_ki": (0.0, 100.0),
+        "T_H_max": (313.15, 373.15),
+        "C_H": (100.0, 1e7),
+        "pump_h_flow": (1e-6, 0.1),
+        "pump_h_power": (0.0, 1e4),
+        "heater_core_ua": (1.0, 1e5),
+        "heater_core_air_ref": (1e-3, 10.0),
+        "bh_T_coolant_max": _T,
+        "bh_T_battery_max": _T,
+        "bc_T_battery_min": _T,
+    },
+}
+
+#: Choices of the parameters that are names, not numbers.
+CHOICES: dict[str, dict[str, tuple[str, ...]]] = {"hvac": {"heating": HEATING}}
+
+#: v1 names that moved or went: (table, name) -> what to say instead of applying them.
+MIGRATED: dict[tuple[str, str], str] = {
+    ("controls", "ptc_max_power"): "is [hvac] ptc_max_power in v2",
+    ("controls", "ptc_kp"): "is [hvac] ptc_kp in v2 (a trim on the vent-air error)",
+    ("controls", "ptc_ki"): "is [hvac] ptc_ki in v2 (a trim on the vent-air error)",
+    ("controls", "ptc_T_out"): "was dropped in v2: the air PTC follows the vent-air target",
+    ("controls", "blower_kp"): "was dropped in v2: the blower follows the vent-target law ([climate] blower_*)",
+    ("controls", "blower_ki"): "was dropped in v2: the blower follows the vent-target law ([climate] blower_*)",
+    ("controls", "blower_min"): "is [climate] blower_min in v2",
+    ("controls", "compressor_kp"): "is [controls] chiller_kp in v2; the cabin compressor follows [climate] evap_kp",
+    ("controls", "compressor_ki"): "is [controls] chiller_ki in v2; the cabin compressor follows [climate] evap_ki",
+    ("controls", "p_suction_target"): "is [controls] chiller_p_suction in v2",
+    ("controls", "freeze_cutoff_low"): "is [climate] p_frost_off in v2 (a relay, no ramp)",
+    ("controls", "freeze_cutoff_high"): "is [climate] p_frost_on in v2 (a relay, no ramp)",
+    ("controls", "cabin_deadband"): "is [climate] cabin_band in v2",
+    ("cabin", "recirculation"): "is [cabin] recirc_cool, recirc_heat and recirc_warmup in v2",
+    ("battery", "g_coolant"): "is [battery] g_coolant_fixed in v2 (unset: the conductance follows the pump flow)",
 }
 
 #: Pairs that must hold: (table, smaller, larger, strictly).
@@ -253,13 +406,21 @@ _ORDER = (
     ("controls", "bc_off", "bc_on", True),
     ("controls", "bc_critical_off", "bc_critical_on", True),
     ("controls", "bh_on", "bh_off", True),
-    ("controls", "freeze_cutoff_low", "freeze_cutoff_high", True),
+    ("climate", "p_frost_off", "p_frost_on", True),
+    ("climate", "T_frost_off", "T_frost_on", True),
+    ("climate", "T_vent_min", "T_vent_max", True),
+    ("climate", "T_evap_min", "T_evap_max", True),
 )
 
-_INTEGERS = {"n_series", "n_parallel", "n_occupants"}
+_INTEGERS = {"n_series", "n_parallel", "n_occupants", "plate_channels"}
 
 
-def _value(section: str, name: str, value: Any) -> float | int:
+def _value(section: str, name: str, value: Any) -> float | int | str:
+    choices = CHOICES.get(section, {}).get(name)
+    if choices is not None:
+        if value not in choices:
+            raise EvtmsInputError(f"[{section}] {name} = {value!r} is not allowed; allowed: {', '.join(choices)}")
+        return value
     lo, hi = RANGES[section][name]
     allowed = f"allowed: {lo:g} <= {name} <= {hi:g}"
     if name in _INTEGERS:
@@ -282,8 +443,10 @@ def system_params_from_dict(data: dict[str, Any], base: SystemParams | None = No
             raise EvtmsInputError(f"table [{section}] is unknown; allowed: {', '.join(f'[{s}]' for s in SECTIONS)}")
         if not isinstance(values, dict):
             raise EvtmsInputError(f"{section} must be a table [{section}], not a value")
-        names = RANGES[section]
+        names = {**RANGES[section], **CHOICES.get(section, {})}
         for name in values:
+            if (section, name) in MIGRATED:
+                raise EvtmsInputError(f"[{section}] {name} {MIGRATED[section, name]}")
             if name not in names:
                 raise EvtmsInputError(f"[{section}] {name} is unknown; allowed: {', '.join(sorted(names))}")
         checked = {name: _value(section, name, v) for name, v in values.items()}

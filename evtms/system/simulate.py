@@ -141,7 +141,20 @@ RECORD_VARIABLES: dict[str, tuple[str, str]] = {
     "T_interior": ("K", "cabin interior mass temperature"),
     "v_rc": ("V", "voltage of the battery's RC branch (0 when off)"),
     "RH_cabin": ("1", "cabin air relative humidity"),
-    "T_supply": ("K", "supply air temperature after evaporator and PTC (diagnostic)"),
+    "T_supply": ("K", "vent air temperature: the cabin air node's inflow after evaporator and heaters"),
+    "T_evap_air": ("K", "air temperature after the cabin evaporator"),
+    "T_vent_target": ("K", "vent-air target of the climate control"),
+    "T_evap_target": ("K", "evaporator-air target while the cabin coil is requested"),
+    "recirculation": ("1", "recirculated share of the blower's air"),
+    "T_heater_loop": ("K", "heater-core loop coolant temperature (heater-core inlet)"),
+    "T_heater_target": ("K", "heater-core loop target while its PTC runs"),
+    "Q_heater_core": ("W", "heat from the heater core to the cabin air"),
+    "P_ptcw": ("W", "coolant PTC power (heater-core loop)"),
+    "P_pump_h": ("W", "heater-core loop pump power"),
+    "blend": ("1", "air-mix door: share of the air through the heater core"),
+    "Q_battery_ext": ("W", "external heat into the battery (input)"),
+    "compressor_on": ("1", "share of the interval the compressor ran"),
+    "circuit": ("1", "refrigerant circuit: 0 none, 1 cabin, 2 chiller, 3 cabin+chiller (last step)"),
     "p_suction": ("Pa", "compressor suction pressure (filtered)"),
     "p_discharge": ("Pa", "compressor discharge pressure (filtered)"),
     "compressor_speed": ("1", "compressor speed command, fraction of maximum"),
@@ -168,6 +181,17 @@ _MEANS = {
     "v_battery": L.O_V,
     "i_battery": L.O_I,
     "T_supply": L.O_T_SUPPLY,
+    "T_evap_air": L.O_T_EVAP_AIR,
+    "T_vent_target": L.O_T_VENT_TARGET,
+    "T_evap_target": L.O_T_EVAP_TARGET,
+    "recirculation": L.O_RECIRC,
+    "T_heater_target": L.O_T_H_TARGET,
+    "Q_heater_core": L.O_Q_HC,
+    "P_ptcw": L.O_P_PTCW,
+    "P_pump_h": L.O_P_PUMP_H,
+    "blend": L.O_BLEND,
+    "Q_battery_ext": L.O_Q_EXT,
+    "compressor_on": L.O_COMP_ON,
     "p_suction": L.O_P_SUCTION,
     "p_discharge": L.O_P_DISCHARGE,
     "compressor_speed": L.O_SPEED_CMD,
@@ -184,6 +208,7 @@ _STATES = {
     "T_roof": L.S_TROOF,
     "T_interior": L.S_TINT,
     "v_rc": L.S_VRC,
+    "T_heater_loop": L.S_TH,
 }
 
 
@@ -226,6 +251,7 @@ def pack_parameters(
 ) -> np.ndarray:
     """The loop's parameter array (``evtms.system.loop.P_*`` indices), SI."""
     v, b, c, k, ctl = params.vehicle, params.battery, params.cabin, params.coolant, params.controls
+    cl, hv = params.climate, params.hvac
     par = np.zeros(L.N_P)
     rho_amb = P_ATM / (L._R_AIR * T_amb)
     par[L.P_T_AMB] = T_amb
@@ -239,27 +265,31 @@ def pack_parameters(
     par[L.P_VMIN] = b.cell_voltage_min
     par[L.P_CAP_AS] = b.capacity_As
     par[L.P_SOC_MIN], par[L.P_SOC_MAX] = b.soc_min, b.soc_max
-    par[L.P_C_BAT], par[L.P_G_BC], par[L.P_G_BA] = b.heat_capacity, b.g_coolant, b.g_ambient
+    par[L.P_C_BAT], par[L.P_G_BA] = b.heat_capacity, b.g_ambient
+    par[L.P_G_BC_FIXED] = -1.0 if b.g_coolant_fixed is None else b.g_coolant_fixed
+    par[L.P_G_CP] = b.g_cells_plate
+    # Plate channels: Reynolds number at pump command 1, Prandtl number, D/L and k/D times the wetted area.
+    area = b.plate_channels * math.pi * b.plate_channel_diameter**2 / 4.0
+    velocity = k.flow_max / area
+    par[L.P_PLATE_RE1] = k.density * velocity * b.plate_channel_diameter / k.viscosity
+    par[L.P_PLATE_PR] = k.cp * k.viscosity / k.conductivity
+    par[L.P_PLATE_DL] = b.plate_channel_diameter / b.plate_channel_length
+    par[L.P_PLATE_KA] = k.conductivity * b.plate_channels * math.pi * b.plate_channel_length
     par[L.P_C_COOL] = k.heat_capacity
     par[L.P_HEATER_MAX] = k.heater_max_power
     par[L.P_PUMP_REF], par[L.P_PUMP_NMAX] = k.pump_power_ref, k.pump_speed_max
     par[L.P_C_AIR] = rho_amb * c.volume * L._CP_AIR
     par[L.P_M_AIR] = rho_amb * c.volume
     par[L.P_C_INT], par[L.P_G_INT] = c.interior_heat_capacity, c.interior_conductance
-    par[L.P_RECIRC] = c.recirculation
+    par[L.P_RC_COOL], par[L.P_RC_HEAT], par[L.P_RC_WARM] = c.recirc_cool, c.recirc_heat, c.recirc_warmup
     par[L.P_Q_OCC] = 70.0 * c.n_occupants
     par[L.P_MOIST] = 1.4e-5 * c.n_occupants
     par[L.P_Q_SUN] = 3.0 * (sun if c.sun is None else c.sun) * c.sun_shield
+    par[L.P_UA_SHELL] = c.shell_conductance()
     par[L.P_BLOWER_FLOW], par[L.P_BLOWER_POWER] = c.blower_flow_max, c.blower_power_max
     par[L.P_T_SET] = c.T_set
-    par[L.P_BL_KP], par[L.P_BL_KI] = ctl.blower_kp, ctl.blower_ki
-    par[L.P_CP_KP], par[L.P_CP_KI] = ctl.compressor_kp, ctl.compressor_ki
-    par[L.P_PS_TARGET] = ctl.p_suction_target
-    par[L.P_CUT_LO], par[L.P_CUT_HI] = ctl.freeze_cutoff_low, ctl.freeze_cutoff_high
-    par[L.P_PTC_KP], par[L.P_PTC_KI] = ctl.ptc_kp, ctl.ptc_ki
-    par[L.P_PTC_TOUT], par[L.P_PTC_MAX] = ctl.ptc_T_out, ctl.ptc_max_power
-    par[L.P_SPEED_MIN], par[L.P_BLOWER_MIN] = ctl.compressor_min_speed, ctl.blower_min
-    par[L.P_FAN] = ctl.condenser_fan
+    par[L.P_CH_KP], par[L.P_CH_KI], par[L.P_CH_PS] = ctl.chiller_kp, ctl.chiller_ki, ctl.chiller_p_suction
+    par[L.P_SPEED_MIN] = ctl.compressor_min_speed
     flow = ctl.condenser_fan * ctl.fan_flow_max
     par[L.P_FAN_POWER] = ctl.fan_power_nominal * (flow / ctl.fan_flow_nominal) ** 3
     par[L.P_DRIVE_EFF] = ctl.compressor_drive_efficiency
@@ -267,13 +297,33 @@ def pack_parameters(
     par[L.P_BC_ON], par[L.P_BC_OFF] = ctl.bc_on, ctl.bc_off
     par[L.P_CRIT_ON], par[L.P_CRIT_OFF] = ctl.bc_critical_on, ctl.bc_critical_off
     par[L.P_BH_ON], par[L.P_BH_OFF], par[L.P_BH_AMB_MAX] = ctl.bh_on, ctl.bh_off, ctl.bh_ambient_max
-    par[L.P_DEADBAND] = ctl.cabin_deadband
     par[L.P_PUMP_IDLE], par[L.P_PUMP_BC], par[L.P_PUMP_CRIT] = ctl.pump_idle, ctl.pump_bc, ctl.pump_critical
     par[L.P_HOLD] = ctl.mode_hold
     par[L.P_COOLANT_MDOT_MAX] = coolant_mdot_max
     for i, w in enumerate(WALLS):
         par[L.P_G_GLASS + i] = c.wall_conductance(w)
         par[L.P_C_GLASS + i] = getattr(c, f"{w}_heat_capacity")
+    par[L.P_VENT_KP], par[L.P_VENT_TI] = cl.vent_kp, cl.vent_Ti
+    par[L.P_TV_MIN], par[L.P_TV_MAX] = cl.T_vent_min, cl.T_vent_max
+    par[L.P_BLOWER_MIN], par[L.P_BL_DT0], par[L.P_BL_DT1] = cl.blower_min, cl.blower_dT0, cl.blower_dT1
+    par[L.P_BL_RATE], par[L.P_WARMUP_MAX] = cl.blower_rate, cl.warmup_max
+    par[L.P_BAND], par[L.P_T_CLEAR], par[L.P_TAU_REQ] = cl.cabin_band, cl.t_request_clear, cl.tau_request
+    par[L.P_TEV_MIN], par[L.P_TEV_MAX] = cl.T_evap_min, cl.T_evap_max
+    par[L.P_EV_KP], par[L.P_EV_KI] = cl.evap_kp, cl.evap_ki
+    par[L.P_DT_CYC], par[L.P_T_ON_MIN], par[L.P_T_OFF_MIN] = cl.dT_cycle, cl.t_on_min, cl.t_off_min
+    par[L.P_TFR_OFF], par[L.P_TFR_ON] = cl.T_frost_off, cl.T_frost_on
+    par[L.P_PF_OFF], par[L.P_PF_ON] = cl.p_frost_off, cl.p_frost_on
+    par[L.P_AC_TAMB_MIN], par[L.P_RH_DEHUM] = cl.ac_T_amb_min, cl.rh_dehum
+    par[L.P_BLEND_KP], par[L.P_BLEND_KI] = cl.blend_kp, cl.blend_ki
+    par[L.P_HEATING] = {"ptc_air": L.HEATING_PTC_AIR, "ptc_coolant": L.HEATING_PTC_COOLANT}[hv.heating]
+    par[L.P_PTC_MAX], par[L.P_PTC_KP], par[L.P_PTC_KI] = hv.ptc_max_power, hv.ptc_kp, hv.ptc_ki
+    par[L.P_PTCW_MAX], par[L.P_PTCW_KP], par[L.P_PTCW_KI] = hv.ptcw_max_power, hv.ptcw_kp, hv.ptcw_ki
+    par[L.P_TH_MAX], par[L.P_C_H] = hv.T_H_max, hv.C_H
+    par[L.P_MDOT_H], par[L.P_CP_H] = hv.pump_h_flow * k.density, k.cp
+    par[L.P_PUMP_H_POWER] = hv.pump_h_power
+    par[L.P_HC_UA], par[L.P_HC_AIR_REF] = hv.heater_core_ua, hv.heater_core_air_ref
+    par[L.P_BH_TC_MAX], par[L.P_BH_TB_MAX] = hv.bh_T_coolant_max, hv.bh_T_battery_max
+    par[L.P_BC_TB_MIN] = hv.bc_T_battery_min
     return par
 
 
@@ -291,6 +341,7 @@ def initial_state(
     for i in (L.S_TA, L.S_TGLASS, L.S_TDOORS, L.S_TROOF, L.S_TINT):
         s[i] = T_cab
     s[L.S_W] = L.humidity_ratio(T_cab, c.rh_cabin, P_ATM)
+    s[L.S_TH] = T_cab  # the heater-core loop sits in the dashboard, at the cabin's temperature
     s[L.S_YF + L.Y_PS] = s[L.S_YF + L.Y_PD] = p_equalised
     return s
 
@@ -437,6 +488,8 @@ def simulate(
         "model": model,
         "physics_solves": int(solves),
         "surrogate_out_of_range_fraction": float(np.mean((flags & L.F_SURROGATE_OOR) > 0)) if done else 0.0,
+        "heating": params.hvac.heating,
+        **climate_metrics(states, out, modes, dts, params.cabin.T_set, precondition),
     }
     attrs = {
         "scenario": scenario,
@@ -456,6 +509,55 @@ def simulate(
     records["time"] = t_rec - precondition
     trace = {"states": states, "out": out, "modes": modes, "dts": dts, "par": par} if keep_trace else None
     return SimulationResult(records, rec_mode, rec_flags, ledger, summary, attrs, trace)
+
+
+def _moving_mean(t: np.ndarray, values: np.ndarray, window: float) -> np.ndarray:
+    """Trailing ``window`` [s] mean of a trace sampled at ``t`` (trapezoids), NaN before one window has passed."""
+    integral = np.concatenate(([0.0], np.cumsum(0.5 * (values[1:] + values[:-1]) * np.diff(t))))
+    mean = (integral - np.interp(t - window, t, integral)) / window
+    return np.where(t - t[0] >= window - 1e-9, mean, np.nan)
+
+
+def climate_metrics(
+    states: np.ndarray, out: np.ndarray, modes: np.ndarray, dts: np.ndarray, T_set: float, precondition: float
+) -> dict:
+    """How the climate control behaved (the spec v2's section 10.2 figures), from the loop's per-step arrays.
+
+    - ``t_pulldown_s``: first time [s] (cycle clock) the cabin air's 60-s mean is within 1 K of ``T_set``
+      (None: never);
+    - ``cabin_dev_max_K``: largest deviation [K] of that mean from ``T_set`` after ``t_pulldown_s``;
+    - ``mode_changes``, ``mode_changes_after_pulldown`` and their rate per 30 min after it;
+    - ``compressor_starts`` (off-to-on steps, cycling included) and per 30 min after the pull-down;
+    - ``T_evap_air_min_degC``, ``T_supply_min_degC``: the coldest step means of evaporator and vent air.
+    """
+    t = np.concatenate(([0.0], np.cumsum(dts))) - precondition
+    mean60 = _moving_mean(t, states[:, L.S_TA], 60.0)
+    near = np.flatnonzero(np.abs(mean60 - T_set) <= 1.0)
+    t_pd = float(t[near[0]]) if near.size else None
+    changes = np.flatnonzero(np.diff(modes.astype(int))) + 1  # step indices where the mode changed
+    on = out[:, L.O_COMP_ON] > 0.5
+    starts = np.flatnonzero(on[1:] & ~on[:-1]) + 1
+    res: dict = {"t_pulldown_s": t_pd, "mode_changes": int(changes.size), "compressor_starts": int(starts.size)}
+    if t_pd is not None:
+        after = t >= t_pd
+        res["cabin_dev_max_K"] = float(np.nanmax(np.abs(mean60[after] - T_set)))
+        span = max(t[-1] - t_pd, 1e-9)
+        n_modes = int(np.sum(t[changes] > t_pd))
+        n_starts = int(np.sum(t[starts] > t_pd))
+        res["mode_changes_after_pulldown"] = n_modes
+        res["mode_changes_per_30min"] = float(n_modes * 1800.0 / span) if span >= 600.0 else None
+        res["compressor_starts_per_30min"] = float(n_starts * 1800.0 / span) if span >= 600.0 else None
+    else:
+        res.update(cabin_dev_max_K=None, mode_changes_after_pulldown=None, mode_changes_per_30min=None)
+        res["compressor_starts_per_30min"] = None
+
+    def coldest(col: int) -> float | None:
+        v = out[:, col]
+        return float(np.nanmin(v) - 273.15) if np.any(np.isfinite(v)) else None
+
+    res["T_evap_air_min_degC"] = coldest(L.O_T_EVAP_AIR)
+    res["T_supply_min_degC"] = coldest(L.O_T_SUPPLY)
+    return res
 
 
 def _run_loop(args: tuple, model: str, refrigerant: Refrigerant, mode_models: ModeModels | None) -> tuple[int, int]:
@@ -594,7 +696,8 @@ def ledgers(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np.ndarra
 
     - ``vehicle``: motor electrical = wheel + gear + motor losses + friction brakes;
     - ``battery_electrical``: chemical (E i) = terminal (v i) + heat + RC energy;
-    - ``battery_thermal``, ``coolant``, ``cabin``: change of stored heat = sum of flows;
+    - ``battery_thermal``, ``coolant``, ``heater_loop``, ``cabin``: change of stored heat = sum of flows
+      (the battery's external heat and the fixed HVAC inlet's enthalpy are boundary terms);
     - ``refrigerant``: Q_condenser = Q_evaporator + Q_chiller + W_fluid;
     - ``system``: chemical = motor + auxiliaries + HVAC + battery heat + RC energy.
     """
@@ -613,29 +716,35 @@ def ledgers(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np.ndarra
     res = {"vehicle": rel(np.sum((motor - parts) * dts), np.sum(np.abs(motor) * dts))}
     res["battery_electrical"] = rel(np.sum(E_chem - Pb - Qg - Erc), np.sum(np.abs(E_chem)))
     Tb1, Tc1 = s1[:, L.S_TB], s1[:, L.S_TC]
-    q_bc = par[L.P_G_BC] * (Tb1 - Tc1)
+    q_bc = out[:, L.O_G_BC] * (Tb1 - Tc1)
     q_ba = par[L.P_G_BA] * (Tb1 - T_amb)
+    q_ext = out[:, L.O_Q_EXT]
     stored_b = par[L.P_C_BAT] * (states[-1, L.S_TB] - states[0, L.S_TB])
-    flow_b = (out[:, L.O_Q_GEN] - q_bc - q_ba) * dts
-    res["battery_thermal"] = rel(stored_b - np.sum(flow_b), np.sum((out[:, L.O_Q_GEN] + abs(q_bc) + abs(q_ba)) * dts))
+    flow_b = (out[:, L.O_Q_GEN] + q_ext - q_bc - q_ba) * dts
+    through_b = (out[:, L.O_Q_GEN] + abs(q_ext) + abs(q_bc) + abs(q_ba)) * dts
+    res["battery_thermal"] = rel(stored_b - np.sum(flow_b), np.sum(through_b))
     stored_c = par[L.P_C_COOL] * (states[-1, L.S_TC] - states[0, L.S_TC])
     flow_c = (q_bc + out[:, L.O_Q_HEATER] - out[:, L.O_Q_CHILLER]) * dts
     through_c = (abs(q_bc) + out[:, L.O_Q_HEATER] + abs(out[:, L.O_Q_CHILLER])) * dts
     res["coolant"] = rel(stored_c - np.sum(flow_c), np.sum(through_c))
+    stored_h = par[L.P_C_H] * (states[-1, L.S_TH] - states[0, L.S_TH])
+    flow_h = (out[:, L.O_P_PTCW] - out[:, L.O_Q_HC]) * dts
+    res["heater_loop"] = rel(
+        stored_h - np.sum(flow_h), np.sum((out[:, L.O_P_PTCW] + abs(out[:, L.O_Q_HC])) * dts) + 1.0
+    )
     caps = [par[L.P_C_AIR], par[L.P_C_GLASS], par[L.P_C_DOORS], par[L.P_C_ROOF], par[L.P_C_INT]]
     idx = [L.S_TA, L.S_TGLASS, L.S_TDOORS, L.S_TROOF, L.S_TINT]
     stored = sum(c * (states[-1, i] - states[0, i]) for c, i in zip(caps, idx, strict=True))
     walls = sum(par[L.P_G_GLASS + k] * (T_amb - s1[:, L.S_TGLASS + k]) for k in range(3))
-    g_fresh = out[:, L.O_MDOT_AIR] * L._CP_AIR * (1.0 - par[L.P_RECIRC])
-    flows = (walls + g_fresh * (T_amb - s1[:, L.S_TA]) + out[:, L.O_Q_AIR_SOURCES] + out[:, L.O_Q_SUN_INT]) * dts
+    # Inflow from outside the cabin: fresh air, or the fixed HVAC inlet (a ledger boundary).
+    inflow = out[:, L.O_G_IN] * (out[:, L.O_T_IN_SRC] - s1[:, L.S_TA])
+    flows = (walls + inflow + out[:, L.O_Q_AIR_SOURCES] + out[:, L.O_Q_SUN_INT]) * dts
     walls_abs = sum(par[L.P_G_GLASS + k] * abs(T_amb - s1[:, L.S_TGLASS + k]) for k in range(3))
-    through = (
-        walls_abs + abs(g_fresh * (T_amb - s1[:, L.S_TA])) + abs(out[:, L.O_Q_AIR_SOURCES]) + out[:, L.O_Q_SUN_INT]
-    )
+    through = walls_abs + abs(inflow) + abs(out[:, L.O_Q_AIR_SOURCES]) + out[:, L.O_Q_SUN_INT]
     res["cabin"] = rel(stored - np.sum(flows), np.sum(through * dts))
     ref = out[:, L.O_Q_COND] - out[:, L.O_Q_EVAP] - out[:, L.O_Q_CHILLER] - out[:, L.O_W_FLUID]
     res["refrigerant"] = rel(np.sum(ref * dts), np.sum(out[:, L.O_W_FLUID] * dts) + 1.0)
-    uses = (motor + par[L.P_AUX] + out[:, L.O_P_HVAC] - out[:, L.O_P_GRID] + out[:, L.O_Q_GEN]) * dts + Erc
+    uses = (motor + out[:, L.O_P_AUX] + out[:, L.O_P_HVAC] - out[:, L.O_P_GRID] + out[:, L.O_Q_GEN]) * dts + Erc
     res["system"] = rel(np.sum(E_chem - uses), np.sum(np.abs(E_chem)))
     return res
 
@@ -656,13 +765,14 @@ def _records(cycle, par, states, out, modes, flags, dts, drive, m):
     rec = {name: mean(out[:, col]) for name, col in _MEANS.items()}
     for name in ("P_wheel", "P_traction"):
         rec[name] = mean(drive[name])
-    rec["Q_battery_to_coolant"] = mean(par[L.P_G_BC] * (states[1:, L.S_TB] - states[1:, L.S_TC]))
+    rec["Q_battery_to_coolant"] = mean(out[:, L.O_G_BC] * (states[1:, L.S_TB] - states[1:, L.S_TC]))
     rows = np.concatenate(([0], ends))
     for name, col in _STATES.items():
         rec[name] = states[rows, col]
     rec["speed"] = np.interp(t_rec, cycle.time, cycle.speed)
     rec["distance"] = _distance(cycle, t_rec)
     rec["RH_cabin"] = L.relative_humidity(rec["T_cabin"], states[rows, L.S_W], P_ATM)
+    rec["circuit"] = np.concatenate(([0.0], out[ends - 1, L.O_CIRCUIT])) if n else np.zeros(1)
     last = np.concatenate(([0], ends - 1)) if n else np.zeros(1, int)
     rec_mode = modes[last] if n else np.zeros(1, np.int8)
     rec_flags = np.zeros(t_rec.size, np.uint16)
