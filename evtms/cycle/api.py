@@ -20,6 +20,8 @@ from evtms.fluid import Fluid, SaturationCurve
 if TYPE_CHECKING:
     import xarray as xr
 
+    from evtms.luts.validate import LutMetadata
+
 #: Batches from this many points interpolate through the compiled kernel: below, numba's
 #: import and load (0.3-0.5 s) cost more than it saves (about 20 ms a point).
 COMPILED_FROM_POINTS = 20
@@ -56,10 +58,129 @@ RESULT_VARIABLES = {
 }
 
 
-def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> dict[str, CycleLut]:
-    """The component LUTs ``<folder>/<component>.nc`` the circuit needs, headers checked.
+#: Where the cycle LUTs of a LUT folder a user gives may sit, in the order looked at: the folder
+#: itself ('evtms bench all --grid cycle -o DIR'), its cycle/ (the folder is the luts/ folder
+#: 'evtms demo -o OUT' writes) and its luts/cycle/ (the folder is the demo's OUT).
+CYCLE_LUT_PLACES = ((), ("cycle",), ("luts", "cycle"))
+#: The demo's thesis-grid LUT folders: looked at only to say what a folder holds.
+_THESIS_PLACES = (("thesis",), ("luts", "thesis"))
+#: What a LUT folder should be, as the error messages say it.
+EXPECTED_LUT_FOLDER = (
+    "give the folder of cycle-grid LUTs that 'evtms bench all --grid cycle -o DIR' writes, "
+    "or the luts/ folder (or the output folder) that 'evtms demo -o OUT' wrote"
+)
 
-    Each file's header is read and checked against the LUT format (and its
+
+def _q(path: Path) -> str:
+    return repr(str(path))
+
+
+def _lut_files(where: Path, components: tuple[str, ...]) -> dict[str, LutMetadata | str]:
+    """Each of ``components``' files ``<where>/<component>.nc`` there: its checked header, or why it is no LUT."""
+    from evtms.luts.validate import read_lut_metadata
+    from evtms.paths import input_file
+
+    found: dict[str, LutMetadata | str] = {}
+    for c in components:
+        path = where / f"{c}.nc"
+        if not (path.exists() or path.is_symlink()):
+            continue
+        try:
+            found[c] = read_lut_metadata(input_file(path, "LUT file"), c)
+        except EvtmsInputError as exc:
+            found[c] = str(exc).removeprefix(f"{path}: ")
+    return found
+
+
+def _usable(entry: LutMetadata | str) -> bool:
+    # A thesis-grid LUT is a valid file but spans temperatures, not the enthalpies and air
+    # inlets the cycle queries: the cycle refuses it rather than fail at its first query.
+    return not isinstance(entry, str) and entry.attrs.get("grid") != "thesis"
+
+
+def _holding(where: Path, found: dict[str, LutMetadata | str], needed: tuple[str, ...]) -> str:
+    """What ``where`` holds, in words: components by grid, files that are no LUT, components missing."""
+    grids: dict[str, list[str]] = {}
+    for c, entry in found.items():
+        if not isinstance(entry, str):
+            grids.setdefault(str(entry.attrs.get("grid") or "unnamed"), []).append(c)
+    parts = [f"{', '.join(names)} on the {grid} grid" for grid, names in grids.items()]
+    parts += [f"{c}.nc, which is no valid LUT ({entry})" for c, entry in found.items() if isinstance(entry, str)]
+    text = f"{_q(where)} holds " + " and ".join(parts)
+    missing = [c for c in needed if c not in found]
+    if missing and any(_usable(e) for e in found.values()):
+        text += f", and lacks {', '.join(missing)}"
+    return text
+
+
+def _find_cycle_luts(folder: Path, needed: tuple[str, ...]) -> tuple[Path, dict[str, LutMetadata]] | None:
+    """(folder holding the cycle LUTs of ``needed``, their headers), or None where no LUT file is found."""
+    from evtms.luts.schema import COMPONENT_AXES
+
+    if folder.exists() and not folder.is_dir():
+        raise EvtmsInputError(f"LUT folder {_q(folder)} is a file; {EXPECTED_LUT_FOLDER}")
+    for place in CYCLE_LUT_PLACES:
+        where = folder.joinpath(*place)
+        found = _lut_files(where, needed)
+        if len(found) == len(needed) and all(_usable(e) for e in found.values()):
+            return where, found  # type: ignore[return-value]
+    # No complete set: say what is there (every component, the thesis folders too) before
+    # anything is built over it.
+    held = []
+    for place in CYCLE_LUT_PLACES + _THESIS_PLACES:
+        where = folder.joinpath(*place)
+        found = _lut_files(where, tuple(COMPONENT_AXES))
+        if found:
+            held.append(_holding(where, found, needed))
+    if not held:
+        return None
+    raise EvtmsInputError(f"no complete set of cycle LUTs in {_q(folder)}: {'; '.join(held)}; {EXPECTED_LUT_FOLDER}")
+
+
+def cycle_luts_folder(folder: str | Path, circuit: Topology | str = "cabin+chiller") -> Path | None:
+    """The folder holding the cycle LUTs for a LUT folder a user gives, or None if it holds no LUTs.
+
+    The LUTs are looked for in ``folder`` itself (as ``evtms bench all --grid
+    cycle -o folder`` writes them), in ``folder/cycle`` (``folder`` is the
+    ``luts/`` folder ``evtms demo -o OUT`` writes) and in ``folder/luts/cycle``
+    (``folder`` is the demo's ``OUT``), in this order. The first that holds a
+    valid LUT ``<component>.nc`` of every component of ``circuit``, none of
+    them on the thesis grid (its metadata ``grid``), is the one.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The folder the user gave.
+    circuit : Topology or str, optional
+        The circuit whose components are needed; default: every component
+        (as the system simulator needs them).
+
+    Returns
+    -------
+    Path or None
+        The folder holding the cycle LUTs; None if neither ``folder`` nor
+        those folders (nor the demo's ``thesis`` ones) hold any component's
+        LUT file: ``folder`` is missing or holds no LUTs, so LUTs built there
+        overwrite none.
+
+    Raises
+    ------
+    EvtmsInputError
+        ``folder`` is a file, or it holds LUT files but no complete set of
+        cycle LUTs: one line saying which files were found where, on which
+        grid (and which are no valid LUT), and which folder is expected.
+    """
+    needed = topology(circuit).components
+    found = _find_cycle_luts(Path(folder), needed)
+    return None if found is None else found[0]
+
+
+def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> dict[str, CycleLut]:
+    """The component LUTs the circuit needs, from the folder :func:`cycle_luts_folder` finds, headers checked.
+
+    ``folder`` is the folder of the cycle LUTs, or the ``luts/`` folder or
+    output folder of ``evtms demo`` (see :func:`cycle_luts_folder`). Each
+    file's header is read and checked against the LUT format (and its
     component); the tables the cycle interpolates are built from the data on
     first use and cached (:class:`evtms.cycle.tables.CycleLut`),
     so a second run neither decompresses nor holds the whole tables.
@@ -67,23 +188,19 @@ def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> di
     Raises
     ------
     EvtmsInputError
-        The folder or a file is missing, a file is not a valid LUT, or it holds
-        another component's table (one line naming the file).
+        The folder is missing, a file, holds no LUTs, or holds LUT files but
+        no complete set of cycle LUTs (a file missing, not a valid LUT, of
+        another component or on the thesis grid); one line saying what was
+        found and what is expected.
     """
-    from evtms.paths import input_file
-
     folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        raise EvtmsInputError(f"LUT folder {str(folder)!r} is a file; give the folder holding the cycle LUTs")
-    if not folder.is_dir():
-        raise EvtmsInputError(f"LUT folder {str(folder)!r} does not exist")
-    luts = {}
-    for c in topology(circuit).components:
-        path = folder / f"{c}.nc"
-        if not path.exists():
-            raise EvtmsInputError(f"{path}: no such file; write the cycle LUTs with 'evtms bench all --grid cycle'")
-        luts[c] = CycleLut(input_file(path, "LUT file"), c)
-    return luts
+    needed = topology(circuit).components
+    found = _find_cycle_luts(folder, needed)
+    if found is None:
+        state = "does not exist" if not folder.is_dir() else "holds no LUTs"
+        raise EvtmsInputError(f"LUT folder {_q(folder)} {state}; {EXPECTED_LUT_FOLDER}")
+    _, headers = found
+    return {c: CycleLut(headers[c].path, c, headers[c]) for c in needed}
 
 
 def saturation_curve(luts: dict, fluid: Fluid | None = None) -> SaturationCurve:

@@ -27,6 +27,7 @@ if TYPE_CHECKING:
 
     from evtms.fluid import VapourTable
     from evtms.luts import Interpolator
+    from evtms.luts.validate import LutMetadata
 
 
 def _short(recipe: dict) -> str:
@@ -42,6 +43,8 @@ class CycleLut:
         The LUT file (checked against the format, header only).
     component : str
         The component it must hold.
+    meta : LutMetadata, optional
+        The file's header, where the caller has read and checked it already.
 
     Attributes
     ----------
@@ -55,10 +58,10 @@ class CycleLut:
         ``source``: the file's path (named in reasons).
     """
 
-    def __init__(self, path: str | Path, component: str) -> None:
+    def __init__(self, path: str | Path, component: str, meta: LutMetadata | None = None) -> None:
         self.path = Path(path)
         self.component = component
-        self.meta = read_lut_metadata(self.path, component)
+        self.meta = meta if meta is not None else read_lut_metadata(self.path, component)
         self.attrs = self.meta.attrs
         self.dims = tuple(self.meta.dims)
         self.axes = self.meta.axes

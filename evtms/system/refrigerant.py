@@ -139,7 +139,10 @@ def load_refrigerant(
 ) -> Refrigerant:
     """Cycle maps (built and cached when missing or stale) and saturation curve of the LUTs in ``luts_folder``.
 
-    ``settings`` overrides the map settings the parameters imply (e.g. coarser axes).
+    ``luts_folder`` is the folder of the cycle LUTs, or the ``luts/`` folder
+    or output folder of ``evtms demo`` (:func:`evtms.cycle.api.cycle_luts_folder`);
+    the maps are cached beside the LUTs. ``settings`` overrides the map
+    settings the parameters imply (e.g. coarser axes).
     """
     from evtms.cycle import load_cycle_luts
     from evtms.cycle.api import saturation_curve
@@ -147,13 +150,16 @@ def load_refrigerant(
     params = params or SystemParams()
     settings = settings or map_settings(params)
     # Every LUT the maps need is read (headers) and checked first: a bad one is one error before any map work.
-    sat = saturation_curve(load_cycle_luts(luts_folder, "cabin+chiller"))
-    maps = load_maps(luts_folder, settings, progress=progress)
+    luts = load_cycle_luts(luts_folder, "cabin+chiller")
+    sat = saturation_curve(luts)
+    # The LUTs all come from one folder, the one found in luts_folder: the maps are cached there.
+    folder = next(iter(luts.values())).path.parent
+    maps = load_maps(folder, settings, progress=progress)
     return Refrigerant(
         maps=maps,
         sat_T=np.ascontiguousarray(sat.T, float),
         sat_p=np.ascontiguousarray(sat.p, float),
         coolant_mdot_max=settings.coolant_flow_max * settings.coolant_density,
         settings=settings,
-        folder=Path(luts_folder),
+        folder=folder,
     )
