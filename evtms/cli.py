@@ -674,6 +674,11 @@ def _cycle_models(luts: Path | None, direct: bool, params: Path | None, circuit)
     return tables, parameters
 
 
+def _lut_folder(tables: dict) -> Path:
+    """The folder the cycle LUTs were found in (one folder for all of them)."""
+    return next(iter(tables.values())).path.parent
+
+
 _SPEED = typer.Option("--speed", help="Compressor speed fraction (0-1].")
 _FAN = typer.Option("--fan", help="Condenser fan fraction (0-1].")
 _BLOWER = typer.Option("--blower", help="Evaporator blower fraction (0-1].")
@@ -689,7 +694,11 @@ _TOPOLOGY = typer.Option(
 )
 _SH = typer.Option("--superheat", help="Thermostatic-valve superheat setpoint [K], 0-50.")
 _SC = typer.Option("--subcooling", help="Condenser-outlet subcooling [K], 0-30; 0 = saturated liquid (receiver).")
-_LUTS = typer.Option("--luts", help="Folder with the cycle LUTs (evtms bench all --grid cycle). Default: luts/")
+_LUTS = typer.Option(
+    "--luts",
+    help="Folder with the cycle LUTs (evtms bench all --grid cycle -o DIR), or the luts/ or output folder of "
+    "evtms demo. Default: luts/",
+)
 _DIRECT = typer.Option("--direct", help="Use the bench physics directly instead of LUTs (reference, slower).")
 _PARAMS = typer.Option(
     "--params", help="TOML parameters: direct mode; with LUTs it must agree with the LUTs' own parameters."
@@ -774,7 +783,7 @@ def cycle_run(
             {
                 "topology": circuit.name,
                 "inputs": {k: v[0] for k, v in grid.items()},
-                "models": "direct" if direct else str(luts or "luts"),
+                "models": "direct" if tables is None else str(_lut_folder(tables)),
                 "status": status,
                 "status_meaning": CYCLE_FLAGS[status],
                 "note": str(r["reason"][0]),
@@ -831,19 +840,19 @@ def cycle_sweep(
 
     if max_points < 1:
         fail(f"--max-points {max_points} is not allowed; allowed: 1 or more")
-    folder = luts or Path("luts")
     circuit, grid = _cycle_inputs(
         topology,
         _texts(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, coolant_flow, t_coolant, superheat, subcooling),
         max_points,
     )
-    inputs = [params] + ([] if direct else [folder / f"{c}.nc" for c in circuit.components])
-    output_file(output, inputs, (".nc",))
     tables, parameters = _cycle_models(luts, direct, params, circuit)
+    # The LUT files found (headers read, data not yet): the output may not be one of them.
+    inputs = [params] + ([] if tables is None else [t.path for t in tables.values()])
+    output_file(output, inputs, (".nc",))
     t0 = time.perf_counter()
     points, r = solve_grid(grid, tables, parameters, circuit)
     wall = time.perf_counter() - t0
-    ds = cycle_dataset(grid, r, "direct" if direct else f"LUTs in {folder}", circuit)
+    ds = cycle_dataset(grid, r, "direct" if tables is None else f"LUTs in {_lut_folder(tables)}", circuit)
     with creating_parents(output), atomic_output(output) as tmp:
         ds.to_netcdf(tmp, engine="netcdf4", encoding=cycle_encoding(ds))
     status = np.asarray(r["status"])
@@ -1111,7 +1120,12 @@ def surrogate_train(
             "--mode", help="Modes, comma-separated: off, bh, bc, cc, ch, ch+bh, ch+bc, cc+bc, or all (every one)."
         ),
     ] = "all",
-    luts: Annotated[Path, typer.Option("--luts", help="Cycle LUT folder; built there if missing.")] = Path("luts"),
+    luts: Annotated[
+        Path,
+        typer.Option(
+            "--luts", help="Cycle LUT folder, or evtms demo's luts/ or output folder; built if missing or empty."
+        ),
+    ] = Path("luts"),
     params: Annotated[Path | None, typer.Option("--params", help="System TOML, as evtms simulate.")] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the scenario design and of every fit.")] = 0,
     runs_per_mode: Annotated[int, typer.Option("--runs-per-mode", help="Training simulations per mode.")] = 24,
@@ -1139,9 +1153,10 @@ def surrogate_train(
     check_modes(modes)  # before any LUT or map work
     inputs = [input_file(params, "params file")] if params is not None else []
     system = load_system_params(params)
-    inputs += _luts_inputs(luts)
+    lut_folder, lut_files = _cycle_luts(luts)
+    inputs += lut_files
     output_folder(output, inputs)
-    refrigerant = _system_refrigerant(luts, system, quiet=json_out)
+    refrigerant = _system_refrigerant(luts, lut_folder, system, quiet=json_out)
     with _ProgressBar(json_out or not sys.stderr.isatty()) as bar:
         task = None
 
@@ -1200,9 +1215,12 @@ def report_compare(
     surrogates: Annotated[
         Path, typer.Option("--surrogates", help="Mode-model file or folder (evtms surrogate train -o).")
     ] = Path("models"),
-    luts: Annotated[Path, typer.Option("--luts", help="Cycle LUT folder (evtms bench all --grid cycle).")] = Path(
-        "luts"
-    ),
+    luts: Annotated[
+        Path,
+        typer.Option(
+            "--luts", help="Cycle LUT folder (evtms bench all --grid cycle), or evtms demo's luts/ or output folder."
+        ),
+    ] = Path("luts"),
     params: Annotated[Path | None, typer.Option("--params", help="System TOML, as evtms simulate.")] = None,
     dt: Annotated[float, typer.Option("--dt", help="Step of the comparison table and trajectories [s].")] = 1.0,
     dts: Annotated[str, typer.Option("--dts", help="Steps of the step-size study [s].")] = "0.01,0.1,1,10",
@@ -1276,9 +1294,10 @@ def report_compare(
     check_request(
         cycles, ambients, chosen, mode_models, step_list, physics_steps, dt, reference, repeat
     )  # before the maps are built
-    inputs += _luts_inputs(luts)
+    lut_folder, lut_files = _cycle_luts(luts)
+    inputs += lut_files
     output_folder(output, inputs)
-    refrigerant = _system_refrigerant(luts, system, quiet=json_out)
+    refrigerant = _system_refrigerant(luts, lut_folder, system, quiet=json_out)
 
     def progress(done: int, total: int, message: str) -> None:
         if not json_out:
@@ -1371,7 +1390,12 @@ def simulate(
     mode: Annotated[str, typer.Option("--mode", help="auto, or force one mode: off, bh, bc, cc, ch.")] = "auto",
     params: Annotated[Path | None, typer.Option("--params", help="TOML: [vehicle] [battery] [cabin] ...")] = None,
     luts: Annotated[
-        Path, typer.Option("--luts", help="Cycle LUT folder; built there (bench all --grid cycle) if missing.")
+        Path,
+        typer.Option(
+            "--luts",
+            help="Cycle LUT folder (evtms bench all --grid cycle -o DIR), or evtms demo's luts/ or output folder; "
+            "built there if missing or empty.",
+        ),
     ] = Path("luts"),
     dt: Annotated[float, typer.Option("--dt", help="Time step [s], 0.001 to 60.")] = 1.0,
     output_every: Annotated[
@@ -1430,13 +1454,14 @@ def simulate(
     check_run_options(trace, dt, mode, output_every, precondition)
     if Path(trace.source).is_file():
         inputs.append(Path(trace.source))
-    inputs += _luts_inputs(luts)
+    lut_folder, lut_files = _cycle_luts(luts)
+    inputs += lut_files
     mode_models = None
     if model == "surrogate":
         mode_models, surrogate_file = _mode_models(surrogates)
         inputs.append(surrogate_file)
     output_file(output, inputs, (".nc",))
-    refrigerant = _system_refrigerant(luts, system, quiet=json_out)
+    refrigerant = _system_refrigerant(luts, lut_folder, system, quiet=json_out)
     from evtms.system.output import write_simulation
     from evtms.system.simulate import check_model
     from evtms.system.simulate import simulate as run
@@ -1487,13 +1512,25 @@ def _check_soak(soak_cabin: float | None) -> None:
         fail(f"--soak-cabin {soak_cabin:g} is not allowed; allowed: -40 to 90 degC")
 
 
-def _luts_inputs(luts: Path) -> list[Path]:
-    """The cycle LUTs and maps in ``luts`` (inputs an output may not overwrite); a file there is one line, exit 2."""
+def _cycle_luts(luts: Path) -> tuple[Path | None, list[Path]]:
+    """(folder holding the cycle LUTs of ``luts``, or None to build them in ``luts``; the LUTs and maps
+    there: inputs an output may not overwrite).
+
+    ``luts`` may be the folder of the cycle LUTs or the luts/ or output folder of ``evtms demo``
+    (:func:`evtms.cycle.api.cycle_luts_folder`). A file, or a folder holding LUTs but no complete set
+    of cycle LUTs, is one line, exit 2: nothing is built over LUTs already there.
+    """
+    from evtms.cycle.api import cycle_luts_folder
+
     if luts.exists() and not luts.is_dir():
         fail(f"--luts {str(luts)!r} is not a folder; allowed: a folder of cycle LUTs (or one to build them in)")
-    if not luts.is_dir():
-        return []
-    return sorted(luts.glob("*.nc")) + sorted((luts / "maps").glob("*.nc"))
+    try:
+        folder = cycle_luts_folder(luts, "cabin+chiller")
+    except EvtmsInputError as exc:
+        fail(f"--luts: {exc}")
+    if folder is None:
+        return None, []
+    return folder, sorted(folder.glob("*.nc")) + sorted((folder / "maps").glob("*.nc"))
 
 
 def _mode_models(path: Path):
@@ -1509,29 +1546,31 @@ def _mode_models(path: Path):
     return load_mode_models(file), file
 
 
-def _system_refrigerant(luts: Path, system, quiet: bool):
-    """The cycle maps of ``luts`` for the simulator; LUTs and maps are built first where missing (with a bar)."""
+def _system_refrigerant(luts: Path, folder: Path | None, system, quiet: bool):
+    """The cycle maps of the cycle LUTs in ``folder`` (from :func:`_cycle_luts`) for the simulator.
+
+    With ``folder`` None (``luts`` missing or holding no LUTs) the cycle LUTs are built in ``luts``
+    first; maps are built where missing (with a bar).
+    """
     from evtms.benches.parameters import Parameters
     from evtms.demo import ensure_luts
     from evtms.system.refrigerant import load_refrigerant
 
-    if not luts.is_dir() or not all((luts / f"{c}.nc").is_file() for c in _CYCLE_COMPONENTS):
+    if folder is None:
         typer.echo(f"note: no cycle LUTs in {luts}/; building them (evtms bench all --grid cycle, 1-2 min)", err=True)
         with creating_parents(luts, folder=True):
             ensure_luts(luts, "cycle", Parameters(), notify=lambda m: typer.echo(f"  {m}", err=True))
+        folder = luts
     with _ProgressBar(quiet or not sys.stderr.isatty()) as bar:
         tasks = {}
 
         def progress(done: int, total: int, text: str) -> None:
             if text not in tasks:
-                typer.echo(f"note: building cycle map {text} in {luts}/maps/ (once)", err=True)
+                typer.echo(f"note: building cycle map {text} in {folder}/maps/ (once)", err=True)
                 tasks[text] = bar.task(text, total)
             tasks[text](done, total)
 
-        return load_refrigerant(luts, system, progress)
-
-
-_CYCLE_COMPONENTS = ("compressor", "condenser", "evaporator", "chiller", "expansion_valve")
+        return load_refrigerant(folder, system, progress)
 
 
 def main() -> None:
