@@ -469,7 +469,7 @@ def simulate(
         "battery_chemical_kWh": float(E / 3.6e6),
         "hvac_energy_kWh": float(np.sum(out[:, L.O_P_HVAC] * dts * (1.0 - p_motor[:done, 2])) / 3.6e6),
         "motor_energy_kWh": float(np.sum(out[:, L.O_P_MOTOR_EL] * dts) / 3.6e6),
-        "aux_energy_kWh": float(params.vehicle.aux_power * (edges[-1] - precondition) / 3.6e6),
+        "aux_energy_kWh": float(np.sum(out[:, L.O_P_AUX] * dts * (1.0 - p_motor[:done, 2])) / 3.6e6),
         **_consumption_split(out, dts * (1.0 - p_motor[:done, 2])),
         "battery_loss_kWh": float(np.sum(out[:, L.O_Q_GEN] * dts) / 3.6e6),
         "soc_end": float(states[-1, L.S_SOC]),
