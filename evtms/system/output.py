@@ -73,11 +73,13 @@ def to_dataset(results: list[SimulationResult]):
         "title": "evtms system simulation",
         "evtms_version": __version__,
         "created": created,
-        **{k: v for k, v in first.items() if k not in ("T_amb", "termination", "ledgers")},
+        **{k: v for k, v in first.items() if k not in ("T_amb", "termination", "ledgers", "range")},
         "termination": json.dumps([r.attrs["termination"] for r in results]) if several else first["termination"],
         "ledgers": json.dumps([r.ledgers for r in results]) if several else first["ledgers"],
         "summary": json.dumps([r.summary for r in results] if several else results[0].summary),
     }
+    if "range" in first:  # a depletion test's figures (evtms.system.range_test), per run
+        attrs["range"] = json.dumps([json.loads(r.attrs["range"]) for r in results]) if several else first["range"]
     if not several:
         attrs["T_amb"] = first["T_amb"]
     return xr.Dataset(data, coords=coords, attrs=attrs)
