@@ -1081,25 +1081,35 @@ def report_simulation(
 
 @report_app.command("range")
 def report_range(
-    sweep: Annotated[Path, typer.Argument(help="Simulation sweep over the ambient (evtms simulate --t-amb a:b:n).")],
+    sweep: Annotated[
+        Path,
+        typer.Argument(help="Simulation sweep over the ambient (evtms simulate --t-amb a:b:n), or range tests."),
+    ],
     output: Annotated[Path, typer.Option("--output", "-o", help="Figure file, .png or .svg.")],
     json_out: Annotated[bool, _JSON] = False,
 ) -> None:
-    """Consumption per 100 km split by use, and range, against the ambient temperature.
+    """Range against the ambient temperature.
 
-    Example: evtms simulate --cycle wltc3b --t-amb -20:45:14 -o sweep.nc && evtms report range sweep.nc -o range.png
+    A range test's file (evtms simulate --range mct|ccp): the test's range (combined for mct, depletion for
+    ccp) and the steady consumption EC_ss, the v1 single-trip range dashed, the 10-30 degC band (Geotab), the
+    change against 23.9 degC with the AAA 2019 points; --json adds the figures per ambient and the Geotab shape
+    checks (with a breakdown where one fails). A single-trip sweep: consumption per 100 km split by use, and
+    the extrapolated range.
+
+    Example: evtms simulate --range mct --t-amb -10:40:11 -o mct.nc && evtms report range mct.nc -o range.png
     """
-    from evtms.reports.system_plots import range_figure
+    from evtms.reports.system_plots import depletion_report, range_figure, range_test
 
     output_file(output, [sweep], (".png", ".svg"))
     ds = _open_simulation(sweep)
     try:
         with creating_parents(output):
             range_figure(ds, output)
+        report = depletion_report(ds) if range_test(ds) != "single" else {}
     except EvtmsInputError as exc:
         fail(f"{sweep}: {exc}")
     if json_out:
-        print_json({"path": str(output)})
+        print_json({"path": str(output), **report})
         return
     typer.echo(f"wrote {output}")
 
@@ -1421,9 +1431,19 @@ def simulate(
             "--surrogates", help="Mode-model file or folder (evtms surrogate train -o), for --model surrogate."
         ),
     ] = Path("models"),
+    range_test: Annotated[
+        str,
+        typer.Option(
+            "--range",
+            help="single (the cycle once; range_km extrapolates it), mct (SAE J1634 multi-cycle test: UDDS, HWFET "
+            "and 65 mph phases to break-off) or ccp (UN GTR 15: WLTC 3b back to back to break-off). mct and ccp "
+            "start fully charged and drive their own cycles: leave out --cycle (ccp accepts --cycle wltc3b); a "
+            "--scenario gives its conditions, not its cycle.",
+        ),
+    ] = "single",
     json_out: Annotated[bool, _JSON] = False,
 ) -> None:
-    """Simulate the vehicle's thermal system over a drive cycle and write the time series.
+    """Simulate the vehicle's thermal system over a drive cycle (or a range test) and write the time series.
 
     Example: evtms simulate --cycle wltc3b --t-amb 30 -o run.nc --json
     """
@@ -1431,9 +1451,19 @@ def simulate(
     from evtms.cycle.topology import parse_values
     from evtms.system.drive_cycles import drive_cycle
     from evtms.system.params import load_system_params
+    from evtms.system.range_test import RANGE_TESTS
     from evtms.system.simulate import SCENARIOS, check_run_options
 
-    if (cycle is None) == (scenario is None):
+    if range_test not in RANGE_TESTS:
+        fail(f"--range {range_test!r} is unknown; allowed: {', '.join(RANGE_TESTS)}")
+    depletion = range_test != "single"
+    if depletion:
+        if cycle is not None and not (range_test == "ccp" and cycle == "wltc3b"):
+            own = "UDDS, HWFET and 65 mph phases" if range_test == "mct" else "WLTC 3b back to back"
+            fail(f"--range {range_test} drives its own cycles ({own}); leave out --cycle {cycle}")
+        if cycle is not None and scenario is not None:
+            fail("give --cycle NAME|FILE.csv or --scenario NAME (one of them)")
+    elif (cycle is None) == (scenario is None):
         fail("give --cycle NAME|FILE.csv or --scenario NAME (one of them)")
     if scenario is not None and scenario not in SCENARIOS:
         fail(f"--scenario {scenario!r} is unknown; allowed: {', '.join(SCENARIOS)}")
@@ -1450,7 +1480,12 @@ def simulate(
     if params is not None:
         input_file(params, "params file")
     system = load_system_params(params)
-    trace = drive_cycle(sc.cycle if sc is not None else cycle)
+    if depletion:
+        from evtms.system.range_test import ccp_sequence, mct_sequence
+
+        trace = mct_sequence(0.0, 1).cycle if range_test == "mct" else ccp_sequence(1).cycle  # the options' checks
+    else:
+        trace = drive_cycle(sc.cycle if sc is not None else cycle)
     check_run_options(trace, dt, mode, output_every, precondition)
     if Path(trace.source).is_file():
         inputs.append(Path(trace.source))
@@ -1467,27 +1502,29 @@ def simulate(
     from evtms.system.simulate import simulate as run
 
     check_model(model, mode, mode_models, refrigerant)
+    options = dict(
+        dt=dt,
+        mode=mode,
+        RH_amb=sc.RH_amb if sc else 0.4,
+        sun=sc.sun if sc else 0.0,
+        T_init=sc.T_init if sc else None,
+        soak_cabin=None if soak_cabin is None else soak_cabin + 273.15,
+        output_every=output_every,
+        scenario=scenario or "",
+        precondition=precondition,
+        model=model,
+        mode_models=mode_models,
+    )
+    if depletion:
+        from evtms.system.range_test import run_range_test
 
-    results = [
-        run(
-            trace,
-            T,
-            refrigerant,
-            system,
-            dt=dt,
-            mode=mode,
-            RH_amb=sc.RH_amb if sc else 0.4,
-            sun=sc.sun if sc else 0.0,
-            T_init=sc.T_init if sc else None,
-            soak_cabin=None if soak_cabin is None else soak_cabin + 273.15,
-            output_every=output_every,
-            scenario=scenario or "",
-            precondition=precondition,
-            model=model,
-            mode_models=mode_models,
-        )
-        for T in ambients
-    ]
+        if sc is not None:
+            typer.echo(
+                f"note: --range {range_test} keeps the scenario's conditions, not its cycle {sc.cycle}", err=True
+            )
+        results = [run_range_test(range_test, T, refrigerant, system, **options)[0] for T in ambients]
+    else:
+        results = [run(trace, T, refrigerant, system, **options) for T in ambients]
     with creating_parents(output):
         write_simulation(results, output)
     wall = time.perf_counter() - t0
@@ -1498,12 +1535,35 @@ def simulate(
         return
     for r in results:
         s = r.summary
+        if "range" in s:
+            typer.echo(_range_line(s))
+            continue
         typer.echo(
             f"{s['T_amb_degC']:6.1f} degC  {s['distance_km']:.2f} km  battery {s['battery_energy_kWh']:.3f} kWh "
             f"(HVAC {s['hvac_energy_kWh']:.3f})  SOC {s['soc_end']:.4f}  cabin {s['T_cabin_end_degC']:.1f} degC  "
             f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
         )
     typer.echo(f"wrote {output} ({wall:.2f} s)")
+
+
+def _range_line(s: dict) -> str:
+    """One line of a depletion test's figures (evtms simulate --range mct|ccp)."""
+    f = s["range"]
+
+    def km(key: str) -> str:
+        return "n/a" if f.get(key) is None else f"{f[key]:.1f} km"
+
+    ec = f.get("EC_ss_combined_Wh_per_km")
+    main = (
+        f"combined {km('range_combined_km')} (city {km('range_city_km')}, highway {km('range_hwy_km')})"
+        if f["test"] == "mct"
+        else f"depletion {km('range_depletion_km')}"
+    )
+    return (
+        f"{s['T_amb_degC']:6.1f} degC  {f['test']}: UBE {f['ube_kWh']:.2f} kWh, {main}, "
+        f"EC_ss {'n/a' if ec is None else f'{ec:.1f}'} Wh/km, range_ss {km('range_ss_km')}, "
+        f"break-off {f['break_off']} at {f['break_off_s'] / 3600.0:.2f} h  loop {s['loop_time_s'] * 1e3:.0f} ms"
+    )
 
 
 def _check_soak(soak_cabin: float | None) -> None:

@@ -11,11 +11,16 @@ import json
 
 import numpy as np
 import pytest
+import xarray as xr
 from test_simulate import params, refrigerant  # noqa: F401 - the synthetic maps' fixture
+from typer.testing import CliRunner
 
+from evtms import cli
 from evtms.errors import EvtmsInputError
+from evtms.reports.system_plots import depletion_data, depletion_report, range_figure
 from evtms.system import loop as L  # noqa: N812
 from evtms.system.drive_cycles import DriveCycle, drive_cycle
+from evtms.system.output import to_dataset
 from evtms.system.range_test import (
     RangeSettings,
     break_off_time,
@@ -25,9 +30,10 @@ from evtms.system.range_test import (
     measure,
     run_range_test,
 )
-from evtms.system.simulate import simulate, usable_energy
+from evtms.system.simulate import SimulationResult, simulate, usable_energy
 
 UDDS, HWFET, WLTC = drive_cycle("udds"), drive_cycle("hwfet"), drive_cycle("wltc3b")
+runner = CliRunner()
 
 
 def _key_off_spans(cycle: DriveCycle) -> list[tuple[float, float]]:
@@ -46,24 +52,13 @@ def test_mct_sequence_has_the_cfr_order_soaks_and_csc_speed():
     lengths = {p.name: p.end - p.start for p in seq.phases}
     assert lengths["UDDS1"] == 1369.0 and lengths["HWFET1"] == 765.0
     assert [p.end - p.start for p in seq.phases if p.kind == "key_on"] == [15.0, 15.0]
-    assert [p.end - p.start for p in seq.phases if p.name.startswith("CSC_M")] == [
-        2000.0,
-        2000.0,
-    ]
-    assert [p.end - p.start for p in seq.phases if p.name.startswith("CSC_E")] == [
-        3600.0,
-        3600.0,
-    ]
+    assert [p.end - p.start for p in seq.phases if p.name.startswith("CSC_M")] == [2000.0, 2000.0]
+    assert [p.end - p.start for p in seq.phases if p.name.startswith("CSC_E")] == [3600.0, 3600.0]
     # Phases tile the trace; key-off exactly on the soaks: 10 min after each HWFET, 5 min between CSC phases.
     assert all(a.end == b.start for a, b in zip(seq.phases, seq.phases[1:], strict=False))
     assert seq.phases[-1].end == seq.cycle.duration == 4 * 1369 + 2 * 765 + 2 * 15 + 2 * 600 + 4000 + 300 + 7200 + 300
     soaks = [(p.start, p.end - p.start) for p in seq.phases if p.kind == "key_off"]
-    assert _key_off_spans(seq.cycle) == soaks and [d for _, d in soaks] == [
-        600.0,
-        300.0,
-        600.0,
-        300.0,
-    ]
+    assert _key_off_spans(seq.cycle) == soaks and [d for _, d in soaks] == [600.0, 300.0, 600.0, 300.0]
     # 65 mph (29.06 m/s) in every CSC phase, reached and left at 1 m/s2 on whole seconds; standing elsewhere.
     c = seq.cycle
     assert s.csc_speed == pytest.approx(29.06, abs=5e-3) and s.csc_speed == 65 * 0.44704
@@ -86,11 +81,7 @@ def test_csc_phases_and_ccp():
     s = RangeSettings()
     assert csc_phases(7300.0, s) == [2433.0, 2433.0, 2434.0]
     assert csc_phases(3600.0, s) == [3600.0] and csc_phases(60.0, s) == [] and csc_phases(61.0, s) == [61.0]
-    assert [p.name for p in mct_sequence(0.0, 1).phases][4:7] == [
-        "UDDS2",
-        "UDDS3",
-        "key-on pause",
-    ]  # no CSC_M
+    assert [p.name for p in mct_sequence(0.0, 1).phases][4:7] == ["UDDS2", "UDDS3", "key-on pause"]  # no CSC_M
     seq = ccp_sequence(3)
     assert [(p.name, p.start, p.end) for p in seq.phases] == [
         ("WLTC1", 0.0, 1800.0), ("WLTC2", 1800.0, 3600.0), ("WLTC3", 3600.0, 5400.0)
@@ -168,14 +159,7 @@ def test_the_figures_are_the_hand_computed_ones():
     t_end = start["CSC_E1"] + 1000.0  # break-off 1000 s into CSC_E1
     power = {"UDDS1": 6000.0, "UDDS2": 5500.0, "UDDS3": 5000.0, "UDDS4": 5200.0, "HWFET1": 12000.0,
              "HWFET2": 11500.0, "key_on": 800.0, "CSC_E1": 15000.0}  # fmt: skip
-    dT = {
-        "UDDS1": 5.0,
-        "UDDS2": 0.5,
-        "UDDS3": 0.1,
-        "UDDS4": 0.3,
-        "HWFET1": 1.0,
-        "HWFET2": 0.3,
-    }
+    dT = {"UDDS1": 5.0, "UDDS2": 0.5, "UDDS3": 0.1, "UDDS4": 0.3, "HWFET1": 1.0, "HWFET2": 0.3}
     records, flags = _synthetic_run(seq, power, dT, t_end)
     p = params()
     f = measure(seq, records, flags, "soc_min", params=p)
@@ -186,15 +170,7 @@ def test_the_figures_are_the_hand_computed_ones():
     assert f.break_off == "soc_min" and f.break_off_s == t_end
     assert f.ube_kWh == pytest.approx(ube / 3.6e6, rel=1e-12)
     assert f.hvac_share == pytest.approx(0.1, rel=1e-12)
-    assert [c.name for c in f.cycles] == [
-        "UDDS1",
-        "HWFET1",
-        "UDDS2",
-        "UDDS3",
-        "HWFET2",
-        "UDDS4",
-        "CSC_E1",
-    ]
+    assert [c.name for c in f.cycles] == ["UDDS1", "HWFET1", "UDDS2", "UDDS3", "HWFET2", "UDDS4", "CSC_E1"]
     assert [c.complete for c in f.cycles] == [True] * 6 + [False]
     wh_km = 1 / 3.6  # J/m -> Wh/km
     ec_u = sum(E[k] for k in ("UDDS1", "UDDS2", "UDDS3", "UDDS4")) / (4 * d_u) * wh_km
@@ -277,15 +253,129 @@ def test_soc_start_sets_where_the_test_begins(refrigerant):  # noqa: F811
     full = run_range_test("ccp", 295.15, refrigerant, params(**SMALL))[1]
     assert r.records["SOC"][0] == 0.3 and f.ube_kWh < 0.4 * full.ube_kWh
     with pytest.raises(EvtmsInputError, match="start SOC"):
-        run_range_test(
-            "ccp",
-            295.15,
-            refrigerant,
-            params(**SMALL),
-            settings=RangeSettings(soc_start=0.01),
-        )
+        run_range_test("ccp", 295.15, refrigerant, params(**SMALL), settings=RangeSettings(soc_start=0.01))
     with pytest.raises(EvtmsInputError, match="--range 'single'"):
         run_range_test("single", 295.15, refrigerant)
+
+
+# The report ---------------------------------------------------------------------------------------------
+
+
+def _fake(T_amb: float, range_km: float, heating: str | None = None) -> SimulationResult:
+    time = np.arange(3.0)
+    records = {name: np.zeros(3) for name in ("speed", "T_cabin")}
+    records["time"] = time
+    from evtms.system.simulate import RECORD_VARIABLES
+
+    for name in RECORD_VARIABLES:
+        records.setdefault(name, np.zeros(3))
+    figures = {
+        "test": "mct", "range_combined_km": range_km, "range_ss_km": 1.01 * range_km,
+        "single_trip_range_km": 0.9 * range_km, "EC_ss_combined_Wh_per_km": 1e5 / range_km, "hvac_share": 0.1,
+        "hvac_kWh": 1.0, "warmup_kWh": 0.2, "not_steady": [],
+    }  # fmt: skip
+    summary = {"T_amb_degC": T_amb - 273.15, "range": figures}
+    if heating:
+        summary["heating"] = heating
+    attrs = {"T_amb": T_amb, "termination": "soc_min", "ledgers": "{}", "range_test": "mct"}
+    attrs["range"] = json.dumps(figures)
+    return SimulationResult(records, np.zeros(3, np.int8), np.zeros(3, np.uint16), {}, summary, attrs)
+
+
+def test_report_checks_the_geotab_shape_and_the_baseline(tmp_path):
+    good = [(283.15, 850.0), (293.15, 970.0), (297.05, 1000.0), (303.15, 900.0)]
+    ds = to_dataset([_fake(T, x) for T, x in good])
+    d = depletion_data(ds)
+    c = d["curves"][""]
+    np.testing.assert_allclose(c["T_amb"], [10.0, 20.0, 23.9, 30.0])
+    assert c["baseline_km"] == 1000.0
+    np.testing.assert_allclose(c["pct_vs_baseline"], [-15.0, -3.0, 0.0, -10.0])
+    assert all(k["ok"] for k in c["checks"]) and "breakdown" not in c
+    bad = [(283.15, 990.0), (293.15, 900.0), (297.05, 1000.0), (303.15, 700.0)]
+    report = depletion_report(to_dataset([_fake(T, x) for T, x in bad]))
+    checks = {k["check"]: k["ok"] for k in report["curves"][0]["checks"]}
+    assert checks == {
+        "peak between 18 and 26 degC": True,
+        "20 degC at most 5 % below the peak": False,
+        "10 degC 5-20 % below the peak": False,
+        "30 degC 5-20 % below the peak": False,
+    }
+    assert [b["hvac_share"] for b in report["curves"][0]["breakdown"]] == [0.1] * 4
+    aaa = report["curves"][0]["aaa_2019"]
+    assert aaa["-6.7"]["model_pct"] is None and aaa["35"]["aaa_pct"] == -17.0
+    # One curve per heating option the runs name.
+    two = to_dataset([_fake(T, x, h) for (T, x), h in zip(good, ["ptc_air", "heat_pump"] * 2, strict=True)])
+    assert list(depletion_data(two)["curves"]) == ["ptc_air", "heat_pump"]
+    assert range_figure(two, tmp_path / "r.png").stat().st_size > 1000
+
+
+# The command line ---------------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def cli_maps(monkeypatch, refrigerant):  # noqa: F811
+    monkeypatch.setattr(cli, "_system_refrigerant", lambda luts, system, quiet: refrigerant)
+
+
+def _run(*args):
+    return runner.invoke(cli.app, [str(a) for a in args])
+
+
+def test_simulate_range_mct_then_report(cli_maps, tmp_path):
+    toml = tmp_path / "small.toml"
+    toml.write_text("[battery]\nn_parallel = 8\n")
+    out = tmp_path / "mct.nc"
+    res = _run("simulate", "--range", "mct", "--t-amb", "10,22", "--params", toml, "--luts", tmp_path / "l", "-o",
+               out, "--json")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    runs = json.loads(res.stdout)["runs"]
+    assert [r["range"]["break_off"] for r in runs] == ["soc_min", "soc_min"]
+    assert runs[1]["range"]["range_combined_km"] > runs[0]["range"]["range_combined_km"]
+    with xr.open_dataset(out) as ds:
+        assert ds.attrs["range_test"] == "mct"
+        stored = json.loads(ds.attrs["range"])
+        assert [s["ube_kWh"] for s in stored] == [r["range"]["ube_kWh"] for r in runs]
+    fig = tmp_path / "range.png"
+    res = _run("report", "range", out, "-o", fig, "--json")
+    assert res.exit_code == 0, res.output
+    report = json.loads(res.stdout)
+    assert report["path"] == str(fig) and report["test"] == "mct" and fig.stat().st_size > 1000
+    assert [p["T_amb_degC"] for p in report["curves"][0]["points"]] == pytest.approx([10.0, 22.0])
+    res = _run("simulate", "--range", "ccp", "--cycle", "wltc3b", "--t-amb", "22", "--params", toml, "--luts",
+               tmp_path / "l", "-o", tmp_path / "ccp.nc")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "ccp: UBE" in res.stdout and "depletion" in res.stdout
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--range", "epa", "--t-amb", "22"], "--range 'epa' is unknown; allowed: single, mct, ccp"),
+        (["--range", "mct", "--cycle", "udds", "--t-amb", "22"], "--range mct drives its own cycles"),
+        (["--range", "ccp", "--cycle", "nedc", "--t-amb", "22"], "leave out --cycle nedc"),
+        (["--range", "single", "--t-amb", "22"], "give --cycle"),
+        (["--range", "mct"], "give --t-amb"),
+        (["--range", "mct", "--t-amb", "22", "--dt", "0"], "--dt 0 is not allowed"),
+    ],
+)
+def test_bad_range_options_are_one_line_exit_2(cli_maps, tmp_path, args, message):
+    out = tmp_path / "bad.nc"
+    res = _run("simulate", *args, "--luts", tmp_path / "l", "-o", out)
+    assert res.exit_code == 2, res.output
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], res.stderr
+    assert not out.exists()
+
+
+def test_scenario_gives_its_conditions_to_a_range_test(cli_maps, tmp_path):
+    toml = tmp_path / "small.toml"
+    toml.write_text("[battery]\nn_parallel = 8\n")
+    res = _run("simulate", "--range", "ccp", "--scenario", "cold", "--params", toml, "--luts", tmp_path / "l",
+               "-o", tmp_path / "c.nc", "--json")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "note: --range ccp keeps the scenario's conditions, not its cycle hwfet" in res.stderr
+    s = json.loads(res.stdout)
+    assert s["T_amb_degC"] == pytest.approx(-5.0) and s["range"]["test"] == "ccp"
 
 
 def test_settings_are_recorded():

@@ -1,5 +1,10 @@
 """System-simulation figures: the time series of one run, consumption and range over the ambient.
 
+The range figure of a depletion test (``evtms simulate --range mct|ccp``,
+:mod:`evtms.system.range_test`) draws the test's range and the steady
+consumption over the ambient against the Geotab and AAA 2019 field figures
+(:func:`depletion_figure`); a single-trip sweep keeps the consumption split.
+
 Reads the files of ``evtms simulate`` (:mod:`evtms.system.output`): one run
 (dimension ``time``) or several ambients side by side (dimensions ``T_amb``,
 ``time``), with the run figures in the global attribute ``summary`` (JSON: an
@@ -414,7 +419,7 @@ def range_data(ds: xr.Dataset) -> dict:
 
 
 def range_figure(ds: xr.Dataset, path: str | Path) -> Path:
-    """Draw consumption per 100 km split by use (stacked bars) and range against the ambient.
+    """Draw consumption per 100 km split by use (stacked bars) and the single-trip range against the ambient.
 
     Parameters
     ----------
@@ -432,7 +437,13 @@ def range_figure(ds: xr.Dataset, path: str | Path) -> Path:
     ------
     EvtmsInputError
         A single run, or a summary without the consumption split.
+
+    Notes
+    -----
+    A depletion test's file (``evtms simulate --range mct|ccp``) gets :func:`depletion_figure` instead.
     """
+    if "time" in ds.dims and range_test(ds) != "single":
+        return depletion_figure(ds, path)
     d = range_data(ds)
     x = d["T_amb"]
     step = float(np.min(np.diff(np.sort(x)))) if x.size > 1 else 5.0
@@ -455,4 +466,294 @@ def range_figure(ds: xr.Dataset, path: str | Path) -> Path:
     bottom.set_xlabel("ambient temperature T_amb [degC]")
     bottom.grid(alpha=0.3)
     top.set_title(d["title"])
+    return _save(fig, path)
+
+
+#: AAA (2019), five BEVs on SAE J1634 against 75 degF (23.9 degC): range change [%] at 20 degF with the heat
+#: on and at 95 degF with the A/C on. Ambient [degC] -> change [%].
+AAA_2019 = {-6.7: -41.0, 35.0: -17.0}
+#: The AAA baseline ambient [degC] (75 degF).
+BASELINE_DEGC = 23.9
+#: Geotab (4,200 EVs): at least 100 % of the rated range from 10 to about 30 degC, peak about 115 % at 21.5 degC.
+GEOTAB_BAND_DEGC = (10.0, 30.0)
+GEOTAB_PEAK_DEGC = 21.5
+#: The range curve's expected shape (the project's spec v2 section 10 item 10, from Geotab): the peak within
+#: 18-26 degC; at 20 degC at most 5 % below the peak; at 10 and at 30 degC 5-20 % below it.
+PEAK_WINDOW_DEGC = (18.0, 26.0)
+DROP_AT_20_MAX = 0.05
+DROP_AT_10_30 = (0.05, 0.20)
+
+
+def range_test(ds: xr.Dataset) -> str:
+    """The file's range test: ``single`` (no ``range_test`` attribute: a v1 trip), ``mct`` or ``ccp``."""
+    return str(ds.attrs.get("range_test", "single"))
+
+
+def _range_runs(ds: xr.Dataset) -> list[dict]:
+    """The ``range`` attribute as one figures object per run (the order of ``T_amb``)."""
+    text = ds.attrs.get("range")
+    try:
+        data = json.loads(text) if isinstance(text, str) else None
+    except ValueError:
+        data = None
+    runs = data if isinstance(data, list) else [data]
+    if data is None or not all(isinstance(r, dict) for r in runs):
+        raise EvtmsInputError(
+            "the file's 'range' attribute is not a range test's figures; write it with evtms simulate"
+        )
+    if len(runs) != len(summaries(ds)):
+        raise EvtmsInputError(f"the 'range' attribute holds {len(runs)} runs, the file {len(summaries(ds))}")
+    return runs
+
+
+def _heating(ds: xr.Dataset, n: int) -> list[str]:
+    """Heating option per run: the ``heating`` attribute (one name, or a JSON list along ``T_amb``), else the
+    runs' summaries' ``heating``; '' where the file names none (then all runs are one curve)."""
+    value = ds.attrs.get("heating")
+    if isinstance(value, str):
+        try:
+            parsed = json.loads(value)
+        except ValueError:
+            parsed = value
+        if isinstance(parsed, list) and len(parsed) == n:
+            return [str(v) for v in parsed]
+        return [str(parsed)] * n
+    return [str(s.get("heating", "") or "") for s in summaries(ds)]
+
+
+def _at(x: np.ndarray, y: np.ndarray, x0: float) -> float | None:
+    """y at x0, linear between the points (None outside them or where y is NaN there)."""
+    ok = np.isfinite(y)
+    if ok.sum() == 0 or not (x[ok].min() - 1e-9 <= x0 <= x[ok].max() + 1e-9):
+        return None
+    return float(np.interp(x0, x[ok], y[ok]))
+
+
+def _checks(T: np.ndarray, r: np.ndarray) -> list[dict]:
+    """The Geotab shape checks of one range curve (``T`` [degC] increasing, ``r`` [km])."""
+    ok = np.isfinite(r)
+    if not ok.any():
+        return []
+    peak_i = int(np.nanargmax(r))
+    peak, T_peak = float(r[peak_i]), float(T[peak_i])
+    lo, hi = PEAK_WINDOW_DEGC
+    out = [
+        {
+            "check": "peak between 18 and 26 degC",
+            "value_degC": T_peak,
+            "ok": lo <= T_peak <= hi,
+            "evaluated": True,
+        }
+    ]
+
+    def drop(at: float, allowed: tuple[float, float], label: str) -> dict:
+        value = _at(T, r, at)
+        d = None if value is None or peak <= 0 else 1.0 - value / peak
+        return {
+            "check": label,
+            "T_degC": at,
+            "drop": d,
+            "evaluated": d is not None,
+            "interpolated": d is not None and not np.any(np.abs(T - at) < 1e-6),
+            "ok": None if d is None else allowed[0] - 1e-12 <= d <= allowed[1] + 1e-12,
+        }
+
+    out.append(drop(20.0, (-np.inf, DROP_AT_20_MAX), "20 degC at most 5 % below the peak"))
+    for at in (10.0, 30.0):
+        out.append(drop(at, DROP_AT_10_30, f"{at:g} degC 5-20 % below the peak"))
+    return out
+
+
+def depletion_data(ds: xr.Dataset) -> dict:
+    """What :func:`depletion_figure` draws, and the report's JSON, from a depletion test's runs.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An ``evtms simulate --range mct|ccp`` file (one ambient or a sweep).
+
+    Returns
+    -------
+    dict
+        ``test`` (``mct`` or ``ccp``); ``range_key`` (``range_combined_km`` for mct,
+        ``range_depletion_km`` for ccp); ``curves``: per heating option (``''`` when the file names none) a
+        dict of arrays over the ambient, sorted: ``T_amb`` [degC], ``range_km`` (the test's range),
+        ``range_ss_km``, ``single_trip_range_km`` [km], ``EC_ss_Wh_per_km`` (combined) [Wh/km],
+        ``hvac_share`` [1], ``warmup_kWh`` [kWh], ``pct_vs_baseline`` [%] (against the curve's range at
+        23.9 degC, linear between ambients; NaN without one), ``baseline_km`` (or None) and ``checks`` (the
+        Geotab shape checks; ``breakdown``, per point the HVAC share and warm-up energy, when one fails);
+        ``aaa_2019`` (ambient [degC] -> change [%]); ``geotab_band`` [degC]; ``title``.
+
+    Raises
+    ------
+    EvtmsInputError
+        Not a simulation output, or not a depletion test's file.
+    """
+    if "time" not in ds.dims:
+        raise EvtmsInputError("not an evtms simulation output (no 'time' dimension; write one with evtms simulate)")
+    test = range_test(ds)
+    if test not in ("mct", "ccp"):
+        raise EvtmsInputError(f"range test {test!r} is not mct or ccp; write the file with evtms simulate --range")
+    runs = _range_runs(ds)
+    temps = np.round(ambients(ds) - 273.15, 9)  # K to degC without the subtraction's round-off
+    heating = _heating(ds, len(runs))
+    key = "range_combined_km" if test == "mct" else "range_depletion_km"
+
+    def num(value) -> float:
+        return float(value) if value is not None else np.nan
+
+    curves = {}
+    for option in dict.fromkeys(heating):
+        idx = [i for i, h in enumerate(heating) if h == option]
+        idx.sort(key=lambda i: temps[i])
+        T = np.array([temps[i] for i in idx])
+        col = {
+            name: np.array([num(runs[i].get(name)) for i in idx])
+            for name in (key, "range_ss_km", "single_trip_range_km", "EC_ss_combined_Wh_per_km", "hvac_share")
+        }
+        warm = np.array([num(runs[i].get("warmup_kWh")) for i in idx])
+        base = _at(T, col[key], BASELINE_DEGC)
+        pct = (col[key] / base - 1.0) * 100.0 if base else np.full(T.size, np.nan)
+        checks = _checks(T, col[key])
+        curve = {
+            "T_amb": T,
+            "range_km": col[key],
+            "range_ss_km": col["range_ss_km"],
+            "single_trip_range_km": col["single_trip_range_km"],
+            "EC_ss_Wh_per_km": col["EC_ss_combined_Wh_per_km"],
+            "hvac_share": col["hvac_share"],
+            "warmup_kWh": warm,
+            "pct_vs_baseline": pct,
+            "baseline_km": base,
+            "checks": checks,
+        }
+        if any(c["ok"] is False for c in checks):
+            curve["breakdown"] = [
+                {
+                    "T_amb_degC": float(T[j]),
+                    "hvac_share": float(col["hvac_share"][j]),
+                    "hvac_kWh": num(runs[idx[j]].get("hvac_kWh")),
+                    "warmup_kWh": float(warm[j]),
+                    "not_steady": runs[idx[j]].get("not_steady", []),
+                }
+                for j in range(T.size)
+            ]
+        curves[option] = curve
+    name = "SAE J1634 multi-cycle test, combined 55/45" if test == "mct" else "UN GTR 15 consecutive WLTCs, depletion"
+    return {
+        "test": test,
+        "range_key": key,
+        "curves": curves,
+        "aaa_2019": dict(AAA_2019),
+        "geotab_band": GEOTAB_BAND_DEGC,
+        "title": f"Range over the ambient: {name}",
+    }
+
+
+def depletion_report(ds: xr.Dataset) -> dict:
+    """The ``evtms report range --json`` object of a depletion test: per curve the per-ambient figures, the
+    Geotab shape checks and, where one fails, the per-point breakdown; the AAA 2019 comparison (JSON-ready)."""
+    d = depletion_data(ds)
+
+    def clean(x) -> float | None:
+        return None if x is None or not np.isfinite(x) else float(x)
+
+    curves = []
+    for option, c in d["curves"].items():
+        points = [
+            {
+                "T_amb_degC": float(c["T_amb"][j]),
+                "range_km": clean(c["range_km"][j]),
+                "range_ss_km": clean(c["range_ss_km"][j]),
+                "single_trip_range_km": clean(c["single_trip_range_km"][j]),
+                "EC_ss_Wh_per_km": clean(c["EC_ss_Wh_per_km"][j]),
+                "pct_vs_23_9_degC": clean(c["pct_vs_baseline"][j]),
+                "hvac_share": clean(c["hvac_share"][j]),
+                "warmup_kWh": clean(c["warmup_kWh"][j]),
+            }
+            for j in range(c["T_amb"].size)
+        ]
+        aaa = {}
+        for at, ref in d["aaa_2019"].items():
+            value = _at(c["T_amb"], c["range_km"], at)
+            base = c["baseline_km"]
+            aaa[f"{at:g}"] = {
+                "model_pct": None if value is None or not base else (value / base - 1) * 100,
+                "aaa_pct": ref,
+                "interpolated": value is not None and not np.any(np.abs(c["T_amb"] - at) < 1e-6),
+            }
+        entry = {"heating": option or None, "points": points, "checks": c["checks"], "aaa_2019": aaa}
+        if "breakdown" in c:
+            entry["breakdown"] = c["breakdown"]
+        curves.append(entry)
+    return {"test": d["test"], "range": d["range_key"], "curves": curves}
+
+
+def depletion_figure(ds: xr.Dataset, path: str | Path) -> Path:
+    """Draw a depletion test's range and steady consumption against the ambient.
+
+    Top: the test's range (combined for mct, depletion for ccp) per heating option, ``range_ss`` dotted,
+    the v1 single-trip range dashed, the 10-30 degC band shaded (Geotab), the change against 23.9 degC on
+    the right axis with the AAA 2019 points. Bottom: the combined steady consumption EC_ss.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An ``evtms simulate --range mct|ccp`` file.
+    path : str or Path
+        Figure file, ``.png`` or ``.svg`` (written atomically).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    EvtmsInputError
+        Not a depletion test's file.
+    """
+    d = depletion_data(ds)
+    fig = _figure(figsize=(8.5, 7.5))
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+    lo, hi = d["geotab_band"]
+    top.axvspan(
+        lo, hi, color="tab:green", alpha=0.08, lw=0, label="Geotab: >= 100 % of rated range, peak ~115 % at 21.5 degC"
+    )
+    top.axvline(GEOTAB_PEAK_DEGC, color="tab:green", lw=0.8, alpha=0.5)
+    colours = ("tab:blue", "tab:red", "tab:purple", "tab:orange")
+    label_main = "combined range (55/45)" if d["test"] == "mct" else "depletion range"
+    first = None
+    for k, (option, c) in enumerate(d["curves"].items()):
+        colour = colours[k % len(colours)]
+        tag = f" ({option})" if option else ""
+        x = c["T_amb"]
+        top.plot(x, c["range_km"], "o-", color=colour, label=f"{label_main}{tag}")
+        top.plot(x, c["range_ss_km"], ":", color=colour, label=f"steady range UBE/EC_ss{tag}")
+        top.plot(
+            x, c["single_trip_range_km"], "--", color=colour, alpha=0.6, label=f"v1 single trip, extrapolated{tag}"
+        )
+        bottom.plot(x, c["EC_ss_Wh_per_km"], "s-", color=colour, label=f"EC_ss{tag}")
+        if first is None and c["baseline_km"]:
+            first = c
+    if first is not None:
+        base = first["baseline_km"]
+        right = top.secondary_yaxis(
+            "right", functions=(lambda km: (km / base - 1.0) * 100.0, lambda pct: base * (1.0 + pct / 100.0))
+        )
+        right.set_ylabel(f"change against {BASELINE_DEGC:g} degC [%]")
+        for at, pct in d["aaa_2019"].items():
+            top.plot(at, base * (1.0 + pct / 100.0), "kD", ms=7, mfc="none", mew=1.5)
+            left = at > float(np.mean(top.get_xlim()))
+            top.annotate(f"AAA 2019: {pct:+g} %", (at, base * (1.0 + pct / 100.0)), textcoords="offset points",
+                         xytext=(-8 if left else 8, -12), ha="right" if left else "left", fontsize="small")  # fmt: skip
+        top.plot([], [], "kD", mfc="none", label="AAA 2019 (heat at -6.7, A/C at 35 degC)")
+    top.set_ylabel("range [km]")
+    top.legend(loc="best", fontsize="small")
+    top.grid(alpha=0.3)
+    top.set_title(d["title"], fontsize="medium")
+    bottom.set_ylabel("steady consumption\nEC_ss [Wh/km]")
+    bottom.set_xlabel("ambient temperature T_amb [degC]")
+    bottom.grid(alpha=0.3)
+    bottom.legend(loc="best", fontsize="small")
     return _save(fig, path)
