@@ -505,8 +505,11 @@ def run_loop(
         up_blocked = tvs_raw >= par[P_TV_MAX] or mem[M_SAT_UP] > 0.0
         dn_blocked = tvs_raw <= par[P_TV_MIN] or mem[M_SAT_DN] > 0.0
         i_vent = mem[M_I_VENT]
-        cabin_was_on = not key_off and (forced < 0 or forced_cabin)
-        if cabin_was_on and not ((e_cab > 0.0 and up_blocked) or (e_cab < 0.0 and dn_blocked)):
+        # The integral acts only through a running request (or economy's air mix): idle in the band, parked
+        # with the key off or in a battery-only mode it holds, else it winds the vent target 10 K off while
+        # nothing follows it, and the next request starts from there.
+        acting = (cool or heat or econ) if forced < 0 else forced_cabin
+        if not key_off and acting and not ((e_cab > 0.0 and up_blocked) or (e_cab < 0.0 and dn_blocked)):
             i_vent += par[P_VENT_KP] / par[P_VENT_TI] * e_cab * dt
         span = par[P_TV_MAX] - par[P_TV_MIN]
         i_vent = min(max(i_vent, -span), span)
