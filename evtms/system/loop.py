@@ -542,7 +542,12 @@ def run_loop(
                     clr_cool += dt
                 else:
                     clr_cool = 0.0
-                if t - t_cool >= hold and (tvs_f > T_in_c - 0.5 or clr_cool >= par[P_T_CLEAR] or econ):
+                # The vent-target exit waits until the compressor has been off for the hold: while it cycles
+                # at its minimum below a small load, each on phase overcools the 3.5 kJ/K air and lifts the
+                # vent target over the exit, which ended the request every 2-3 min (23.9 degC, no sun).
+                comp_rested = mem[M_COMP_ON] == 0.0 and t - mem[M_T_COMP] >= hold
+                vent_exit = tvs_f > T_in_c - 0.5 and comp_rested
+                if t - t_cool >= hold and (vent_exit or clr_cool >= par[P_T_CLEAR] or econ):
                     cool = False
             elif tvs_f < T_in_c - 2.0 and tcab_f > T_set + band and T_amb >= par[P_AC_TAMB_MIN] and not econ:
                 cool = True
@@ -635,7 +640,11 @@ def run_loop(
         if sp_evap_given:
             T_ev_t = ext[n, X_SP_EVAP]
         else:
-            T_ev_t = max(min(T_vs, par[P_TEV_MAX], T_in - 2.0), par[P_TEV_MIN])
+            # The evaporator's highest setting binds only as the cabin air nears the dehumidifying threshold:
+            # in dry air the target rises to the inlet less 2 K at part load, so the minimum speed's duty
+            # meets a small load without overcooling the cabin (and ending its request).
+            t_max = par[P_TEV_MAX] if rh_cab > par[P_RH_DEHUM] - 0.1 else T_in - 2.0
+            T_ev_t = max(min(T_vs, t_max, T_in - 2.0), par[P_TEV_MIN])
         if rh_active:
             T_dp = dew_point(w_cab, p_atm)
             T_ev_t = min(T_ev_t, min(max(T_dp - 2.0, par[P_TEV_MIN]), par[P_TEV_MAX]))
@@ -657,7 +666,11 @@ def run_loop(
         if cab_coil and frost_ok:
             e_ev = T_ev - T_ev_t
             if not comp_on:
-                if T_ev > T_ev_t + par[P_DT_CYC] and T_ev >= par[P_TFR_ON] and t - t_comp >= par[P_T_OFF_MIN]:
+                # Not back on into a cabin already below its band: below a small load the minimum speed's
+                # 30 s on phases would otherwise stack up and overcool it (a given SP_evap restarts on its air).
+                cabin_wants = sp_evap_given or tcab_f > T_set - band
+                coil_warm = T_ev > T_ev_t + par[P_DT_CYC] and T_ev >= par[P_TFR_ON]
+                if coil_warm and cabin_wants and t - t_comp >= par[P_T_OFF_MIN]:
                     comp_on = True
                     t_comp = t
                     i_ev = u_min - par[P_EV_KP] * e_ev  # restart at the minimum speed
@@ -665,10 +678,10 @@ def run_loop(
                 u_cab, i_ev, _ = _pi_range(e_ev, i_ev, par[P_EV_KP], par[P_EV_KI], dt, u_min, 1.0)
                 # Off when the compressor can give no less cooling: at its minimum speed with the evaporator air
                 # below its target, or, once the cabin is colder than its setpoint, with the evaporator target
-                # clipped below a warmer vent target (its highest setting) and the air below that: then the
-                # duty of on/off cycling, not an ever colder cabin, meets the load. A given SP_evap is held
-                # whatever the cabin (the thesis's experiments).
-                T_want = min(T_vs, T_in - 2.0)
+                # clipped below a warmer vent target (its highest setting, or the inlet less 2 K) and the air
+                # below that: then the duty of on/off cycling, not an ever colder cabin, meets the load. A given
+                # SP_evap is held whatever the cabin (the thesis's experiments).
+                T_want = T_vs
                 at_floor = u_cab <= u_min and T_ev < T_ev_t - par[P_DT_CYC]
                 clipped_warm = (
                     not sp_evap_given and T_want > T_ev_t and T_ev < T_want - par[P_DT_CYC] and tcab_f < T_set
