@@ -221,3 +221,20 @@ def test_v1_parameter_names_name_their_successors():
             system_params_from_dict({table: {name: 1.0}})
     with pytest.raises(EvtmsInputError, match=r"heating = 'heat_pump' is not allowed; allowed: ptc_air, ptc_coolant"):
         system_params_from_dict({"hvac": {"heating": "heat_pump"}})
+
+
+def test_a_humid_cabin_is_dried_with_reheat_only_while_the_compressor_runs(synthetic):  # noqa: F811
+    """18 degC, RH 0.95 outside, a damp cabin (RH 0.9): the RH request runs the compressor at the dew point less
+    2 K with electric reheat to the vent target (flag reheat), and the cabin ends drier than without it."""
+    p = system_params_from_dict({"cabin": {"rh_cabin": 0.9}})
+    r = simulate(parked(1800.0), 291.15, synthetic, p, RH_amb=0.95)
+    reheat = (r.flags[1:] & L.F_REHEAT) > 0
+    assert reheat.any()
+    assert np.all(r.records["compressor_on"][1:][reheat] > 0.0)
+    never = simulate(parked(1800.0), 291.15, synthetic, system_params_from_dict({"cabin": {"rh_cabin": 0.9},
+                     "climate": {"rh_dehum": 1.0}}), RH_amb=0.95)  # fmt: skip
+    assert not np.any(never.flags & L.F_REHEAT)
+    assert r.records["RH_cabin"][-1] < never.records["RH_cabin"][-1] - 0.05  # drier than without the request
+    heat_without_compressor = (r.records["P_ptc"][1:] > 0.0) & (r.records["compressor_on"][1:] == 0.0)
+    assert np.all(~heat_without_compressor | np.isin(r.mode[1:], [L.CH, L.CH_BH, L.CH_BC]))
+    assert max(r.ledgers.values()) <= 1e-9
