@@ -354,24 +354,25 @@ def _not_regular(mode: int) -> str | None:
     return next((kind for test, kind in _KINDS if test(mode)), "not a regular file")
 
 
-def _read_params_file(path: Path) -> str:
+def _read_params_file(path: Path, what: str = "params file") -> str:
     """The text of a parameter file, refusing anything that is not a small regular UTF-8 text file.
 
     The file's type is checked with ``os.stat`` before it is opened (a named
     pipe would block, a device would never end), and again on the open file.
+    ``what`` names the file in messages (``params file``, ``scenario file``).
     """
     name = repr(str(path))
     try:
         st = os.stat(path)
     except (OSError, ValueError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc)
-        raise EvtmsInputError(f"params file {name} cannot be read: {reason}") from None
+        raise EvtmsInputError(f"{what} {name} cannot be read: {reason}") from None
     kind = _not_regular(st.st_mode)
     if kind is not None:
-        raise EvtmsInputError(f"params file {name} is {kind}; allowed: a TOML text file")
+        raise EvtmsInputError(f"{what} {name} is {kind}; allowed: a TOML text file")
     if st.st_size > MAX_PARAMS_BYTES:
         raise EvtmsInputError(
-            f"params file {name} has {st.st_size:,} bytes; allowed: at most {MAX_PARAMS_BYTES:,} bytes (1 MiB)"
+            f"{what} {name} has {st.st_size:,} bytes; allowed: at most {MAX_PARAMS_BYTES:,} bytes (1 MiB)"
         )
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
     try:
@@ -379,41 +380,41 @@ def _read_params_file(path: Path) -> str:
         with os.fdopen(fd, "rb") as fh:
             kind = _not_regular(os.fstat(fh.fileno()).st_mode)
             if kind is not None:  # replaced between the stat and the open
-                raise EvtmsInputError(f"params file {name} is {kind}; allowed: a TOML text file")
+                raise EvtmsInputError(f"{what} {name} is {kind}; allowed: a TOML text file")
             raw = fh.read(MAX_PARAMS_BYTES + 1)
     except OSError as exc:
-        raise EvtmsInputError(f"params file {name} cannot be read: {exc.strerror or exc}") from None
+        raise EvtmsInputError(f"{what} {name} cannot be read: {exc.strerror or exc}") from None
     if len(raw) > MAX_PARAMS_BYTES:
-        raise EvtmsInputError(f"params file {name} is larger than {MAX_PARAMS_BYTES:,} bytes (1 MiB); allowed: less")
+        raise EvtmsInputError(f"{what} {name} is larger than {MAX_PARAMS_BYTES:,} bytes (1 MiB); allowed: less")
     if b"\x00" in raw:
-        raise EvtmsInputError(f"params file {name} is a binary file (it holds NUL bytes); allowed: a TOML text file")
+        raise EvtmsInputError(f"{what} {name} is a binary file (it holds NUL bytes); allowed: a TOML text file")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise EvtmsInputError(
-            f"params file {name} is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); "
-            "save it as UTF-8"
+            f"{what} {name} is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); save it as UTF-8"
         ) from None
     return text.removeprefix("\ufeff")
 
 
-def read_params_toml(path: str | Path) -> dict[str, Any]:
+def read_params_toml(path: str | Path, what: str = "params file") -> dict[str, Any]:
     """The tables of TOML parameter file ``path`` (read by :func:`_read_params_file`), parsed.
 
     Raises
     ------
     EvtmsInputError
-        One line naming the file and what is wrong: it is missing, not a
-        regular file, too large, binary, not UTF-8, not valid TOML or empty.
+        One line naming the file (as ``what``, default ``params file``) and
+        what is wrong: it is missing, not a regular file, too large, binary,
+        not UTF-8, not valid TOML or empty.
     """
     path = Path(path)
     name = repr(str(path))
-    text = _read_params_file(path)
+    text = _read_params_file(path, what)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         reason = " ".join(str(exc).split())
-        raise EvtmsInputError(f"params file {name} is not valid TOML: {reason}") from None
+        raise EvtmsInputError(f"{what} {name} is not valid TOML: {reason}") from None
     if not data:
-        raise EvtmsInputError(f"params file {name} is empty; give at least one [table]")
+        raise EvtmsInputError(f"{what} {name} is empty; give at least one [table]")
     return data
