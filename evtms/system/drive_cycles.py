@@ -7,7 +7,8 @@ A user trace is a CSV file in the same format (``docs/drive-cycle-format.md``):
 a header ``time_s,speed_kmh`` or ``time_s,speed_kmh,grade``, ``#`` comment
 lines, time in s increasing strictly from 0, speed in km/h >= 0, grade as
 rise over run. Speed is linear between samples, so the distance is the
-trapezoid integral of the samples.
+trapezoid integral of the samples. ``parked:SECONDS`` is a car standing
+still for that long (the thesis's Table 12 mode experiments).
 
 A file that breaks a rule is refused with one line naming the file, the line
 and the value (:class:`~evtms.errors.EvtmsInputError`); sizes are bounded
@@ -154,12 +155,36 @@ def read_drive_cycle(path: str | Path, name: str | None = None) -> DriveCycle:
     return DriveCycle(name or path.stem, data[:, 0], data[:, 1] * KMH, grade, os.fspath(path))
 
 
+def parked_cycle(seconds: float) -> DriveCycle:
+    """The car standing still (key on) for ``seconds`` [s], 1 s to a week.
+
+    Raises
+    ------
+    EvtmsInputError
+        ``seconds`` not a finite number within 1 s to :data:`MAX_SAMPLES` s.
+    """
+    if isinstance(seconds, bool) or not isinstance(seconds, int | float) or not 1.0 <= seconds <= MAX_SAMPLES:
+        raise EvtmsInputError(f"parked:{seconds} is not allowed; allowed: parked:SECONDS, 1 to {MAX_SAMPLES:,} s")
+    t = np.array([0.0, float(seconds)])
+    return DriveCycle(f"parked:{float(seconds):g}", t, np.zeros(2), np.zeros(2), "parked")
+
+
 def drive_cycle(name_or_path: str | Path) -> DriveCycle:
-    """A built-in cycle by name (``wltc3b``, ``nedc``, ``udds``, ``hwfet``) or a CSV file by path."""
+    """A built-in cycle by name (``wltc3b``, ``nedc``, ``udds``, ``hwfet``), ``parked:SECONDS`` or a CSV file."""
     key = str(name_or_path)
     if key in BUILTIN:
         return read_drive_cycle(DATA / BUILTIN[key], key)
+    if key.startswith("parked:"):
+        try:
+            seconds = float(key.removeprefix("parked:"))
+        except ValueError:
+            raise EvtmsInputError(
+                f"drive cycle {key!r} is not parked:SECONDS; allowed: parked:SECONDS, 1 to {MAX_SAMPLES:,} s"
+            ) from None
+        return parked_cycle(seconds)
     path = Path(key)
     if not path.suffix.lower() == ".csv" and not path.exists():
-        raise EvtmsInputError(f"drive cycle {key!r} is neither a built-in cycle ({', '.join(BUILTIN)}) nor a CSV file")
+        raise EvtmsInputError(
+            f"drive cycle {key!r} is neither a built-in cycle ({', '.join(BUILTIN)}), parked:SECONDS nor a CSV file"
+        )
     return read_drive_cycle(path)
