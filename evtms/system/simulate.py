@@ -23,7 +23,7 @@ import numpy as np
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
 from evtms.system.drive_cycles import DriveCycle
-from evtms.system.inputs import InputValue, per_step
+from evtms.system.inputs import InputValue, check_inputs, per_step
 from evtms.system.mode_model import MODE_CODES, ModeModels
 from evtms.system.params import WALLS, SystemParams
 from evtms.system.refrigerant import Refrigerant
@@ -413,6 +413,8 @@ def simulate(
         External inputs (:mod:`evtms.system.inputs`: battery heat, HVAC inlet
         air, evaporator and heater-core setpoints, a fixed blower), SI; traces
         on the cycle's clock (preconditioning shifts them with the cycle).
+        Checked by :func:`evtms.system.inputs.check_inputs` (a blower of 0
+        with a mode that runs the cabin coil or a heater is refused).
 
     Returns
     -------
@@ -422,6 +424,7 @@ def simulate(
     params = params or SystemParams()
     every = check_run_options(cycle, dt, mode, output_every, precondition)
     check_model(model, mode, mode_models, refrigerant)
+    inputs = check_inputs(inputs, mode=mode)
     m = round(every / dt)
     if precondition:
         cycle = _with_precondition(cycle, precondition)
