@@ -1387,17 +1387,91 @@ _SIM_TAMB = typer.Option(
 )
 
 
+_INPUT_HELP = {
+    "q_battery": ("--q-battery", "Heat into the battery [W] (Table 12 Qloss), or FILE.csv:column [W]."),
+    "hvac_inlet_t": ("--hvac-inlet-t", "Fixed HVAC inlet air [degC] (Table 12 Tin), or FILE.csv:column [K]."),
+    "hvac_inlet_rh": ("--hvac-inlet-rh", "Fixed HVAC inlet relative humidity [0-1], or FILE.csv:column."),
+    "sp_evap": ("--sp-evap", "Evaporator outlet air setpoint [degC], or FILE.csv:column [K]."),
+    "sp_cohx": ("--sp-cohx", "Heater-core coolant inlet setpoint [degC] (ptc_coolant), or FILE.csv:column [K]."),
+    "blower": ("--blower", "Fixed blower command [0-1] (not 0 with auto, cc or ch), or FILE.csv:column."),
+}
+#: Option parameter -> input name (evtms.system.inputs.INPUT_NAMES).
+_INPUT_OF = {
+    "q_battery": "Q_battery_ext",
+    "hvac_inlet_t": "hvac_inlet_T",
+    "hvac_inlet_rh": "hvac_inlet_rh",
+    "sp_evap": "SP_evap",
+    "sp_cohx": "SP_CoHX",
+    "blower": "blower",
+}
+
+
+def _input_option(key: str):
+    option, text = _INPUT_HELP[key]
+    return typer.Option(option, help=text)
+
+
+def _option_inputs(texts: dict[str, str | None]) -> dict:
+    """The input options given (numbers in degC for temperatures, or FILE.csv:column), checked, SI."""
+    from evtms.system.inputs import CLI_OPTIONS, check_inputs
+
+    raw: dict[str, object] = {}
+    for key, text in texts.items():
+        if text is None:
+            continue
+        try:
+            raw[_INPUT_OF[key]] = float(text)
+        except ValueError:
+            raw[_INPUT_OF[key]] = text
+    return check_inputs(raw, celsius=True, labels=CLI_OPTIONS)
+
+
+def _trace_files(inputs: dict) -> list[Path]:
+    from evtms.system.inputs import Trace
+
+    return [Path(v.source.rpartition(":")[0]) for v in inputs.values() if isinstance(v, Trace)]
+
+
+def _scenario_choice(name: str | None, file: Path | None):
+    """The scenario of --scenario NAME (built in, or in --scenario-file) or the only one of --scenario-file."""
+    from evtms.system.scenarios import SCENARIOS, read_scenario_file
+
+    from_file = read_scenario_file(input_file(file, "scenario file")) if file is not None else {}
+    if name is None:
+        if len(from_file) != 1:
+            fail(f"--scenario-file {str(file)!r} holds {len(from_file)} scenarios ({', '.join(from_file)}); "
+                 "give --scenario NAME")  # fmt: skip
+        return next(iter(from_file.values()))
+    available = {**SCENARIOS, **from_file}
+    if name not in available:
+        where = f"allowed: {', '.join(from_file)} (in {file}) or the built-in " if from_file else "allowed: "
+        fail(f"--scenario {name!r} is unknown; {where}{', '.join(SCENARIOS)}")
+    return available[name]
+
+
 @app.command()
 def simulate(
     output: Annotated[Path, typer.Option("--output", "-o", help="Output netCDF file.")],
     cycle: Annotated[
-        str | None, typer.Option("--cycle", help="Drive cycle: wltc3b, nedc, udds, hwfet or a CSV file.")
+        str | None,
+        typer.Option("--cycle", help="Drive cycle: wltc3b, nedc, udds, hwfet, parked:SECONDS or a CSV file."),
     ] = None,
     scenario: Annotated[
-        str | None, typer.Option("--scenario", help="Named scenario: hot-drive, cooldown, cold, wltc, nedc.")
+        str | None,
+        typer.Option(
+            "--scenario",
+            help="Named scenario: built in (hot-drive, cooldown, cold, wltc, nedc, hot-sun, t12-bh-1 ... t12-ch-4) "
+            "or from --scenario-file.",
+        ),
+    ] = None,
+    scenario_file: Annotated[
+        Path | None, typer.Option("--scenario-file", help="TOML scenario file (docs/scenario-format.md).")
     ] = None,
     t_amb: Annotated[str | None, _SIM_TAMB] = None,
-    mode: Annotated[str, typer.Option("--mode", help="auto, or force one mode: off, bh, bc, cc, ch.")] = "auto",
+    mode: Annotated[
+        str | None,
+        typer.Option("--mode", help="auto, or force one mode: off, bh, bc, cc, ch (default: the scenario's, or auto)."),
+    ] = None,
     params: Annotated[Path | None, typer.Option("--params", help="TOML: [vehicle] [battery] [cabin] ...")] = None,
     luts: Annotated[
         Path,
@@ -1441,6 +1515,12 @@ def simulate(
             "--scenario gives its conditions, not its cycle.",
         ),
     ] = "single",
+    q_battery: Annotated[str | None, _input_option("q_battery")] = None,
+    hvac_inlet_t: Annotated[str | None, _input_option("hvac_inlet_t")] = None,
+    hvac_inlet_rh: Annotated[str | None, _input_option("hvac_inlet_rh")] = None,
+    sp_evap: Annotated[str | None, _input_option("sp_evap")] = None,
+    sp_cohx: Annotated[str | None, _input_option("sp_cohx")] = None,
+    blower: Annotated[str | None, _input_option("blower")] = None,
     json_out: Annotated[bool, _JSON] = False,
 ) -> None:
     """Simulate the vehicle's thermal system over a drive cycle (or a range test) and write the time series.
@@ -1449,46 +1529,54 @@ def simulate(
     """
     t0 = time.perf_counter()
     from evtms.cycle.topology import parse_values
-    from evtms.system.drive_cycles import drive_cycle
     from evtms.system.params import load_system_params
     from evtms.system.range_test import RANGE_TESTS
-    from evtms.system.simulate import SCENARIOS, check_run_options
+    from evtms.system.scenarios import SCENARIO_MODES, Scenario, check_choice
+    from evtms.system.simulate import MODELS, check_run_options
 
     if range_test not in RANGE_TESTS:
         fail(f"--range {range_test!r} is unknown; allowed: {', '.join(RANGE_TESTS)}")
     depletion = range_test != "single"
+
+    named = scenario is not None or scenario_file is not None
     if depletion:
         if cycle is not None and not (range_test == "ccp" and cycle == "wltc3b"):
             own = "UDDS, HWFET and 65 mph phases" if range_test == "mct" else "WLTC 3b back to back"
             fail(f"--range {range_test} drives its own cycles ({own}); leave out --cycle {cycle}")
-        if cycle is not None and scenario is not None:
-            fail("give --cycle NAME|FILE.csv or --scenario NAME (one of them)")
-    elif (cycle is None) == (scenario is None):
-        fail("give --cycle NAME|FILE.csv or --scenario NAME (one of them)")
-    if scenario is not None and scenario not in SCENARIOS:
-        fail(f"--scenario {scenario!r} is unknown; allowed: {', '.join(SCENARIOS)}")
-    from evtms.system.simulate import MODELS
-
+        if cycle is not None and named:
+            fail("give --cycle NAME|FILE.csv or --scenario NAME / --scenario-file FILE.toml (one of them)")
+    elif (cycle is None) == (not named):
+        fail("give --cycle NAME|FILE.csv or --scenario NAME / --scenario-file FILE.toml (one of them)")
     if model not in MODELS:
         fail(f"--model {model!r} is unknown; allowed: {', '.join(MODELS)}")
+    if mode is not None:
+        check_choice("--mode", mode, SCENARIO_MODES)
     _check_soak(soak_cabin)
-    sc = SCENARIOS[scenario] if scenario is not None else None
-    if t_amb is None and (sc is None or sc.T_amb is None):
+    sc = _scenario_choice(scenario, scenario_file) if named else Scenario(name="", cycle=cycle or "wltc3b")
+    if t_amb is None and sc.T_amb is None:
         fail("give --t-amb DEGC (this cycle or scenario has no ambient of its own)")
     ambients = parse_values("T_amb", t_amb, 1000) if t_amb is not None else [sc.T_amb]
     inputs = [params] if params is not None else []
     if params is not None:
         input_file(params, "params file")
+    if scenario_file is not None:
+        inputs.append(scenario_file)
     system = load_system_params(params)
+    extra = _option_inputs(
+        {"q_battery": q_battery, "hvac_inlet_t": hvac_inlet_t, "hvac_inlet_rh": hvac_inlet_rh, "sp_evap": sp_evap,
+         "sp_cohx": sp_cohx, "blower": blower}
+    )  # fmt: skip
+    setup = sc.setup(system, mode=mode, inputs=extra)
     if depletion:
         from evtms.system.range_test import ccp_sequence, mct_sequence
 
         trace = mct_sequence(0.0, 1).cycle if range_test == "mct" else ccp_sequence(1).cycle  # the options' checks
     else:
-        trace = drive_cycle(sc.cycle if sc is not None else cycle)
-    check_run_options(trace, dt, mode, output_every, precondition)
-    if Path(trace.source).is_file():
+        trace = setup.cycle
+    check_run_options(trace, dt, setup.mode, output_every, precondition)
+    if not depletion and Path(trace.source).is_file():
         inputs.append(Path(trace.source))
+    inputs += _trace_files(setup.inputs)
     lut_folder, lut_files = _cycle_luts(luts)
     inputs += lut_files
     mode_models = None
@@ -1498,19 +1586,14 @@ def simulate(
     output_file(output, inputs, (".nc",))
     refrigerant = _system_refrigerant(luts, lut_folder, system, quiet=json_out)
     from evtms.system.output import write_simulation
+    from evtms.system.scenarios import run_scenario
     from evtms.system.simulate import check_model
-    from evtms.system.simulate import simulate as run
 
-    check_model(model, mode, mode_models, refrigerant)
+    check_model(model, setup.mode, mode_models, refrigerant)
     options = dict(
         dt=dt,
-        mode=mode,
-        RH_amb=sc.RH_amb if sc else 0.4,
-        sun=sc.sun if sc else 0.0,
-        T_init=sc.T_init if sc else None,
         soak_cabin=None if soak_cabin is None else soak_cabin + 273.15,
         output_every=output_every,
-        scenario=scenario or "",
         precondition=precondition,
         model=model,
         mode_models=mode_models,
@@ -1518,13 +1601,19 @@ def simulate(
     if depletion:
         from evtms.system.range_test import run_range_test
 
-        if sc is not None:
+        if named:
             typer.echo(
                 f"note: --range {range_test} keeps the scenario's conditions, not its cycle {sc.cycle}", err=True
             )
-        results = [run_range_test(range_test, T, refrigerant, system, **options)[0] for T in ambients]
+        results = [
+            run_range_test(
+                range_test, T, refrigerant, setup.params, mode=setup.mode, RH_amb=setup.RH_amb, sun=setup.sun,
+                scenario=sc.name, inputs=setup.inputs, **options,
+            )[0]
+            for T in ambients
+        ]  # fmt: skip
     else:
-        results = [run(trace, T, refrigerant, system, **options) for T in ambients]
+        results = [run_scenario(setup, refrigerant, T, **options) for T in ambients]
     with creating_parents(output):
         write_simulation(results, output)
     wall = time.perf_counter() - t0
@@ -1543,6 +1632,8 @@ def simulate(
             f"(HVAC {s['hvac_energy_kWh']:.3f})  SOC {s['soc_end']:.4f}  cabin {s['T_cabin_end_degC']:.1f} degC  "
             f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
         )
+    if not setup.heating_applied:
+        typer.echo(f"note: heating {setup.heating} is not applied in this build (no hvac.heating); the air PTC heats")
     typer.echo(f"wrote {output} ({wall:.2f} s)")
 
 

@@ -39,47 +39,6 @@ MODES = {"auto": -1, **MODE_CODES}
 MODELS = ("lut", "physics", "surrogate")
 
 
-@dataclass(frozen=True)
-class Scenario:
-    """A named operating scenario (the project's system spec, section 5).
-
-    Attributes
-    ----------
-    name, cycle : str
-        Scenario and drive-cycle names.
-    T_amb : float or None
-        Ambient temperature [K] (None: the command line's ``--t-amb``).
-    RH_amb : float
-        Ambient relative humidity [1].
-    sun : float
-        Solar irradiance [W/m2].
-    T_init : float or None
-        Initial temperature of battery, coolant and cabin [K] (None: ambient).
-    source : str
-        Where it comes from.
-    """
-
-    name: str
-    cycle: str
-    T_amb: float | None
-    RH_amb: float
-    sun: float
-    T_init: float | None
-    source: str
-
-
-SCENARIOS: dict[str, Scenario] = {
-    s.name: s
-    for s in (
-        Scenario("hot-drive", "udds", 303.15, 0.4, 600.0, None, "thesis 3.5 (i); 30 degC, RH 0.4 as the benches"),
-        Scenario("cooldown", "udds", 313.15, 0.5, 600.0, 313.15, "Simscape BEV example 'Summer'; thesis (ii)"),
-        Scenario("cold", "hwfet", 268.15, 0.65, 300.0, 268.15, "Simscape BEV example 'Winter'; thesis (iii)"),
-        Scenario("wltc", "wltc3b", None, 0.4, 0.0, None, "UN GTR 15"),
-        Scenario("nedc", "nedc", None, 0.4, 0.0, None, "UNECE R83"),
-    )
-}
-
-
 @dataclass
 class SimulationResult:
     """One simulation's records, ledgers and summary.
