@@ -1216,12 +1216,34 @@ def _float_list(option: str, text: str, most: int = 20) -> list[float]:
 
 @report_app.command("compare")
 def report_compare(
-    cycle: Annotated[str, typer.Option("--cycle", help="Drive cycles, comma-separated: built-in names or CSV files.")],
-    t_amb: Annotated[str, typer.Option("--t-amb", help="Ambient temperatures [degC], comma-separated.")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="Output folder (created if missing).")],
+    cycle: Annotated[
+        str | None, typer.Option("--cycle", help="Drive cycles, comma-separated: built-in names or CSV files.")
+    ] = None,
+    t_amb: Annotated[str | None, typer.Option("--t-amb", help="Ambient temperatures [degC], comma-separated.")] = None,
+    output: Annotated[
+        Path | None,
+        typer.Option("--output", "-o", help="Output folder (created if missing); optional with --scenarios."),
+    ] = None,
+    scenarios: Annotated[
+        str | None,
+        typer.Option(
+            "--scenarios",
+            help="Scenarios instead of --cycle/--t-amb, comma-separated names or groups: t12 (the 16 Table 12 "
+            "rows), t12-cc, t12-bh-1, ...; prints the thesis's Table 12 columns per row.",
+        ),
+    ] = None,
+    scenario_file: Annotated[
+        Path | None,
+        typer.Option("--scenario-file", help="TOML scenario file whose scenarios --scenarios may name (else: all)."),
+    ] = None,
     approaches: Annotated[
-        str, typer.Option("--approaches", help="Approaches to compare, comma-separated: physics, lut, surrogate.")
-    ] = "physics,lut,surrogate",
+        str | None,
+        typer.Option(
+            "--approaches",
+            help="Approaches to compare, comma-separated: physics, lut, surrogate (default: all three; with "
+            "--scenarios lut and those available).",
+        ),
+    ] = None,
     surrogates: Annotated[
         Path, typer.Option("--surrogates", help="Mode-model file or folder (evtms surrogate train -o).")
     ] = Path("models"),
@@ -1258,7 +1280,18 @@ def report_compare(
     """Physics, LUT and surrogate models side by side: time per simulation, error, trajectories, step size.
 
     Example: evtms report compare --cycle wltc3b,nedc --t-amb -10,30,40 -o compare/
+    Table 12: evtms report compare --scenarios t12 --approaches lut
     """
+    if scenarios is not None or scenario_file is not None:
+        if cycle is not None or t_amb is not None or measured is not None:
+            fail("--scenarios runs scenarios with their own cycle and ambient; leave out --cycle, --t-amb, --measured")
+        _compare_scenarios(scenarios, scenario_file, approaches, surrogates, luts, params, dt, repeat, output, json_out)
+        return
+    if cycle is None or t_amb is None:
+        fail("give --cycle NAMES and --t-amb DEGC (or --scenarios NAMES)")
+    if output is None:
+        fail("give --output FOLDER for the comparison's tables and figures")
+    approaches = "physics,lut,surrogate" if approaches is None else approaches
     from evtms.cycle.topology import parse_values
     from evtms.reports.compare import (
         APPROACHES,
@@ -1335,6 +1368,100 @@ def report_compare(
         print_json({**compare_summary(result), "files": [str(f) for f in files]})
         return
     typer.echo(f"wrote {len(files)} files and {output / 'index.html'}")
+
+
+def _compare_scenarios(
+    names: str | None,
+    scenario_file: Path | None,
+    approaches: str | None,
+    surrogates: Path,
+    luts: Path,
+    params: Path | None,
+    dt: float,
+    repeat: int,
+    output: Path | None,
+    json_out: bool,
+) -> None:
+    """``report compare --scenarios``: the scenarios run by each approach, the Table 12 columns printed."""
+    from evtms.reports.table12 import table12_summary, table12_text, write_table12
+    from evtms.system.params import load_system_params
+    from evtms.system.scenarios import SCENARIOS, read_scenario_file, select_scenarios
+    from evtms.system.simulate import check_model
+    from evtms.system.table12 import APPROACHES, run_table12
+
+    if not 1 <= repeat <= 20:
+        fail(f"--repeat {repeat} is not allowed; allowed: 1 to 20")
+    inputs: list[Path] = []
+    from_file = {}
+    if scenario_file is not None:
+        from_file = read_scenario_file(input_file(scenario_file, "scenario file"))
+        inputs.append(scenario_file)
+    chosen = select_scenarios(names, {**SCENARIOS, **from_file}) if names is not None else list(from_file.values())
+    if params is not None:
+        inputs.append(input_file(params, "params file"))
+    system = load_system_params(params)
+    setups = [sc.setup(system) for sc in chosen]
+    for st in setups:
+        if st.T_amb is None:
+            fail(f"scenario {st.scenario.name!r} has no ambient of its own; give scenarios with T_amb")
+        if Path(st.cycle.source).is_file():
+            inputs.append(Path(st.cycle.source))
+        inputs += _trace_files(st.inputs)
+    asked = None if approaches is None else [a.strip() for a in approaches.split(",")]
+    for a in asked or ():
+        if a not in APPROACHES:
+            fail(f"--approaches {a!r} is unknown; allowed: {', '.join(APPROACHES)}")
+    skipped: dict[str, str] = {}
+    mode_models = None
+    if asked is None or "surrogate" in asked:
+        from evtms.surrogates.io import MODEL_FILE
+
+        file = surrogates / MODEL_FILE if surrogates.is_dir() else surrogates
+        if asked is None and not file.is_file():
+            skipped["surrogate"] = f"no mode-model file at {surrogates} (evtms surrogate train)"
+        else:
+            mode_models, surrogate_file = _mode_models(surrogates)
+            inputs.append(surrogate_file)
+    inputs += _luts_inputs(luts)
+    if output is not None:
+        output_folder(output, inputs)
+    refrigerant = _system_refrigerant(luts, system, quiet=json_out)
+    chosen_approaches = []
+    for a in APPROACHES:
+        if (asked is None and a in skipped) or (asked is not None and a not in asked):
+            continue
+        try:
+            for st in setups:
+                check_model(a, st.mode, mode_models, refrigerant)
+        except EvtmsInputError as exc:
+            if asked is not None:
+                raise
+            skipped[a] = str(exc)
+            continue
+        chosen_approaches.append(a)
+
+    def progress(done: int, total: int, message: str) -> None:
+        if not json_out:
+            typer.echo(f"[{done}/{total}] {message}", err=True)
+
+    result = run_table12(
+        chosen,
+        refrigerant,
+        params=system,
+        approaches=chosen_approaches,
+        mode_models=mode_models,
+        dt=dt,
+        repeat=repeat,
+        progress=progress,
+    )
+    result.skipped = skipped
+    files = write_table12(result, output) if output is not None else []
+    if json_out:
+        print_json({**table12_summary(result), "files": [str(f) for f in files]})
+        return
+    typer.echo(table12_text(result))
+    if files:
+        typer.echo(f"wrote {', '.join(str(f) for f in files)}")
 
 
 @app.command()
