@@ -1285,6 +1285,9 @@ def report_compare(
     if scenarios is not None or scenario_file is not None:
         if cycle is not None or t_amb is not None or measured is not None:
             fail("--scenarios runs scenarios with their own cycle and ambient; leave out --cycle, --t-amb, --measured")
+        if sun != 0.0 or soak_cabin is not None or physics_dts is not None:
+            fail("--scenarios set their own sun and initial state and run no step-size study; "
+                 "leave out --sun, --soak-cabin, --physics-dts")  # fmt: skip
         _compare_scenarios(scenarios, scenario_file, approaches, surrogates, luts, params, dt, repeat, output, json_out)
         return
     if cycle is None or t_amb is None:

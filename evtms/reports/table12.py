@@ -66,6 +66,8 @@ def _num(value, fmt: str) -> str:
 
 
 def _capacity(row: Table12Row) -> str:
+    if not row.capacity_setpoints:
+        return "-"
     if row.capacity_limited is None:
         return "n/a"
     return "limited" if row.capacity_limited else "held"
@@ -103,8 +105,8 @@ def table12_text(result: Table12Result) -> str:
     notes = [
         "T_amb, Tbatt, Tin, SP_evap, SP_CoHX [degC]; Qloss, P_el [W]; time per simulation [s]; "
         f"err_K: RMSE of T_battery (bh, bc) or T_cabin against {result.reference or 'no reference'}",
-        f"P_el: the thesis's sum per mode, mean over the run; capacity: setpoints held within "
-        f"{CAPACITY_TOLERANCE_K:g} K over the last {CAPACITY_WINDOW_S / 60:g} min",
+        f"P_el: the thesis's sum per mode, mean over the run; capacity: SP_evap and SP_CoHX held within "
+        f"{CAPACITY_TOLERANCE_K:g} K over the last {CAPACITY_WINDOW_S / 60:g} min (- : no setpoint given)",
     ]
     missing = sorted({(r.mode, r.P_el_missing) for r in result.rows if r.P_el_missing})
     for mode, names in missing:

@@ -93,7 +93,9 @@ class Table12Row:
     deviation of the run's mean P_el from the reference's. ``P_el_W`` is the
     mean over the run, ``P_el_last_W`` over the last
     :data:`CAPACITY_WINDOW_S`, both None when a term of ``P_el_terms`` is not
-    recorded (named in ``P_el_missing``).
+    recorded (named in ``P_el_missing``). ``capacity_setpoints`` names the
+    setpoints :func:`capacity_check` judged (empty: none given, and
+    ``capacity_limited`` is False).
     """
 
     scenario: str
@@ -118,6 +120,7 @@ class Table12Row:
     P_el_missing: str
     P_el_W: float | None
     P_el_last_W: float | None
+    capacity_setpoints: str
     capacity_limited: bool | None
     T_evap_air_last_K: float | None
     T_heater_loop_last_K: float | None
@@ -297,6 +300,7 @@ def _row(setup: ScenarioSetup, approach: str, result, T_amb: float, reference: s
         P_el_missing=",".join(missing),
         P_el_W=P_el,
         P_el_last_W=P_last,
+        capacity_setpoints=",".join(cap.setpoints),
         capacity_limited=cap.limited,
         T_evap_air_last_K=cap.means.get("T_evap_air"),
         T_heater_loop_last_K=cap.means.get("T_heater_loop"),
