@@ -1425,10 +1425,11 @@ def _compare_scenarios(
         else:
             mode_models, surrogate_file = _mode_models(surrogates)
             inputs.append(surrogate_file)
-    inputs += _luts_inputs(luts)
+    lut_folder, lut_files = _cycle_luts(luts)
+    inputs += lut_files
     if output is not None:
         output_folder(output, inputs)
-    refrigerant = _system_refrigerant(luts, system, quiet=json_out)
+    refrigerant = _system_refrigerant(luts, lut_folder, system, quiet=json_out)
     chosen_approaches = []
     for a in APPROACHES:
         if (asked is None and a in skipped) or (asked is not None and a not in asked):
