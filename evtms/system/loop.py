@@ -634,7 +634,10 @@ def run_loop(
         g_in = mdot_air * _CP_AIR * (1.0 - r)
         # Evaporator air: inlet less the filtered sensible duty (its tail after a stop included).
         ps_f = s0[S_YF + Y_PS]
-        sens_f = s0[S_YF + Y_QEVAP] - s0[S_YF + Y_QLAT]
+        q_lat_f = s0[S_YF + Y_QLAT]
+        if math.isnan(q_lat_f):  # a mode model carries the total duty only
+            q_lat_f = 0.0
+        sens_f = s0[S_YF + Y_QEVAP] - q_lat_f
         T_ev = T_in - sens_f / (mdot_air * _CP_AIR) if mdot_air > 0.0 else T_in
         sp_evap_given = not math.isnan(ext[n, X_SP_EVAP])
         if sp_evap_given:
