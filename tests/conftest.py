@@ -84,6 +84,35 @@ def small_map_axes():
     return SMALL_MAP_AXES
 
 
+def patch_small_maps(mp: pytest.MonkeyPatch) -> None:
+    """Make ``evtms.system.refrigerant`` build its cycle maps on :data:`SMALL_MAP_AXES` (seconds, not a minute)."""
+    import dataclasses
+
+    from evtms.system import refrigerant
+
+    full = refrigerant.map_settings
+    mp.setattr(refrigerant, "map_settings", lambda p: dataclasses.replace(full(p), axes=SMALL_MAP_AXES))
+
+
+@pytest.fixture(scope="session")
+def small_map_luts(cycle_luts_dir, tmp_path_factory):
+    """A folder linking the session's cycle LUTs, where the tests that patch the maps to the small axes build
+    them once and share them (the maps are cached beside the LUTs)."""
+    import os
+
+    folder = tmp_path_factory.mktemp("small_maps") / "luts"
+    folder.mkdir()
+    for f in cycle_luts_dir.glob("*.nc"):
+        os.symlink(f, folder / f.name)
+    return folder
+
+
+@pytest.fixture()
+def small_maps(monkeypatch):
+    """Cycle maps on 2-3 nodes per axis for this test (:func:`patch_small_maps`)."""
+    patch_small_maps(monkeypatch)
+
+
 #: What the collected tests need of the background job (set at collection).
 _NEEDS = {"cycle_luts": False, "demo": False}
 

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import patch_small_maps
 from test_simulate import refrigerant as synthetic  # noqa: F401 - the module fixture of synthetic maps
 
 from evtms.errors import EvtmsInputError
@@ -20,7 +21,6 @@ from evtms.system import loop as L  # noqa: N812
 from evtms.system import refrigerant as refrigerant_module
 from evtms.system.drive_cycles import DriveCycle, drive_cycle
 from evtms.system.inputs import Trace
-from evtms.system.maps import MapSettings
 from evtms.system.params import system_params_from_dict
 from evtms.system.simulate import _moving_mean, simulate
 
@@ -38,18 +38,12 @@ def first(cycle: DriveCycle, seconds: float) -> DriveCycle:
 
 
 @pytest.fixture(scope="module")
-def cycle_maps(cycle_luts_dir, small_map_axes):
+def cycle_maps(small_map_luts):
     """Cycle maps from the session's cycle LUTs on 2-3 nodes per axis (built once for this module)."""
-    original = refrigerant_module.map_settings
-
-    def small(params):
-        s = original(params)
-        return MapSettings(s.condenser_fan, s.coolant_flow_max, s.coolant_density, axes=small_map_axes)
-
     mp = pytest.MonkeyPatch()
-    mp.setattr(refrigerant_module, "map_settings", small)
+    patch_small_maps(mp)
     try:
-        yield refrigerant_module.load_refrigerant(cycle_luts_dir)
+        yield refrigerant_module.load_refrigerant(small_map_luts)
     finally:
         mp.undo()
 

@@ -24,8 +24,6 @@ from evtms.cli import app
 from evtms.cycle.api import cycle_luts_folder, load_cycle_luts
 from evtms.errors import EvtmsInputError
 from evtms.luts.io import write_lut
-from evtms.system import refrigerant as refrigerant_module
-from evtms.system.maps import MapSettings
 
 COMPONENTS = ("compressor", "condenser", "evaporator", "chiller", "expansion_valve")
 EXPECTED = ("evtms bench all --grid cycle -o DIR", "evtms demo -o OUT")
@@ -206,17 +204,6 @@ def demo_out(cycle_luts_dir, tiny, tmp_path_factory):
     _links(tiny["thesis"], out / "luts" / "thesis")
     _links(cycle_luts_dir, out / "luts" / "cycle")
     return out
-
-
-@pytest.fixture()
-def small_maps(monkeypatch, small_map_axes):
-    original = refrigerant_module.map_settings
-
-    def small(params):
-        s = original(params)
-        return MapSettings(s.condenser_fan, s.coolant_flow_max, s.coolant_density, axes=small_map_axes)
-
-    monkeypatch.setattr(refrigerant_module, "map_settings", small)
 
 
 @pytest.mark.parametrize("given", ["luts", "."])

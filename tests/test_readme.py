@@ -24,6 +24,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from conftest import patch_small_maps
 from typer.testing import CliRunner
 
 from evtms.cli import app
@@ -65,15 +66,13 @@ def test_readme_has_the_two_setup_commands_first():
     assert "shared/" not in README.read_text(encoding="utf-8")  # users have no shared/ folder
 
 
-def test_every_readme_command_works_in_a_fresh_folder(tmp_path, monkeypatch, cycle_luts_dir, small_map_axes):
-    import dataclasses
+def test_every_readme_command_works_in_a_fresh_folder(tmp_path, monkeypatch, cycle_luts_dir):
 
     from evtms.system import refrigerant
 
     monkeypatch.chdir(tmp_path)
     # 'evtms simulate' builds its cycle maps on 2-3 nodes per axis here (seconds, not half a minute).
-    full = refrigerant.map_settings
-    monkeypatch.setattr(refrigerant, "map_settings", lambda p: dataclasses.replace(full(p), axes=small_map_axes))
+    patch_small_maps(monkeypatch)
     monkeypatch.setattr(refrigerant.Refrigerant, "solve_direct", _maps_as_physics)
     lighter = {("surrogate", "train"): ["--quick", "--runs-per-mode", "3"], ("report", "compare"): [
         "--dts", "1,10", "--repeat", "1"]}  # fmt: skip

@@ -7,6 +7,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from conftest import patch_small_maps
 from typer.testing import CliRunner
 
 from evtms.benches import BENCHES
@@ -66,14 +67,10 @@ def test_html_pages_reference_only_existing_files(demo_run):
     assert "cycle/speed_sweep.nc" in top and "reports/condenser/index.html" in top
 
 
-def test_second_demo_run_skips_the_benches(demo_run, tmp_path, monkeypatch, small_map_axes):
-    import dataclasses
-
-    from evtms.system import refrigerant
+def test_second_demo_run_skips_the_benches(demo_run, tmp_path, monkeypatch):
 
     out = demo_run[0]
-    full = refrigerant.map_settings  # the demo fixture's maps have the small axes: reused, not rebuilt
-    monkeypatch.setattr(refrigerant, "map_settings", lambda p: dataclasses.replace(full(p), axes=small_map_axes))
+    patch_small_maps(monkeypatch)  # the demo fixture's maps have the small axes: reused, not rebuilt
     maps = {p: p.stat().st_mtime_ns for p in (out / "luts" / "cycle" / "maps").glob("*.nc")}
     res = runner.invoke(app, ["demo", "-o", str(out)])
     assert res.exit_code == 0, res.output

@@ -33,7 +33,7 @@ from evtms.system.scenarios import (
 from evtms.system.table12 import capacity_check, p_el, run_table12, window_mean
 
 #: The small cycle maps of test_simulate_cli: its fixtures (the LUT folder, the map axes patched) and runner.
-luts, small_maps, run = simulate_cli.luts, simulate_cli.small_maps, simulate_cli.run
+luts, _small_maps, run = simulate_cli.luts, simulate_cli._small_maps, simulate_cli.run
 
 
 def refused(fn, *args, **kwargs) -> str:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 
 import numpy as np
 import pytest
@@ -17,8 +16,6 @@ import xarray as xr
 from typer.testing import CliRunner
 
 from evtms.cli import app
-from evtms.system import refrigerant as refrigerant_module
-from evtms.system.maps import MapSettings
 
 JSON_FIELDS = {
     "distance_km",
@@ -37,24 +34,15 @@ JSON_FIELDS = {
 runner = CliRunner()
 
 
-@pytest.fixture(scope="module")
-def luts(cycle_luts_dir, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("sim") / "luts"
-    folder.mkdir()
-    for f in cycle_luts_dir.glob("*.nc"):
-        os.symlink(f, folder / f.name)
-    return folder
+@pytest.fixture()
+def luts(small_map_luts):
+    """The session's cycle LUTs, with the small-axis maps built once and shared (conftest)."""
+    return small_map_luts
 
 
 @pytest.fixture(autouse=True)
-def small_maps(monkeypatch, small_map_axes):
-    original = refrigerant_module.map_settings
-
-    def small(params):
-        s = original(params)
-        return MapSettings(s.condenser_fan, s.coolant_flow_max, s.coolant_density, axes=small_map_axes)
-
-    monkeypatch.setattr(refrigerant_module, "map_settings", small)
+def _small_maps(small_maps):
+    """Every test here builds its maps on the small axes (conftest's ``small_maps``)."""
 
 
 def run(*args):
