@@ -1763,8 +1763,6 @@ def simulate(
             f"(HVAC {s['hvac_energy_kWh']:.3f})  SOC {s['soc_end']:.4f}  cabin {s['T_cabin_end_degC']:.1f} degC  "
             f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
         )
-    if not setup.heating_applied:
-        typer.echo(f"note: heating {setup.heating} is not applied in this build (no hvac.heating); the air PTC heats")
     typer.echo(f"wrote {output} ({wall:.2f} s)")
 
 

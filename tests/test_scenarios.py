@@ -336,11 +336,9 @@ def test_setup_overrides_and_the_heating_option():
     assert "--blower 0 is not allowed with mode cc" in refused(sc.setup, inputs={"blower": 0.0})
     assert "scenario 't12-cc-1': input blower = 0" in refused(dataclasses.replace(sc, inputs={"blower": 0.0}).setup)
     assert sc.setup(mode="bc", inputs={"blower": 0.0}).mode == "bc"
-    # Until the parameters carry hvac.heating, only the air PTC is applied.
     ch = SCENARIOS["t12-ch-1"].setup()
-    has_field = hasattr(getattr(SystemParams(), "hvac", None), "heating")
-    assert ch.heating == "ptc_coolant" and ch.heating_applied == has_field
-    assert apply_heating(SystemParams(), "ptc_air")[1] is True
+    assert ch.heating == "ptc_coolant" and ch.params.hvac.heating == "ptc_coolant"
+    assert apply_heating(SystemParams(), "ptc_coolant").hvac.heating == "ptc_coolant"
     assert Scenario("", "udds").setup().mode == "auto"
 
 

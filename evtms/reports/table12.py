@@ -114,9 +114,6 @@ def table12_text(result: Table12Result) -> str:
     unchecked = sorted({r.capacity_note for r in result.rows if r.capacity_limited is None and r.capacity_note})
     for note in unchecked:
         notes.append(f"capacity n/a: {note}")
-    not_applied = sorted({r.heating for r in result.rows if not r.heating_applied})
-    for heating in not_applied:
-        notes.append(f"heating {heating} not applied: this build's parameters have no hvac.heating (air PTC used)")
     traces = sorted({r.scenario for r in result.rows for c in _cells(r) if c == "trace"})
     if traces:
         notes.append(f"trace inputs in {', '.join(traces)}: see --json for their files")

@@ -19,9 +19,7 @@ spec v2, section 4, states them. They are declared in the file format itself
 The initial state goes into the parameter tables' ``T_init`` and
 ``soc_init`` fields (``battery.T_init``, ``coolant.T_init``,
 ``cabin.T_init``, ``battery.soc_init``). The heating option goes into the
-parameter ``hvac.heating`` when the parameters have it; until then only
-``ptc_air`` (the air PTC, the only heating the loop has) is applied, and a
-run records ``heating_applied`` false for any other (:class:`ScenarioSetup`).
+parameter ``hvac.heating``.
 
 References
 ----------
@@ -189,7 +187,7 @@ class Scenario:
             params = system_params_from_dict(self._initial_tables(), params)
         except EvtmsInputError as exc:
             raise EvtmsInputError(f"{where}: {exc}") from None
-        params, applied = apply_heating(params, self.heating)
+        params = apply_heating(params, self.heating)
         given = check_inputs(self.inputs, labels={n: f"{where}: input {n}" for n in INPUT_NAMES})
         extra = dict(inputs or {})
         merged = {n: extra[n] if n in extra else given[n] for n in INPUT_NAMES if n in extra or n in given}
@@ -206,7 +204,6 @@ class Scenario:
             sun=self.sun,
             inputs=merged,
             heating=self.heating,
-            heating_applied=applied,
         )
 
     def _initial_tables(self) -> dict[str, dict[str, float]]:
@@ -238,10 +235,7 @@ class ScenarioSetup:
     inputs : dict of str to float or Trace
         External inputs, checked, SI.
     heating : str
-        Heating option asked for.
-    heating_applied : bool
-        Whether the parameters carry it (``hvac.heating``), or it is the
-        loop's only heating (``ptc_air``) where they have no such field.
+        Heating option (set in ``params.hvac.heating``).
     """
 
     scenario: Scenario
@@ -253,19 +247,11 @@ class ScenarioSetup:
     sun: float
     inputs: dict[str, InputValue]
     heating: str
-    heating_applied: bool
 
 
-def apply_heating(params: SystemParams, heating: str) -> tuple[SystemParams, bool]:
-    """``params`` with ``hvac.heating`` set when the parameters have that field; and whether it is applied.
-
-    Without the field the loop heats with the air PTC only, so ``ptc_air``
-    counts as applied and any other option as not.
-    """
-    hvac = getattr(params, "hvac", None)
-    if hvac is not None and hasattr(hvac, "heating"):
-        return dataclasses.replace(params, hvac=dataclasses.replace(hvac, heating=heating)), True
-    return params, heating == "ptc_air"
+def apply_heating(params: SystemParams, heating: str) -> SystemParams:
+    """``params`` with ``hvac.heating`` set to the scenario's option."""
+    return dataclasses.replace(params, hvac=dataclasses.replace(params.hvac, heating=heating))
 
 
 def run_scenario(setup: ScenarioSetup, refrigerant, T_amb: float | None = None, **options):
@@ -285,9 +271,9 @@ def run_scenario(setup: ScenarioSetup, refrigerant, T_amb: float | None = None, 
     Returns
     -------
     SimulationResult
-        With ``attrs`` and ``summary`` holding ``scenario``, ``heating``,
-        ``heating_applied`` (1/0 in ``attrs``) and ``inputs`` (numbers [SI],
-        traces as ``FILE.csv:column``; JSON text in ``attrs``).
+        With ``attrs`` and ``summary`` holding ``scenario``, ``heating`` and
+        ``inputs`` (numbers [SI], traces as ``FILE.csv:column``; JSON text in
+        ``attrs``).
     """
     from evtms.system.inputs import describe_inputs
     from evtms.system.simulate import simulate
@@ -311,8 +297,6 @@ def run_scenario(setup: ScenarioSetup, refrigerant, T_amb: float | None = None, 
     )
     described = describe_inputs(setup.inputs)
     result.attrs["heating"] = result.summary["heating"] = setup.heating
-    result.attrs["heating_applied"] = int(setup.heating_applied)  # netCDF attributes hold no booleans
-    result.summary["heating_applied"] = setup.heating_applied
     result.attrs["inputs"] = json.dumps(described)
     result.summary["inputs"] = described
     result.summary["scenario"] = setup.scenario.name

@@ -102,7 +102,6 @@ class Table12Row:
     approach: str
     mode: str
     heating: str
-    heating_applied: bool
     T_amb_K: float
     T_battery0_K: float | None
     Q_loss_W: float | str | None
@@ -282,7 +281,6 @@ def _row(setup: ScenarioSetup, approach: str, result, T_amb: float, reference: s
         approach=approach,
         mode=setup.mode,
         heating=setup.heating,
-        heating_applied=setup.heating_applied,
         T_amb_K=float(T_amb),
         T_battery0_K=float(T_b0) if T_b0 is not None else float(T_amb),
         Q_loss_W=_input_cell(inputs, "Q_battery_ext"),
