@@ -232,3 +232,33 @@ def test_a_humid_cabin_is_dried_with_reheat_only_while_the_compressor_runs(synth
     heat_without_compressor = (r.records["P_ptc"][1:] > 0.0) & (r.records["compressor_on"][1:] == 0.0)
     assert np.all(~heat_without_compressor | np.isin(r.mode[1:], [L.CH, L.CH_BH, L.CH_BC]))
     assert max(r.ledgers.values()) <= 1e-9
+
+
+def test_frost_retries_end_and_repeat_at_long_steps(synthetic):  # noqa: F811
+    """dt 30 s against the filter's 10 s: most restarts would freeze the coil within the step, so the step runs
+    again with the relay open; the run ends, no step's air reaches 0 degC, and a rerun gives the same."""
+    inputs = {"SP_evap": 273.15, "blower": 0.4}
+    runs = [simulate(parked(1800.0), 308.15, synthetic, mode="cc", dt=30.0, inputs=inputs) for _ in range(2)]
+    assert runs[0].summary["T_evap_air_min_degC"] >= 0.0
+    assert np.array_equal(runs[0].records["compressor_speed"], runs[1].records["compressor_speed"], equal_nan=True)
+    assert max(runs[0].ledgers.values()) <= 1e-9
+
+
+def test_the_power_cap_cuts_the_coolant_ptc_before_traction(synthetic):  # noqa: F811
+    """A cell floor that caps the pack's power: the coolant PTC is cut first, and the heater loop's and the
+    cabin's ledgers still close with what it got."""
+    from evtms.system.battery import Battery
+
+    v_min = round(float(Battery().emf(0.9)) / 96 - 0.01, 3)  # 10 mV per cell of headroom at the start
+    p = system_params_from_dict({"hvac": {"heating": "ptc_coolant"}, "battery": {"cell_voltage_min": v_min}})
+    r = simulate(parked(600.0), 263.15, synthetic, p)
+    limited = (r.flags[1:] & L.F_POWER_LIMITED) > 0
+    assert limited.any()
+    assert np.nanmin(r.records["P_ptcw"][1:][limited]) < 6000.0 - 1.0
+    assert max(r.ledgers.values()) <= 1e-9
+
+
+def test_surrogates_refuse_coolant_heating(synthetic):  # noqa: F811
+    p = system_params_from_dict({"hvac": {"heating": "ptc_coolant"}})
+    with pytest.raises(EvtmsInputError, match="air PTC only"):
+        simulate(first(WLTC, 60.0), 263.15, synthetic, p, model="surrogate", mode_models=object())

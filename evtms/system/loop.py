@@ -120,8 +120,9 @@ N_H = 17
     M_T_COOL, M_T_HEAT, M_CLR_COOL, M_CLR_HEAT, M_TCAB_F, M_TVS_F, M_I_VENT, M_SAT_UP, M_SAT_DN,
     M_COMP_ON, M_T_COMP, M_I_EV, M_FROST_OK, M_CH_FROST_OK, M_I_CH, M_I_PTC, M_I_PTCW, M_I_BLEND,
     M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
+    M_RETRY_STEP,
     N_M,
-) = range(39)  # fmt: skip
+) = range(40)  # fmt: skip
 
 # Map output slots (evtms.system.maps.MAP_OUTPUTS order).
 Y_PS, Y_PD, Y_MDOT, Y_QEVAP, Y_QLAT, Y_QCH, Y_QCOND, Y_W, Y_WFLUID = range(9)
@@ -441,9 +442,9 @@ def run_loop(
         mem[M_FROST_OK] = mem[M_CH_FROST_OK] = 1.0
         mem[M_HEATER_OK] = mem[M_HEATER_BAT_OK] = mem[M_CHILL_OK] = 1.0
         mem[M_CAB_OFF] = 1.0
+        mem[M_RETRY_STEP] = -1.0
     n_steps = dts.size
     n = start
-    attempt = 0
     while n < n_steps:
         dt = dts[n]
         t = mem[M_T]
@@ -651,9 +652,11 @@ def run_loop(
         if rh_active:
             T_dp = dew_point(w_cab, p_atm)
             T_ev_t = min(T_ev_t, min(max(T_dp - 2.0, par[P_TEV_MIN]), par[P_TEV_MAX]))
-        # Frost relays (re-armed only on a step's first attempt: a retried step keeps what tripped it).
+        # Frost relays. A step the look-ahead runs again (below) starts from the relays as that step left them
+        # (re-armed, less what tripped), also when a physics request re-enters it: it re-arms nothing, so it
+        # makes the same decisions every time and each retry opens one more relay (two at most).
         frost_ok, ch_frost_ok = mem[M_FROST_OK] > 0.0, mem[M_CH_FROST_OK] > 0.0
-        if attempt == 0:
+        if mem[M_RETRY_STEP] != n:
             if T_ev <= par[P_TFR_OFF] or ps_f <= par[P_PF_OFF]:
                 frost_ok = False
             elif T_ev >= par[P_TFR_ON] and ps_f >= par[P_PF_ON]:
@@ -663,7 +666,7 @@ def run_loop(
             elif ps_f >= par[P_PF_ON]:
                 ch_frost_ok = True
         # Cabin compressor: PI on the evaporator air between u_min and 1, cycling with minimum times.
-        cab_coil = cabin_on and (cab_cool or rh_active) and mdot_air > 0.0
+        cab_coil = cabin_on and (cab_cool or rh_active) and mdot_air > 0.0 and not econ
         comp_on, t_comp, i_ev = mem[M_COMP_ON] > 0.0, mem[M_T_COMP], mem[M_I_EV]
         u_cab = 0.0
         if cab_coil and frost_ok:
@@ -800,21 +803,20 @@ def run_loop(
             _filter(y, s0, s1, dt, par[P_TAU])
             # Frost look-ahead: the relay opens before the air or the suction would cross it within the step.
             if speed > 0.0:
-                trip = False
-                cab_in = circuit == CIRCUIT_CABIN or circuit == CIRCUIT_BOTH
-                if cab_in:
+                cab_trip = False
+                ch_trip = False
+                if circuit == CIRCUIT_CABIN or circuit == CIRCUIT_BOTH:
                     sens_end = s1[S_YF + Y_QEVAP] - s1[S_YF + Y_QLAT]
-                    if T_in - sens_end / (mdot_air * _CP_AIR) <= par[P_TFR_OFF] or s1[S_YF + Y_PS] <= par[P_PF_OFF]:
-                        mem[M_FROST_OK] = 0.0
-                        trip = True
-                if circuit != CIRCUIT_CABIN and s1[S_YF + Y_PS] <= par[P_PF_OFF]:
-                    mem[M_CH_FROST_OK] = 0.0
-                    trip = True
-                if trip and attempt < 3:
-                    attempt += 1
+                    T_ev_end = T_in - sens_end / (mdot_air * _CP_AIR)
+                    cab_trip = T_ev_end <= par[P_TFR_OFF] or s1[S_YF + Y_PS] <= par[P_PF_OFF]
+                if circuit != CIRCUIT_CABIN:
+                    ch_trip = s1[S_YF + Y_PS] <= par[P_PF_OFF]
+                if cab_trip or ch_trip:
+                    mem[M_FROST_OK] = frost_ok and not cab_trip
+                    mem[M_CH_FROST_OK] = ch_frost_ok and not ch_trip
+                    mem[M_RETRY_STEP] = n
                     continue
             p_comp = y[Y_W] / par[P_DRIVE_EFF]
-        attempt = 0
         q_evap, q_lat, q_chill = y[Y_QEVAP], y[Y_QLAT], y[Y_QCH]
         # Air after the evaporator over the step (interval-mean duty), then heat after it.
         if surrogate:
@@ -951,6 +953,15 @@ def run_loop(
             cut = min(excess, p_ptc)
             p_ptc -= cut
             excess -= cut
+            cut_w = min(excess, p_ptcw)
+            if cut_w > 0.0:  # the coolant PTC too, and the heater-core loop solved again with what it gets
+                p_ptcw -= cut_w
+                excess -= cut_w
+                T_H_new = (c_hh * T_H + p_ptcw + g_hc * T_ev_mean) / (c_hh + g_hc)
+                q_hc = g_hc * (T_H_new - T_ev_mean)
+                s1[S_TH] = T_H_new
+            if (cut > 0.0 or cut_w > 0.0) and cab_heat:
+                sat_up = True  # the battery caps the heater: the vent target's integral must not climb
             cut = min(excess, p_heater)
             p_heater -= cut
             excess -= cut
@@ -1058,6 +1069,7 @@ def run_loop(
         mem[M_HEATER_OK], mem[M_HEATER_BAT_OK], mem[M_CHILL_OK] = heater_ok, heater_bat_ok, chill_ok
         mem[M_Q_HEAT] = p_ptc + q_hc
         mem[M_CAB_OFF] = u_cab <= 0.0
+        mem[M_RETRY_STEP] = -1.0
         mem[M_T] = t + dt
         # Per-step record --------------------------------------------------------
         p_hvac = p_comp + p_ptc + p_ptcw + p_heater + p_blower + p_fan + p_pump + p_pump_h

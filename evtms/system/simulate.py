@@ -382,6 +382,11 @@ def simulate(
     wall0 = time.perf_counter()
     params = params or SystemParams()
     every = check_run_options(cycle, dt, mode, output_every, precondition)
+    if model == "surrogate" and params.hvac.heating != "ptc_air":
+        raise EvtmsInputError(
+            f"--model surrogate: the mode models know the air PTC only, not hvac.heating = {params.hvac.heating!r}; "
+            "use --model lut or physics"
+        )
     check_model(model, mode, mode_models, refrigerant)
     inputs = check_inputs(inputs, mode=mode)
     m = round(every / dt)
