@@ -440,7 +440,8 @@ def simulate(
         **_consumption_split(out, dts * (1.0 - p_motor[:done, 2])),
         "battery_loss_kWh": float(np.sum(out[:, L.O_Q_GEN] * dts) / 3.6e6),
         "soc_end": float(states[-1, L.S_SOC]),
-        "consumption_kWh_per_100km": float(E / 3.6e6 / max(distance_km, 1e-9) * 100.0),
+        # None for a parked run, as range_km: a floor on the distance would report 1e10 kWh/100 km.
+        "consumption_kWh_per_100km": float(E / 3.6e6 / distance_km * 100.0) if distance_km > 0 else None,
         "range_km": float(usable_energy(params) / max(E, 1e-9) * distance_km) if distance_km > 0 else None,
         "T_cabin_end_degC": float(states[-1, L.S_TA] - 273.15),
         "T_battery_end_degC": float(states[-1, L.S_TB] - 273.15),
