@@ -228,16 +228,6 @@ def _bilinear(xs, ys, table, x, y):
 
 
 @jit
-def _pi(e, integral, kp, ki, dt):
-    """Parallel PI saturated to [0, 1]; the integral advances unless the output is saturated in e's direction."""
-    u = kp * e + integral
-    out = min(max(u, 0.0), 1.0)
-    if not ((u >= 1.0 and e > 0.0) or (u <= 0.0 and e < 0.0)):
-        integral += ki * e * dt
-    return out, integral
-
-
-@jit
 def _pick_mode(bc, crit, bh, cc, ch):
     """The mode the hysteresis flags ask for (spec section 4)."""
     if crit:
@@ -366,7 +356,7 @@ def crossflow_effectiveness(c_air: float, c_liquid: float, ua: float) -> float:
 
 
 @jit
-def _pi_range(e, integral, kp, ki, dt, lo, hi):
+def _pi(e, integral, kp, ki, dt, lo, hi):
     """Parallel PI saturated to [lo, hi]; returns (output, integral, saturated in e's direction)."""
     u = kp * e + integral
     out = min(max(u, lo), hi)
@@ -681,17 +671,14 @@ def run_loop(
                     t_comp = t
                     i_ev = u_min - par[P_EV_KP] * e_ev  # restart at the minimum speed
             if comp_on:
-                u_cab, i_ev, _ = _pi_range(e_ev, i_ev, par[P_EV_KP], par[P_EV_KI], dt, u_min, 1.0)
+                u_cab, i_ev, _ = _pi(e_ev, i_ev, par[P_EV_KP], par[P_EV_KI], dt, u_min, 1.0)
                 # Off when the compressor can give no less cooling: at its minimum speed with the evaporator air
                 # below its target, or, once the cabin is colder than its setpoint, with the evaporator target
                 # clipped below a warmer vent target (its highest setting, or the inlet less 2 K) and the air
                 # below that: then the duty of on/off cycling, not an ever colder cabin, meets the load. A given
                 # SP_evap is held whatever the cabin (the thesis's experiments).
-                T_want = T_vs
                 at_floor = u_cab <= u_min and T_ev < T_ev_t - par[P_DT_CYC]
-                clipped_warm = (
-                    not sp_evap_given and T_want > T_ev_t and T_ev < T_want - par[P_DT_CYC] and tcab_f < T_set
-                )
+                clipped_warm = not sp_evap_given and T_vs > T_ev_t and T_ev < T_vs - par[P_DT_CYC] and tcab_f < T_set
                 # While a critical battery holds the compressor faster, the cabin branch closes only once the
                 # cabin itself is too cold: closing it on its air alone stops the cabin's cooling for the minimum
                 # off time, and the 3.5 kJ/K air swings by several kelvin.
@@ -713,7 +700,7 @@ def run_loop(
         i_ch = mem[M_I_CH]
         if chill and ch_frost_ok:
             e_ch = (ps_f - par[P_CH_PS]) * 1e-6
-            u, i_ch, _ = _pi_range(e_ch, i_ch, par[P_CH_KP], par[P_CH_KI], dt, 0.0, 1.0)
+            u, i_ch, _ = _pi(e_ch, i_ch, par[P_CH_KP], par[P_CH_KI], dt, 0.0, 1.0)
             u_ch = max(u, u_min)
         elif chill:
             flag |= F_FREEZE_CUTOFF
@@ -863,13 +850,11 @@ def run_loop(
                 T_H_t = max(min(T_H_t, par[P_TH_MAX]), min(T_vs + 3.0, par[P_TH_MAX]))
             e_h = T_H_t - T_H
             pmax = par[P_PTCW_MAX]
-            u = par[P_PTCW_KP] * pmax * e_h + i_ptcw
+            u, i_ptcw, _ = _pi(e_h, i_ptcw, par[P_PTCW_KP] * pmax, par[P_PTCW_KI] * pmax, dt, 0.0, pmax)
             if T_H < par[P_TH_MAX]:
-                p_ptcw = min(max(u, 0.0), pmax)
-            if not ((u >= pmax and e_h > 0.0) or (u <= 0.0 and e_h < 0.0)):
-                i_ptcw += par[P_PTCW_KI] * pmax * e_h * dt
+                p_ptcw = u
             i_ptcw = min(max(i_ptcw, -pmax), pmax)
-            beta, i_blend, blk = _pi_range(e_v, i_blend, par[P_BLEND_KP], par[P_BLEND_KI], dt, 0.0, 1.0)
+            beta, i_blend, blk = _pi(e_v, i_blend, par[P_BLEND_KP], par[P_BLEND_KI], dt, 0.0, 1.0)
             heater_sat_up = blk and e_v > 0.0
             heater_sat_dn = blk and e_v < 0.0
         else:
