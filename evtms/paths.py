@@ -209,3 +209,15 @@ def read_small_text(
         raise EvtmsInputError(f"{where}: not UTF-8 text ({hint})") from None
     except OSError as exc:
         raise EvtmsInputError(f"{where}: cannot read the {what} ({exc.strerror or exc})") from None
+
+
+def csv_rows(text: str) -> Iterator[tuple[int, str, list[str]]]:
+    """The data lines of a small CSV text: ``(line number, stripped line, cells)``, blank and ``#`` lines skipped.
+
+    Cells are split on commas and stripped; the caller checks the header and
+    the values (each reader has its own columns and rules).
+    """
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if line and not line.startswith("#"):
+            yield number, line, [c.strip() for c in line.split(",")]

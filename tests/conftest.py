@@ -84,6 +84,16 @@ def small_map_axes():
     return SMALL_MAP_AXES
 
 
+def one_error_line(result, *fragments: str) -> str:
+    """A CLI result that failed as bad input must: exit 2 and one ``error: ...`` line holding every fragment."""
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    for f in fragments:
+        assert f in lines[0], (f, lines[0])
+    return lines[0]
+
+
 def patch_small_maps(mp: pytest.MonkeyPatch) -> None:
     """Make ``evtms.system.refrigerant`` build its cycle maps on :data:`SMALL_MAP_AXES` (seconds, not a minute)."""
     import dataclasses

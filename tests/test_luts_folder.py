@@ -15,6 +15,7 @@ import os
 
 import numpy as np
 import pytest
+from conftest import one_error_line
 from typer.testing import CliRunner
 
 from evtms.benches import BENCHES
@@ -63,15 +64,6 @@ def _files(root):
 
 def run(*args):
     return runner.invoke(app, [str(a) for a in args])
-
-
-def _one_error_line(r, *fragments):
-    assert r.exit_code == 2, r.output
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
-    for f in fragments:
-        assert f in lines[0], (f, lines[0])
-    return lines[0]
 
 
 @pytest.fixture()
@@ -152,7 +144,7 @@ def test_simulate_refuses_thesis_luts_in_one_line_and_writes_nothing(tiny, tmp_p
     before = _files(tmp_path)
     trace = tmp_path / "trace.csv"
     r = run("simulate", "--cycle", trace, "--t-amb", "30", "--luts", tmp_path / given, "-o", tmp_path / "run.nc")
-    _one_error_line(r, "error: --luts: no complete set of cycle LUTs", "on the thesis grid", *EXPECTED)
+    one_error_line(r, "error: --luts: no complete set of cycle LUTs", "on the thesis grid", *EXPECTED)
     assert _files(tmp_path) == before
 
 
@@ -160,7 +152,7 @@ def test_simulate_does_not_complete_an_incomplete_set(tiny, tmp_path, no_build):
     luts = _links(tiny["cycle"], tmp_path / "luts", ("condenser", "evaporator"))
     before = _files(tmp_path)
     r = run("simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", luts, "-o", tmp_path / "run.nc")
-    _one_error_line(r, "condenser, evaporator on the cycle grid, and lacks chiller, expansion_valve, compressor")
+    one_error_line(r, "condenser, evaporator on the cycle grid, and lacks chiller, expansion_valve, compressor")
     assert _files(tmp_path) == before
 
 
@@ -188,9 +180,9 @@ def test_cycle_commands_refuse_thesis_luts(tiny, tmp_path):
     out = tmp_path / "out"
     _links(tiny["thesis"], out / "luts" / "thesis")
     before = _files(tmp_path)
-    _one_error_line(run("cycle", "run", "--luts", out), "on the thesis grid", *EXPECTED)
+    one_error_line(run("cycle", "run", "--luts", out), "on the thesis grid", *EXPECTED)
     r = run("cycle", "sweep", "--luts", out / "luts", "--speed", "0.4,0.8", "-o", tmp_path / "s.nc")
-    _one_error_line(r, "on the thesis grid", *EXPECTED)
+    one_error_line(r, "on the thesis grid", *EXPECTED)
     assert _files(tmp_path) == before
 
 
@@ -227,4 +219,4 @@ def test_cycle_run_and_sweep_take_the_demo_folders(demo_out, tmp_path):
     assert r.exit_code == 0, r.output
     # The output may not be one of the LUTs found, however the folder was given.
     r = run("cycle", "sweep", "--luts", demo_out, "-o", demo_out / "luts" / "cycle" / "condenser.nc")
-    _one_error_line(r, "is the input")
+    one_error_line(r, "is the input")

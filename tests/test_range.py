@@ -12,6 +12,7 @@ import json
 import numpy as np
 import pytest
 import xarray as xr
+from conftest import one_error_line
 from test_simulate import params, refrigerant  # noqa: F401 - the synthetic maps' fixture
 from typer.testing import CliRunner
 
@@ -365,9 +366,7 @@ def test_simulate_range_mct_then_report(cli_maps, tmp_path):
 def test_bad_range_options_are_one_line_exit_2(cli_maps, tmp_path, args, message):
     out = tmp_path / "bad.nc"
     res = _run("simulate", *args, "--luts", tmp_path / "l", "-o", out)
-    assert res.exit_code == 2, res.output
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], res.stderr
+    one_error_line(res, message)
     assert not out.exists()
 
 

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import test_simulate_cli as simulate_cli
 import xarray as xr
+from conftest import one_error_line
 
 from evtms.errors import EvtmsInputError
 from evtms.system import inputs as inputs_module
@@ -482,9 +483,7 @@ def test_bad_scenario_or_input_options_are_one_line_and_no_file(luts, tmp_path, 
     monkeypatch.chdir(tmp_path)
     out = tmp_path / "bad.nc"
     r = run("simulate", *args, "--luts", luts, "-o", out)
-    assert r.exit_code == 2, r.output
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], r.stderr
+    one_error_line(r, message)
     assert not out.exists()
 
 
@@ -535,6 +534,4 @@ def test_report_compare_prints_the_table12_columns(luts, tmp_path):
 def test_bad_report_compare_scenarios_are_one_line(luts, tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)
     r = run("report", "compare", *args, "--luts", luts)
-    assert r.exit_code == 2, r.output
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], r.stderr
+    one_error_line(r, message)

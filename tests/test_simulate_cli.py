@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pytest
 import xarray as xr
+from conftest import one_error_line
 from typer.testing import CliRunner
 
 from evtms.cli import app
@@ -117,9 +118,7 @@ def test_a_user_trace(luts, tmp_path):
 def test_bad_input_is_one_line_and_no_file(luts, tmp_path, args, message):
     out = tmp_path / "bad.nc"
     r = run("simulate", *args, "--luts", luts, "-o", out)
-    assert r.exit_code == 2, r.output
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], r.stderr
+    one_error_line(r, message)
     assert not out.exists()
 
 
@@ -205,7 +204,5 @@ def test_train_surrogates_then_simulate_and_compare_with_them(luts, tmp_path):
 def test_bad_surrogate_and_compare_input_is_one_line(luts, tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)
     r = run(*args, "--luts", luts)
-    assert r.exit_code == 2, r.output
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], r.stderr
+    one_error_line(r, message)
     assert not (tmp_path / "m").exists() and not (tmp_path / "c").exists()

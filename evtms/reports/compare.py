@@ -50,7 +50,7 @@ from typing import Any
 import numpy as np
 
 from evtms.errors import EvtmsInputError
-from evtms.paths import read_small_text
+from evtms.paths import csv_rows, read_small_text
 from evtms.system import loop as L  # noqa: N812 - flag bits L.F_*
 from evtms.system.drive_cycles import DriveCycle
 
@@ -326,11 +326,7 @@ def read_measured(path: str | Path) -> dict[str, np.ndarray]:
     allowed = ", ".join(MEASURED_VARIABLES)
     header: list[str] | None = None
     rows: list[list[float]] = []
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        cells = [c.strip() for c in line.split(",")]
+    for number, line, cells in csv_rows(text):
         here = f"{where}:{number}"
         if header is None:
             unknown = [c for c in cells if c not in MEASURED_VARIABLES]

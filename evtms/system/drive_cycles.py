@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from evtms.errors import EvtmsInputError
-from evtms.paths import read_small_text
+from evtms.paths import csv_rows, read_small_text
 
 #: Built-in cycles: name -> file in ``data/drive_cycles``.
 BUILTIN = {
@@ -112,11 +112,7 @@ def read_drive_cycle(path: str | Path, name: str | None = None) -> DriveCycle:
     )
     rows: list[tuple[float, ...]] = []
     header: list[str] | None = None
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        cells = [c.strip() for c in line.split(",")]
+    for number, line, cells in csv_rows(text):
         if header is None:
             header = cells
             if header not in (["time_s", "speed_kmh"], ["time_s", "speed_kmh", "grade"]):

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from evtms.errors import EvtmsInputError
-from evtms.paths import read_small_text
+from evtms.paths import csv_rows, read_small_text
 
 #: Inputs in the loop's column order.
 INPUT_NAMES = ("Q_battery_ext", "hvac_inlet_T", "hvac_inlet_rh", "SP_evap", "SP_CoHX", "blower")
@@ -213,11 +213,7 @@ def read_trace(path: str | Path, column: str, name: str, label: str | None = Non
     it = iv = 0
     times: list[float] = []
     values: list[float] = []
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        cells = [c.strip() for c in line.split(",")]
+    for number, line, cells in csv_rows(text):
         here = f"{where}:{number}"
         if header is None:
             repeated = sorted({c for c in cells if cells.count(c) > 1})
