@@ -70,6 +70,7 @@ def thesis(fluid, params):
 #: Cycle-map axes of 2-3 nodes (maps in seconds instead of the full axes' half minute).
 SMALL_MAP_AXES = {
     "speed": [0.1, 0.4, 1.0],
+    "fan": [0.3, 1.0],
     "blower": [0.1, 0.5, 1.0],
     "T_amb": [268.15, 298.15, 313.15],
     "T_air_in": [288.15, 303.15, 313.15],

@@ -262,3 +262,40 @@ def test_surrogates_refuse_coolant_heating(synthetic):  # noqa: F811
     p = system_params_from_dict({"hvac": {"heating": "ptc_coolant"}})
     with pytest.raises(EvtmsInputError, match="air PTC only"):
         simulate(first(WLTC, 60.0), 263.15, synthetic, p, model="surrogate", mode_models=object())
+
+
+def test_fan_stages_switch_once_per_crossing_of_their_bands():
+    """Three relays on the discharge pressure (spec v2 5.4) at 30 degC: on at 1.1 / 1.7 / 2.2 MPa, off at 0.8 /
+    1.3 / 1.8 MPa; a pressure between the two keeps each stage as it was."""
+    from evtms.system.simulate import pack_parameters
+
+    par = pack_parameters(system_params_from_dict({}), 303.15, 0.4, 0.0, -1, 0.428)
+    up = np.linspace(0.5e6, 2.5e6, 401)
+    pressures = np.concatenate([up, up[::-1]])
+    stages = np.zeros((pressures.size, 3))
+    s = (0.0, 0.0, 0.0)
+    for i, p in enumerate(pressures):
+        s = L._fan_stages(p, *s, par)
+        stages[i] = s
+    for k, (on, off) in enumerate(((1.1e6, 0.8e6), (1.7e6, 1.3e6), (2.2e6, 1.8e6))):
+        switches = np.flatnonzero(np.diff(stages[:, k]))
+        assert switches.size == 2, k  # once on the way up, once on the way down
+        assert pressures[switches[0]] <= on < pressures[switches[0] + 1]
+        assert pressures[switches[1]] >= off > pressures[switches[1] + 1]
+    assert L._fan_stages(math.nan, 1.0, 0.0, 1.0, par) == (1.0, 0.0, 1.0)
+
+
+def test_the_condenser_fan_is_staged_and_ram_air_adds_to_it(synthetic):  # noqa: F811
+    """WLTC's first 20 min at 30 degC: the fan runs only with the compressor, in thirds, at least one stage
+    while ram air is weak, its power the cube of its flow, the front-end air fan and ram in quadrature."""
+    r = simulate(first(WLTC, 1200.0), 303.15, synthetic, dt=1.0, sun=600.0)
+    rec = r.records
+    fan, v_front, comp = rec["fan"][1:], rec["V_front"][1:], rec["compressor_speed"][1:]
+    np.testing.assert_allclose(fan * 3.0, np.round(fan * 3.0), atol=1e-12)
+    assert np.all(fan[comp == 0.0] == 0.0) and np.any(fan > 0.0) and np.any(fan < 1.0)
+    np.testing.assert_allclose(rec["P_fan"][1:], 533.0 * (fan * 0.88 / 0.8) ** 3, rtol=1e-12)
+    v_car = np.diff(rec["distance"]) / np.diff(rec["time"])
+    np.testing.assert_allclose(v_front, np.maximum(np.hypot(fan * 0.88, 0.0289 * v_car), 0.05), rtol=1e-9)
+    weak_ram = (comp > 0.0) & (0.0289 * v_car < 0.2)
+    assert weak_ram.any() and np.all(fan[weak_ram] >= 1.0 / 3.0 - 1e-12)
+    assert r.summary["hvac_energy_kWh"] > 0.0 and max(r.ledgers.values()) <= 1e-9

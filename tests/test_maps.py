@@ -34,6 +34,7 @@ SLOT = {k: i for i, k in enumerate(MAP_OUTPUTS)}
 #: 2-3 nodes per axis, inside the evaporator (15-35 degC) and condenser (15-45 degC) 'cycle' grids.
 SMALL = {
     "speed": [0.3, 0.6, 1.0],
+    "fan": [0.4, 1.0],
     "blower": [0.4, 1.0],
     "T_amb": [298.15, 308.15],
     "T_air_in": [295.15, 303.15],
@@ -108,10 +109,20 @@ def test_signs_and_absent_branches(maps):
 
 def test_cooling_rises_with_compressor_speed(maps):
     m = maps["ac"]
-    mid = (slice(None), 1, 0, 1, 1)  # blower 1, T_amb 25 degC, air 30 degC, RH 0.6
+    mid = (slice(None), 1, 1, 0, 1, 1)  # fan 1, blower 1, T_amb 25 degC, air 30 degC, RH 0.6
     assert not m.filled_nodes[mid].any()
     q = m.values[(*mid, SLOT["Q_evaporator"])]
     assert np.all(np.diff(q) > 0), q
+
+
+def test_less_condenser_air_raises_the_discharge_pressure_and_the_work(maps):
+    for name, m in maps.items():
+        assert m.axes[1] == "fan"
+        low, full = m.values[:, 0], m.values[:, -1]
+        solved = ~(m.filled_nodes[:, 0] | m.filled_nodes[:, -1])
+        assert solved.sum() >= 0.5 * solved.size, name
+        assert np.all(low[solved][..., SLOT["p_discharge"]] > full[solved][..., SLOT["p_discharge"]]), name
+        assert np.all(low[solved][..., SLOT["W"]] > full[solved][..., SLOT["W"]]), name
 
 
 def _interp(m: CycleMap, x, fn=map_interp):
@@ -196,7 +207,7 @@ def test_a_map_without_a_valid_node_is_an_input_error(cycle_luts_dir, small, mon
         return res
 
     monkeypatch.setattr(maps_module, "solve_nodes", failing)
-    with pytest.raises(EvtmsInputError, match="none of its 24 operating points solved") as err:
+    with pytest.raises(EvtmsInputError, match="none of its 48 operating points solved") as err:
         build_map("chiller", cycle_luts_dir, small, workers=1)
     assert "\n" not in str(err.value)
 
@@ -206,7 +217,7 @@ def test_settings_and_names_are_checked(cycle_luts_dir):
         with pytest.raises(EvtmsInputError):
             MapSettings(axes=bad)
     with pytest.raises(EvtmsInputError):
-        MapSettings(condenser_fan=0.0)
+        MapSettings(superheat=-1.0)
     with pytest.raises(EvtmsInputError, match="unknown"):
         load_maps(cycle_luts_dir, names=("hp",))
     s = MapSettings(axes={"T_amb": [290.0, 300.0], "ac+chiller.T_amb": [295.0]})
@@ -221,7 +232,7 @@ def test_cache_is_read_back_and_rebuilt_when_a_lut_or_the_settings_change(cycle_
         calls.append((done, total, text))
 
     first = load_maps(folder, small, names=("chiller",), progress=progress)["chiller"]
-    assert calls[0] == (0, 24, "chiller") and calls[-1] == (24, 24, "chiller")
+    assert calls[0] == (0, 48, "chiller") and calls[-1] == (48, 48, "chiller")
     path = folder / "maps" / "chiller.nc"
     assert path.is_file() and not list((folder / "maps").glob(".*"))  # no temporary file left
     calls.clear()
@@ -240,14 +251,14 @@ def test_cache_is_read_back_and_rebuilt_when_a_lut_or_the_settings_change(cycle_
     load_maps(folder, small, names=("chiller",), progress=progress)
     assert not calls
 
-    other = load_maps(folder, MapSettings(axes=SMALL, condenser_fan=0.8), names=("chiller",), progress=progress)
+    other = load_maps(folder, MapSettings(axes=SMALL, superheat=8.0), names=("chiller",), progress=progress)
     assert calls and not np.array_equal(other["chiller"].values, first.values)  # settings differ: rebuilt
     calls.clear()
-    load_maps(folder, MapSettings(axes=SMALL, condenser_fan=0.8), names=("chiller",), progress=progress)
+    load_maps(folder, MapSettings(axes=SMALL, superheat=8.0), names=("chiller",), progress=progress)
     assert not calls
 
     path.write_bytes(b"not netCDF")  # unreadable: rebuilt
-    load_maps(folder, MapSettings(axes=SMALL, condenser_fan=0.8), names=("chiller",), progress=progress)
+    load_maps(folder, MapSettings(axes=SMALL, superheat=8.0), names=("chiller",), progress=progress)
     assert calls
 
 

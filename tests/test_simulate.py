@@ -26,12 +26,12 @@ from evtms.system.simulate import simulate
 
 def _map(name: str, axes: tuple[str, ...], nodes: list[list[float]], evap: float, chill: float) -> CycleMap:
     grids = np.meshgrid(*[np.asarray(n, float) for n in nodes], indexing="ij")
-    speed = grids[0]
+    speed, fan = grids[0], grids[1]
     v = np.zeros((*speed.shape, 9))
     W = 3000.0 * speed
     q_e, q_c = evap * 6000.0 * speed, chill * 5000.0 * speed
     v[..., 0] = 0.3e6 / (0.5 + speed)  # suction pressure falls as the compressor speeds up
-    v[..., 1] = 1.5e6
+    v[..., 1] = 1.0e6 + 1.0e6 * speed * (1.2 - fan)  # less condenser air, higher discharge pressure
     v[..., 2] = 0.05 * speed
     v[..., 3], v[..., 4], v[..., 5] = q_e, 0.2 * q_e, q_c
     v[..., 7], v[..., 8] = W, 0.9 * W
@@ -41,16 +41,22 @@ def _map(name: str, axes: tuple[str, ...], nodes: list[list[float]], evap: float
 
 @pytest.fixture(scope="module")
 def refrigerant() -> Refrigerant:
-    sp, Ta, Tair, Tc = [0.1, 0.5, 1.0], [263.15, 323.15], [283.15, 323.15], [273.15, 323.15]
+    sp, fan, Ta, Tair, Tc = [0.1, 0.5, 1.0], [0.2, 1.0], [263.15, 323.15], [283.15, 323.15], [273.15, 323.15]
     maps = {
         "ac": _map(
-            "ac", ("speed", "blower", "T_amb", "T_air_in", "RH_air_in"), [sp, [0.1, 1], Ta, Tair, [0.2, 0.8]], 1, 0
+            "ac",
+            ("speed", "fan", "blower", "T_amb", "T_air_in", "RH_air_in"),
+            [sp, fan, [0.1, 1], Ta, Tair, [0.2, 0.8]],
+            1,
+            0,
         ),
-        "chiller": _map("chiller", ("speed", "u_pump", "T_amb", "T_coolant_in"), [sp, [0.3, 1], Ta, Tc], 0, 1),
+        "chiller": _map(
+            "chiller", ("speed", "fan", "u_pump", "T_amb", "T_coolant_in"), [sp, fan, [0.3, 1], Ta, Tc], 0, 1
+        ),
         "ac+chiller": _map(
             "ac+chiller",
-            ("speed", "blower", "u_pump", "T_amb", "T_air_in", "T_coolant_in"),
-            [sp, [0.1, 1], [0.3, 1], Ta, Tair, Tc],
+            ("speed", "fan", "blower", "u_pump", "T_amb", "T_air_in", "T_coolant_in"),
+            [sp, fan, [0.1, 1], [0.3, 1], Ta, Tair, Tc],
             0.6,
             0.5,
         ),

@@ -155,7 +155,7 @@ class Scenario:
         """``base`` (default: the defaults) with this scenario's setpoint, initial temperatures and SOC.
 
         Only the cabin setpoint and initial values change: the parameters the
-        cycle maps depend on (condenser fan, coolant flow) stay ``base``'s.
+        cycle maps depend on (the coolant flow) stay ``base``'s.
         """
         base = base or SystemParams()
         cabin = dataclasses.replace(base.cabin, T_set=self.T_set, rh_cabin=self.RH_cabin0)

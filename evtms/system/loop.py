@@ -111,8 +111,10 @@ CIRCUIT_NAMES = ("none", "cabin", "chiller", "cabin+chiller")
 HEATING_PTC_AIR, HEATING_PTC_COOLANT = 0, 1
 
 # ``held``: the last refrigerant point the caller solved (SRC_HELD): map id, inputs, targets, fallback.
-H_MAP, H_X, H_Y, H_FALLBACK = 0, 1, 7, 16
-N_H = 17
+# Map inputs a request carries (the largest map's axes: ac+chiller's seven).
+N_MAP_X = 7
+H_MAP, H_X, H_Y, H_FALLBACK = 0, 1, 1 + N_MAP_X, 1 + N_MAP_X + 9
+N_H = H_FALLBACK + 1
 
 # ``mem``: the controllers' memory at the start of the next step (resumable runs restart a step from it).
 (
@@ -120,9 +122,9 @@ N_H = 17
     M_T_COOL, M_T_HEAT, M_CLR_COOL, M_CLR_HEAT, M_TCAB_F, M_TVS_F, M_I_VENT, M_SAT_UP, M_SAT_DN,
     M_COMP_ON, M_T_COMP, M_I_EV, M_FROST_OK, M_CH_FROST_OK, M_I_CH, M_I_PTC, M_I_PTCW, M_I_BLEND,
     M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
-    M_RETRY_STEP,
+    M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3,
     N_M,
-) = range(40)  # fmt: skip
+) = range(43)  # fmt: skip
 
 # Map output slots (evtms.system.maps.MAP_OUTPUTS order).
 Y_PS, Y_PD, Y_MDOT, Y_QEVAP, Y_QLAT, Y_QCH, Y_QCOND, Y_W, Y_WFLUID = range(9)
@@ -140,7 +142,7 @@ N_X = 6
     P_G_BC_FIXED, P_G_CP, P_PLATE_RE1, P_PLATE_PR, P_PLATE_DL, P_PLATE_KA,
     P_C_AIR, P_M_AIR, P_C_INT, P_G_INT, P_Q_OCC, P_MOIST, P_Q_SUN, P_UA_SHELL,
     P_BLOWER_FLOW, P_BLOWER_POWER, P_T_SET, P_RC_COOL, P_RC_HEAT, P_RC_WARM,
-    P_CH_KP, P_CH_KI, P_CH_PS, P_SPEED_MIN, P_FAN_POWER, P_DRIVE_EFF, P_TAU,
+    P_CH_KP, P_CH_KI, P_CH_PS, P_SPEED_MIN, P_DRIVE_EFF, P_TAU,
     P_BC_ON, P_BC_OFF, P_CRIT_ON, P_CRIT_OFF, P_BH_ON, P_BH_OFF, P_BH_AMB_MAX,
     P_PUMP_IDLE, P_PUMP_BC, P_PUMP_CRIT, P_HOLD, P_COOLANT_MDOT_MAX,
     P_G_GLASS, P_G_DOORS, P_G_ROOF, P_C_GLASS, P_C_DOORS, P_C_ROOF,
@@ -149,8 +151,10 @@ N_X = 6
     P_TFR_OFF, P_TFR_ON, P_PF_OFF, P_PF_ON, P_AC_TAMB_MIN, P_RH_DEHUM, P_BLEND_KP, P_BLEND_KI,
     P_HEATING, P_PTC_MAX, P_PTC_KP, P_PTC_KI, P_PTCW_MAX, P_PTCW_KP, P_PTCW_KI, P_TH_MAX, P_C_H,
     P_MDOT_H, P_CP_H, P_PUMP_H_POWER, P_HC_UA, P_HC_AIR_REF, P_BH_TC_MAX, P_BH_TB_MAX, P_BC_TB_MIN,
+    P_FAN_VMAX, P_FAN_PNOM, P_FAN_VNOM, P_RAM_AREA, P_V_FRONT_MIN, P_RAM_FLOOR,
+    P_FAN_P1, P_FAN_D1, P_FAN_P2, P_FAN_P3, P_FAN_D23,
     N_P,
-) = range(109)  # fmt: skip
+) = range(119)  # fmt: skip
 
 # States at the step boundaries.
 (
@@ -166,9 +170,9 @@ N_S = S_YF + N_Y
     O_Q_GEN, O_EMF, O_V, O_I, O_E_RC, O_SPEED_CMD, O_BLOWER, O_U_PUMP, O_MDOT_AIR, O_Q_HEATER,
     O_Q_AIR_SOURCES, O_Q_SUN_INT, O_T_SUPPLY, O_P_DEFICIT, O_REGEN, O_P_GRID,
     O_T_EVAP_AIR, O_T_VENT_TARGET, O_T_EVAP_TARGET, O_RECIRC, O_G_IN, O_T_IN_SRC, O_W_IN_SRC, O_G_BC, O_Q_EXT,
-    O_Q_HC, O_P_PTCW, O_P_PUMP_H, O_BLEND, O_T_H_TARGET, O_COMP_ON, O_CIRCUIT, O_P_AUX,
+    O_Q_HC, O_P_PTCW, O_P_PUMP_H, O_BLEND, O_T_H_TARGET, O_COMP_ON, O_CIRCUIT, O_P_AUX, O_FAN, O_V_FRONT,
     N_O,
-) = range(52)  # fmt: skip
+) = range(54)  # fmt: skip
 
 #: State columns a mode model carries (:data:`evtms.system.mode_model.STATE_NAMES` order).
 SURROGATE_STATES = (
@@ -367,6 +371,30 @@ def _pi(e, integral, kp, ki, dt, lo, hi):
 
 
 @jit
+def _relay(on, x, x_off, band):
+    """Hysteresis relay: switches on above ``x_off + band``, off below ``x_off``; NaN ``x`` keeps the state."""
+    if x > x_off + band:
+        return 1.0
+    if x < x_off:
+        return 0.0
+    return on
+
+
+@jit
+def _fan_stages(p_d, s_1, s_2, s_3, par):
+    """The condenser fan's three stages [0/1] on the filtered discharge pressure ``p_d`` [Pa].
+
+    Each stage is a relay, on at ``p_k + band_k``, off at ``p_k``
+    (the model's condenser-fan requirement, spec v2 5.4): ``p_1`` fixed,
+    ``p_2`` and ``p_3`` by ambient temperature (packed per run).
+    """
+    s_1 = _relay(s_1, p_d, par[P_FAN_P1], par[P_FAN_D1])
+    s_2 = _relay(s_2, p_d, par[P_FAN_P2], par[P_FAN_D23])
+    s_3 = _relay(s_3, p_d, par[P_FAN_P3], par[P_FAN_D23])
+    return s_1, s_2, s_3
+
+
+@jit
 def _filter(y, yf, s1, dt, tau):
     """Advance the common first-order filter: ``s1`` gets the step-end values, ``y`` becomes the interval mean."""
     decay = math.exp(-dt / tau)
@@ -387,11 +415,11 @@ def run_loop(
 
     ``states`` (steps + 1, N_S) holds the initial state in row 0 and is filled
     row by row; ``out`` (steps, N_O), ``modes`` and ``flags`` (steps) per step.
-    ``p_motor_el`` (steps, 4): the step's mean motor electrical power [W]
+    ``p_motor_el`` (steps, 5): the step's mean motor electrical power [W]
     with regeneration and with it cut, 1 where the car is plugged in
-    (preconditioning: the grid, not the battery, feeds auxiliaries and HVAC)
-    and 1 where the key is off (a soak: no propulsion, auxiliaries, HVAC,
-    pumps or DC-DC). ``ext`` (steps, N_X): external inputs, NaN where not
+    (preconditioning: the grid, not the battery, feeds auxiliaries and HVAC),
+    1 where the key is off (a soak: no propulsion, auxiliaries, HVAC,
+    pumps or DC-DC) and the mean vehicle speed [m/s] (ram air). ``ext`` (steps, N_X): external inputs, NaN where not
     given (:mod:`evtms.system.inputs`).
 
     ``source`` says where the refrigerant targets come from: SRC_MAPS the
@@ -412,7 +440,7 @@ def run_loop(
     heating_opt = int(par[P_HEATING])
     forced_cabin = forced == CC or forced == CC_BC or forced == CH or forced == CH_BH or forced == CH_BC
     y = np.zeros(N_Y)
-    x = np.zeros(6)
+    x = np.zeros(N_MAP_X)
     g_w = np.array([par[P_G_GLASS], par[P_G_DOORS], par[P_G_ROOF]])
     c_w = np.array([par[P_C_GLASS], par[P_C_DOORS], par[P_C_ROOF]])
     alphas = np.empty(3)  # per step: wall temperature T_w' = alpha_w + beta_w T_air'
@@ -735,8 +763,23 @@ def run_loop(
             g_bc = plate_conductance(
                 u_pump, par[P_PLATE_RE1], par[P_PLATE_PR], par[P_PLATE_DL], par[P_PLATE_KA], par[P_G_CP]
             )
-        # (b) refrigerant target and filter ---------------------------------------
+        # Condenser fan (spec v2 5.4): three stages on the filtered discharge pressure while the compressor is
+        # commanded, at least one while ram air is weak; fan and ram air add over one quadratic resistance.
         surrogate = source == SRC_SURROGATE
+        fan_1, fan_2, fan_3 = _fan_stages(s0[S_YF + Y_PD], mem[M_FAN_1], mem[M_FAN_2], mem[M_FAN_3], par)
+        v_ram = par[P_RAM_AREA] * p_motor_el[n, 4]
+        u_fan = 0.0
+        if speed > 0.0:
+            u_fan = (fan_1 + fan_2 + fan_3) / 3.0
+            if surrogate:
+                u_fan = 1.0  # the mode models carry no discharge pressure: the fan at full flow
+            elif v_ram < par[P_RAM_FLOOR]:
+                u_fan = max(u_fan, 1.0 / 3.0)
+        v_fan = u_fan * par[P_FAN_VMAX]
+        v_front = max(math.sqrt(v_fan * v_fan + v_ram * v_ram), par[P_V_FRONT_MIN])
+        # The maps' fan axis ends at the fan's full flow (the condenser LUT's): more ram air is not credited.
+        x_fan = min(v_front / par[P_FAN_VMAX], 1.0)
+        # (b) refrigerant target and filter ---------------------------------------
         n_z = len(SURROGATE_STATES)
         p_comp = 0.0
         if surrogate:
@@ -750,15 +793,16 @@ def run_loop(
             if speed > 0.0:
                 clipped = 0
                 rh_in = min(max(relative_humidity(T_in, w_in, p_atm), 0.0), 1.0)
+                x[0], x[1] = speed, x_fan
                 if circuit == CIRCUIT_CABIN:
-                    map_id, nx = MAP_AC, 5
-                    x[0], x[1], x[2], x[3], x[4] = speed, blower, T_amb, T_in, rh_in
+                    map_id, nx = MAP_AC, 6
+                    x[2], x[3], x[4], x[5] = blower, T_amb, T_in, rh_in
                 elif circuit == CIRCUIT_BOTH:
-                    map_id, nx = MAP_ACCH, 6
-                    x[0], x[1], x[2], x[3], x[4], x[5] = speed, blower, u_pump, T_amb, T_in, Tc
+                    map_id, nx = MAP_ACCH, 7
+                    x[2], x[3], x[4], x[5], x[6] = blower, u_pump, T_amb, T_in, Tc
                 else:
-                    map_id, nx = MAP_CHILLER, 4
-                    x[0], x[1], x[2], x[3] = speed, u_pump, T_amb, Tc
+                    map_id, nx = MAP_CHILLER, 5
+                    x[2], x[3], x[4] = u_pump, T_amb, Tc
                 if source == SRC_HELD:
                     # Physics: reuse the caller's solved point while every input stays within its tolerance.
                     fresh = held[H_MAP] == map_id
@@ -767,7 +811,7 @@ def run_loop(
                             fresh = False
                     if not fresh:
                         held[H_MAP] = map_id
-                        for k in range(6):
+                        for k in range(N_MAP_X):
                             held[H_X + k] = x[k] if k < nx else np.nan
                         return -(n + 1)
                     for k in range(N_Y):
@@ -775,11 +819,11 @@ def run_loop(
                     if held[H_FALLBACK] > 0.0:
                         flag |= F_PHYSICS_FALLBACK
                 elif circuit == CIRCUIT_CABIN:
-                    clipped = map_interp(ac_knots, ac_starts, ac_table, x[:5], y)
+                    clipped = map_interp(ac_knots, ac_starts, ac_table, x[:6], y)
                 elif circuit == CIRCUIT_BOTH:
                     clipped = map_interp(acch_knots, acch_starts, acch_table, x, y)
                 else:
-                    clipped = map_interp(ch_knots, ch_starts, ch_table, x[:4], y)
+                    clipped = map_interp(ch_knots, ch_starts, ch_table, x[:5], y)
                 if clipped:
                     flag |= F_REF_CLIPPED
             else:
@@ -894,7 +938,7 @@ def run_loop(
                     flag |= F_SURROGATE_OOR
                 if speed > 0.0:
                     p_comp = max(pred[0], 0.0)
-        p_fan = par[P_FAN_POWER] if speed > 0.0 else 0.0
+        p_fan = par[P_FAN_PNOM] * (v_fan / par[P_FAN_VNOM]) ** 3
         p_blower = par[P_BLOWER_POWER] * blower**3
         p_pump = par[P_PUMP_REF] * (u_pump * par[P_PUMP_NMAX] / 1000.0) ** 3
         # (c) battery ---------------------------------------------------------------
@@ -1055,6 +1099,7 @@ def run_loop(
         mem[M_Q_HEAT] = p_ptc + q_hc
         mem[M_CAB_OFF] = u_cab <= 0.0
         mem[M_RETRY_STEP] = -1.0
+        mem[M_FAN_1], mem[M_FAN_2], mem[M_FAN_3] = fan_1, fan_2, fan_3
         mem[M_T] = t + dt
         # Per-step record --------------------------------------------------------
         p_hvac = p_comp + p_ptc + p_ptcw + p_heater + p_blower + p_fan + p_pump + p_pump_h
@@ -1109,6 +1154,8 @@ def run_loop(
         o[O_COMP_ON] = 1.0 if speed > 0.0 else 0.0
         o[O_CIRCUIT] = circuit
         o[O_P_AUX] = p_aux
+        o[O_FAN] = u_fan
+        o[O_V_FRONT] = v_front
         modes[n] = mode
         flags[n] = flag
         n += 1

@@ -22,11 +22,13 @@ multilinear kernel. A map holds, at every node, the nine outputs
   to round-off. :func:`map_interp` uses the same weights for every output, so
   interpolated values close as well.
 
-The maps (:data:`MAPS`): ``ac`` (cabin evaporator) over (speed, blower,
-T_amb, T_air_in, RH_air_in), ``chiller`` over (speed, u_pump, T_amb,
+The maps (:data:`MAPS`): ``ac`` (cabin evaporator) over (speed, fan, blower,
+T_amb, T_air_in, RH_air_in), ``chiller`` over (speed, fan, u_pump, T_amb,
 T_coolant_in) and ``ac+chiller`` (both branches, one compressor) over
-(speed, blower, u_pump, T_amb, T_air_in, T_coolant_in) at RH_air_in 0.5. The
-inputs become cycle operating points as: fan = ``condenser_fan``, RH_amb,
+(speed, fan, blower, u_pump, T_amb, T_air_in, T_coolant_in) at RH_air_in 0.5.
+``fan`` is the condenser's air flow as a fraction of the fan's full flow
+(fan and ram air together, spec v2 5.4), the condenser LUT's air axis. The
+inputs become cycle operating points as: RH_amb,
 superheat and subcooling from :class:`MapSettings`, T_cabin = T_air_in,
 RH_cabin = RH_air_in, mdot_coolant = u_pump ``coolant_flow_max``
 ``coolant_density``.
@@ -41,7 +43,7 @@ a filled node closes too. The donor is searched axis by axis:
 2. where a whole speed line is invalid: the nearest valid node along T_amb
    (nearest in kelvin, the lower one on a tie), taking the nodes filled in
    step 1 as valid;
-3. then along each remaining axis in the map's order (blower, u_pump,
+3. then along each remaining axis in the map's order (fan, blower, u_pump,
    T_air_in, RH_air_in, T_coolant_in as the map has them), the same way.
 
 A map without any valid node is an error. The filled nodes are counted
@@ -100,6 +102,7 @@ OUTPUT_ATTRS = {
 #: Map axis -> (units, long_name).
 AXIS_ATTRS = {
     "speed": ("1", "compressor speed, fraction of maximum"),
+    "fan": ("1", "condenser air flow (fan and ram air), fraction of the fan's full flow"),
     "blower": ("1", "evaporator blower fraction"),
     "u_pump": ("1", "coolant pump command, fraction of coolant_flow_max"),
     "T_amb": ("K", "ambient air temperature at the condenser"),
@@ -111,6 +114,7 @@ AXIS_ATTRS = {
 #: Map axis -> the cycle operating input it sets (u_pump sets mdot_coolant through the settings).
 AXIS_INPUTS = {
     "speed": "speed",
+    "fan": "fan",
     "blower": "blower",
     "u_pump": "mdot_coolant",
     "T_amb": "T_amb",
@@ -120,7 +124,7 @@ AXIS_INPUTS = {
 }
 
 #: Bump when the build rule or the file layout changes: cached maps of another format are rebuilt.
-MAP_FORMAT = 1
+MAP_FORMAT = 2
 
 
 @dataclass(frozen=True)
@@ -148,12 +152,12 @@ class MapSpec:
 #: The maps the simulator reads.
 MAPS: dict[str, MapSpec] = {
     "ac": MapSpec(
-        "cabin", ("speed", "blower", "T_amb", "T_air_in", "RH_air_in"), (), "cabin evaporator alone (modes CC)"
+        "cabin", ("speed", "fan", "blower", "T_amb", "T_air_in", "RH_air_in"), (), "cabin evaporator alone (modes CC)"
     ),
-    "chiller": MapSpec("chiller", ("speed", "u_pump", "T_amb", "T_coolant_in"), (), "chiller alone (mode BC)"),
+    "chiller": MapSpec("chiller", ("speed", "fan", "u_pump", "T_amb", "T_coolant_in"), (), "chiller alone (mode BC)"),
     "ac+chiller": MapSpec(
         "cabin+chiller",
-        ("speed", "blower", "u_pump", "T_amb", "T_air_in", "T_coolant_in"),
+        ("speed", "fan", "blower", "u_pump", "T_amb", "T_air_in", "T_coolant_in"),
         (("RH_air_in", 0.5),),
         "cabin evaporator and chiller in parallel (mode CC+BC)",
     ),
@@ -168,9 +172,12 @@ def _celsius(start: float, stop: float, step: float) -> tuple[float, ...]:
 
 _FRACTIONS = (0.1, 0.2, 0.35, 0.5, 0.75, 1.0)
 
-#: Default axes (spec 2.5) [SI]; None: the evaporator LUT's RH_air_in axis (read from its file).
+#: Default axes (spec 2.5) [SI]; None: the evaporator LUT's RH_air_in axis (read from its file). The fan
+#: axis (spec v2 5.4) spans the staged fan's lowest flow with ram air (V_a 0.19 m3/s) to the fan's full flow
+#: (0.88 m3/s, the end of the condenser LUT's air axis); ram air beyond that is not credited.
 DEFAULT_AXES: dict[str, tuple[float, ...] | None] = {
     "speed": _FRACTIONS,
+    "fan": (0.22, 0.6, 1.0),
     "blower": _FRACTIONS,
     "u_pump": (0.3, 0.5, 1.0),
     "T_amb": _celsius(-10.0, 50.0, 5.0),
@@ -180,11 +187,10 @@ DEFAULT_AXES: dict[str, tuple[float, ...] | None] = {
 }
 
 #: The ac+chiller map is coarser (spec 2.5): blower 4 nodes, T_air_in every 8 K, T_coolant_in every 10 K,
-#: so 6 x 4 x 3 x 13 x 6 x 6 = 33,696 nodes, against 36,036 (ac) and 2,574 (chiller); speed, u_pump and
-#: T_amb keep the full axes (speed is the controlled input and the fill runs along it; the chiller duty is
-#: concave in the coolant flow, nearly linear in T_coolant_in). All three maps from scratch on the 'cycle'
-#: LUTs reaching the simulator's envelope, with a saturated or closed valve in one of two parallel branches
-#: solved (2026-11-30, 2 cores, inside 'evtms demo'): 46 s; reading the three from disk: 0.9 s.
+#: so 6 x 3 x 4 x 3 x 13 x 6 x 6 = 101,088 nodes, against 200,772 (ac, with the 'cycle' evaporator LUT's 13
+#: humidity nodes) and 7,722 (chiller); speed, fan, u_pump and T_amb keep the full axes (speed is the
+#: controlled input and the fill runs along it; the chiller duty is concave in the coolant flow, nearly
+#: linear in T_coolant_in). Build times are on the benchmarks' performance page.
 COARSE_AXES: dict[str, dict[str, tuple[float, ...]]] = {
     "ac+chiller": {
         "blower": (0.1, 0.35, 0.75, 1.0),
@@ -224,8 +230,6 @@ class MapSettings:
 
     Attributes
     ----------
-    condenser_fan : float
-        Condenser fan fraction [1].
     coolant_flow_max : float
         Coolant volume flow at u_pump 1 [m3/s].
     coolant_density : float
@@ -243,7 +247,6 @@ class MapSettings:
         :data:`DEFAULT_AXES` (``ac+chiller``: :data:`COARSE_AXES`).
     """
 
-    condenser_fan: float = 1.0
     coolant_flow_max: float = 4.0e-4
     coolant_density: float = 1070.0
     superheat: float = 10.0
@@ -253,7 +256,6 @@ class MapSettings:
 
     def __post_init__(self) -> None:
         checks = (
-            ("condenser_fan", 0.0, 1.0, True),
             ("coolant_flow_max", 0.0, math.inf, True),
             ("coolant_density", 0.0, math.inf, True),
             ("superheat", 0.0, 50.0, False),
@@ -280,7 +282,6 @@ class MapSettings:
         """The settings map ``name`` depends on, JSON-serialisable (the coolant only with a chiller)."""
         spec = MAPS[name]
         out = {
-            "condenser_fan": self.condenser_fan,
             "superheat": self.superheat,
             "subcooling": self.subcooling,
             "RH_amb": self.RH_amb,
@@ -530,7 +531,6 @@ def operating_inputs(name: str, axes: Mapping[str, np.ndarray], settings: MapSet
     values = {a: m.ravel() for a, m in zip(spec.axes, mesh, strict=True)}
     values.update({a: np.full(mesh[0].size, v) for a, v in spec.fixed})
     points = {
-        "fan": settings.condenser_fan,
         "RH_amb": settings.RH_amb,
         "superheat": settings.superheat,
         "subcooling": settings.subcooling,

@@ -105,26 +105,50 @@ class CoolantParams:
     T_init: float | None = None
 
 
+#: The condenser fan's stage-2 and stage-3 switch-off pressures [Pa] over the ambient temperature [K]
+#: (linear, held at the ends; the model's condenser-fan requirement, spec v2 5.4).
+FAN_STAGE_CURVES = {
+    "T_amb": (273.15, 293.15, 303.15, 313.15, 323.15),
+    "p_2": (1.4e6, 1.4e6, 1.3e6, 1.2e6, 1.1e6),
+    "p_3": (2.0e6, 2.0e6, 1.8e6, 1.5e6, 1.3e6),
+}
+
+
 @dataclass(frozen=True)
 class ControlParams:
     """Battery relays, pumps, the chiller's compressor controller and refrigerant-loop settings (MW M; A).
 
     The chiller's suction PI (battery cooling) in parallel form per MPa and
     MPa s on ``p_suction - chiller_p_suction``. Pressures [Pa], temperatures
-    [K], powers [W], times [s], commands [1]. The condenser fan runs at
-    ``condenser_fan`` while the compressor runs, drawing
-    ``fan_power_nominal`` at ``fan_flow_nominal`` [m3/s] scaled with the
-    flow cubed (``fan_flow_max`` [m3/s] at fan 1: the condenser bench's).
+    [K], powers [W], times [s], commands [1].
+
+    The condenser fan (spec v2 5.4) is staged while the compressor is
+    commanded: three relays on the filtered discharge pressure, on at
+    ``p_k + band_k`` and off at ``p_k`` (``fan_p1`` with ``fan_p1_band``;
+    ``p_2``, ``p_3`` from the ambient-temperature curves of
+    :data:`FAN_STAGE_CURVES` with ``fan_band``), at least one stage while
+    ram air gives less than ``ram_flow_floor`` [m3/s]. The fan command is
+    the share of stages on, its flow that times ``fan_flow_max`` [m3/s] (the
+    condenser bench's at fan 1), its power ``fan_power_nominal`` at
+    ``fan_flow_nominal`` [m3/s] scaled with the flow cubed. Ram air
+    ``ram_area`` [m2] times the vehicle speed adds to the fan's flow in
+    quadrature (one quadratic resistance), never below ``front_flow_min``
+    [m3/s] (natural draft).
     """
 
     chiller_kp: float = 1.0
     chiller_ki: float = 0.2
     chiller_p_suction: float = 0.3e6
     compressor_min_speed: float = 0.1
-    condenser_fan: float = 1.0
     fan_power_nominal: float = 533.0
     fan_flow_nominal: float = 0.8
     fan_flow_max: float = 0.88
+    fan_p1: float = 0.8e6
+    fan_p1_band: float = 0.3e6
+    fan_band: float = 0.4e6
+    ram_area: float = 0.0289
+    ram_flow_floor: float = 0.2
+    front_flow_min: float = 0.05
     compressor_drive_efficiency: float = 1.0
     tau_refrigerant: float = 10.0
     bc_on: float = 308.15
@@ -316,10 +340,15 @@ RANGES: dict[str, dict[str, tuple[float, float]]] = {
         "chiller_ki": (0.0, 1e3),
         "chiller_p_suction": (0.05e6, 1.0e6),
         "compressor_min_speed": (0.01, 1.0),
-        "condenser_fan": (0.1, 1.0),
         "fan_power_nominal": (0.0, 1e4),
         "fan_flow_nominal": (0.01, 100.0),
         "fan_flow_max": (0.01, 100.0),
+        "fan_p1": (0.1e6, 3.0e6),
+        "fan_p1_band": (0.0, 2.0e6),
+        "fan_band": (0.0, 2.0e6),
+        "ram_area": (0.0, 1.0),
+        "ram_flow_floor": (0.0, 10.0),
+        "front_flow_min": (0.001, 1.0),
         "compressor_drive_efficiency": (0.1, 1.0),
         "tau_refrigerant": (0.1, 600.0),
         **{k: _T for k in ("bc_on", "bc_off", "bc_critical_on", "bc_critical_off", "bh_on", "bh_off")},
@@ -397,6 +426,10 @@ MIGRATED: dict[tuple[str, str], str] = {
     ("controls", "cabin_deadband"): "is [climate] cabin_band in v2",
     ("cabin", "recirculation"): "is [cabin] recirc_cool, recirc_heat and recirc_warmup in v2",
     ("battery", "g_coolant"): "is [battery] g_coolant_fixed in v2 (unset: the conductance follows the pump flow)",
+    ("controls", "condenser_fan"): (
+        "was dropped in v2: the fan is staged on the discharge pressure ([controls] fan_p1, fan_p1_band, fan_band) "
+        "and ram air adds to it ([controls] ram_area)"
+    ),
 }
 
 #: Pairs that must hold: (table, smaller, larger, strictly).

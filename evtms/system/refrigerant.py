@@ -34,6 +34,7 @@ MAP_NAMES = {L.MAP_AC: "ac", L.MAP_CHILLER: "chiller", L.MAP_ACCH: "ac+chiller"}
 #: Physics model: how far a map input may drift from the last solved point before the cycle is solved again.
 PHYSICS_TOLERANCE = {
     "speed": 0.02,
+    "fan": 0.02,
     "blower": 0.02,
     "u_pump": 0.02,
     "T_amb": 0.1,
@@ -71,8 +72,8 @@ class Refrigerant:
         return tuple(a for name in ("ac", "chiller", "ac+chiller") for a in self.maps[name].packed())
 
     def tolerances(self) -> np.ndarray:
-        """``(3, 6)`` input tolerances of the physics model by map id and axis (:data:`PHYSICS_TOLERANCE`)."""
-        tol = np.zeros((3, 6))
+        """``(3, 7)`` input tolerances of the physics model by map id and axis (:data:`PHYSICS_TOLERANCE`)."""
+        tol = np.zeros((3, L.N_MAP_X))
         for map_id, name in MAP_NAMES.items():
             for k, axis in enumerate(MAPS[name].axes):
                 tol[map_id, k] = PHYSICS_TOLERANCE[axis]
@@ -123,9 +124,8 @@ class Refrigerant:
 
 
 def map_settings(params: SystemParams) -> MapSettings:
-    """The map settings the system's parameters imply (condenser fan, coolant flow at pump 1)."""
+    """The map settings the system's parameters imply (the coolant flow at pump 1)."""
     return MapSettings(
-        condenser_fan=params.controls.condenser_fan,
         coolant_flow_max=params.coolant.flow_max,
         coolant_density=params.coolant.density,
     )

@@ -25,7 +25,7 @@ from evtms.system import loop as L  # noqa: N812 - the loop's index constants, r
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.inputs import InputValue, check_inputs, per_step
 from evtms.system.mode_model import MODE_CODES, ModeModels
-from evtms.system.params import WALLS, SystemParams
+from evtms.system.params import FAN_STAGE_CURVES, WALLS, SystemParams
 from evtms.system.refrigerant import Refrigerant
 from evtms.system.tables import battery_cell_tables
 from evtms.system.vehicle import drive_segments
@@ -119,6 +119,8 @@ RECORD_VARIABLES: dict[str, tuple[str, str]] = {
     "compressor_speed": ("1", "compressor speed command, fraction of maximum"),
     "blower": ("1", "blower command"),
     "u_pump": ("1", "coolant pump command"),
+    "fan": ("1", "condenser fan command: the share of its stages on"),
+    "V_front": ("m3 s-1", "air flow through the condenser, fan and ram air"),
 }
 
 # Per-step output column -> record variable, for the interval means.
@@ -156,6 +158,8 @@ _MEANS = {
     "compressor_speed": L.O_SPEED_CMD,
     "blower": L.O_BLOWER,
     "u_pump": L.O_U_PUMP,
+    "fan": L.O_FAN,
+    "V_front": L.O_V_FRONT,
 }
 _STATES = {
     "SOC": L.S_SOC,
@@ -249,8 +253,13 @@ def pack_parameters(
     par[L.P_T_SET] = c.T_set
     par[L.P_CH_KP], par[L.P_CH_KI], par[L.P_CH_PS] = ctl.chiller_kp, ctl.chiller_ki, ctl.chiller_p_suction
     par[L.P_SPEED_MIN] = ctl.compressor_min_speed
-    flow = ctl.condenser_fan * ctl.fan_flow_max
-    par[L.P_FAN_POWER] = ctl.fan_power_nominal * (flow / ctl.fan_flow_nominal) ** 3
+    par[L.P_FAN_VMAX], par[L.P_FAN_VNOM] = ctl.fan_flow_max, ctl.fan_flow_nominal
+    par[L.P_FAN_PNOM] = ctl.fan_power_nominal
+    par[L.P_RAM_AREA], par[L.P_V_FRONT_MIN], par[L.P_RAM_FLOOR] = ctl.ram_area, ctl.front_flow_min, ctl.ram_flow_floor
+    par[L.P_FAN_P1], par[L.P_FAN_D1], par[L.P_FAN_D23] = ctl.fan_p1, ctl.fan_p1_band, ctl.fan_band
+    curves = FAN_STAGE_CURVES
+    par[L.P_FAN_P2] = float(np.interp(T_amb, curves["T_amb"], curves["p_2"]))
+    par[L.P_FAN_P3] = float(np.interp(T_amb, curves["T_amb"], curves["p_3"]))
     par[L.P_DRIVE_EFF] = ctl.compressor_drive_efficiency
     par[L.P_TAU] = ctl.tau_refrigerant
     par[L.P_BC_ON], par[L.P_BC_OFF] = ctl.bc_on, ctl.bc_off
@@ -397,7 +406,12 @@ def simulate(
     seg = {regen: drive_segments(cycle, T_amb, params.vehicle, regen=regen) for regen in (True, False)}
     plugged = (edges[1:] <= precondition + 1e-9).astype(float)
     p_motor = np.column_stack(
-        [*(_step_means(cycle.time, seg[r].P_motor_el, edges) for r in (True, False)), plugged, _key_off(cycle, edges)]
+        [
+            *(_step_means(cycle.time, seg[r].P_motor_el, edges) for r in (True, False)),
+            plugged,
+            _key_off(cycle, edges),
+            np.diff(_distance(cycle, edges)) / dts,  # mean vehicle speed (ram air at the condenser)
+        ]
     )
     ext = per_step(inputs, edges - precondition)
     tables = battery_cell_tables()
@@ -549,7 +563,7 @@ def _run_loop(args: tuple, model: str, refrigerant: Refrigerant, mode_models: Mo
         if done >= 0:
             return done, solves
         start = -done - 1
-        y, fallback, solved = refrigerant.solve_direct(int(held[L.H_MAP]), held[L.H_X : L.H_X + 6])
+        y, fallback, solved = refrigerant.solve_direct(int(held[L.H_MAP]), held[L.H_X : L.H_X + L.N_MAP_X])
         held[L.H_Y : L.H_Y + L.N_Y] = y
         held[L.H_FALLBACK] = float(fallback)
         solves += int(solved)
