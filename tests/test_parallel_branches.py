@@ -125,6 +125,7 @@ def test_fewer_invalid_nodes_on_a_small_ac_chiller_map(cycle_luts_dir):
 
     axes = {
         "speed": [0.2, 0.6, 1.0],
+        "fan": [1.0],
         "blower": [0.1, 0.5, 1.0],
         "u_pump": [0.3, 0.5, 1.0],
         "T_amb": [283.15, 303.15, 313.15],
