@@ -228,7 +228,8 @@ def test_a_humid_cabin_is_dried_with_reheat_only_while_the_compressor_runs(synth
     never = simulate(parked(1800.0), 291.15, synthetic, system_params_from_dict({"cabin": {"rh_cabin": 0.9},
                      "climate": {"rh_dehum": 1.0}}), RH_amb=0.95)  # fmt: skip
     assert not np.any(never.flags & L.F_REHEAT)
-    assert r.records["RH_cabin"][-1] < never.records["RH_cabin"][-1] - 0.05  # drier than without the request
+    # Drier than without the request (whose fog-limited recirculation already keeps the 0.95 outside air out).
+    assert r.records["RH_cabin"][-1] < never.records["RH_cabin"][-1] - 0.03
     heat_without_compressor = (r.records["P_ptc"][1:] > 0.0) & (r.records["compressor_on"][1:] == 0.0)
     assert np.all(~heat_without_compressor | np.isin(r.mode[1:], [L.CH, L.CH_BH, L.CH_BC]))
     assert max(r.ledgers.values()) <= 1e-9

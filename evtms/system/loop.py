@@ -614,10 +614,10 @@ def run_loop(
             r = 0.0
         elif cab_cool or (not cab_heat and T_amb > Ta):
             r = rc
-        elif cab_heat and warm:
-            r = rw * min(max((par[P_RH_DEHUM] - rh_cab) / 0.1, 0.0), 1.0)
         else:
-            r = rh_
+            # Fog-limited outside cooling, in warm-up and after it: the share falls to 0 as the cabin RH
+            # rises from rh_dehum - 0.1 to rh_dehum (a fixed half of fresh air heated 1 kW more at 10 degC).
+            r = (rw if cab_heat and warm else rh_) * min(max((par[P_RH_DEHUM] - rh_cab) / 0.1, 0.0), 1.0)
         if fixed_inlet:
             r = 0.0
             T_in = ext[n, X_INLET_T]
@@ -831,7 +831,13 @@ def run_loop(
                 p_eq = np.interp(T_ref, sat_T, sat_p)
                 y[Y_PS] = p_eq
                 y[Y_PD] = p_eq
-            _filter(y, s0, s1, dt, par[P_TAU])
+            if key_off:
+                # Key off: the compressor stops drawing power at once (no filter tail in a soak); the
+                # targets already close, so the loop's ledger does too.
+                for k in range(N_Y):
+                    s1[S_YF + k] = y[k]
+            else:
+                _filter(y, s0, s1, dt, par[P_TAU])
             # Frost look-ahead: the relay opens before the air or the suction would cross it within the step.
             if speed > 0.0:
                 cab_trip = False

@@ -56,7 +56,7 @@ class CabinParams:
     interior_heat_capacity: float = 80.0e3
     interior_conductance: float = 300.0
     recirc_cool: float = 0.85
-    recirc_heat: float = 0.5
+    recirc_heat: float = 0.8
     recirc_warmup: float = 0.8
     n_occupants: int = 1
     rh_cabin: float = 0.5
