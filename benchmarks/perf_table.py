@@ -1,7 +1,7 @@
-"""The performance table of issue 14, measured side by side in one run, with the machine it ran on.
+"""The performance table of the cycle and the whole jobs, measured side by side in one run, with the machine.
 
 Run:  python benchmarks/perf_table.py LUT_FOLDER [--grids] [--demo] [--accuracy-points 100] [--json]
-      [--topology cabin] [--repeat 50] [--cli-runs 3] [--peer-points 50] [--profile 50]
+      [--topology cabin] [--repeat 50] [--cli-runs 3] [--peer-points 50] [--profile 50] [--write]
 
 LUT_FOLDER holds the cycle LUTs (``evtms bench all --grid cycle -o luts/``).
 The script benchmarks the ``evtms`` it imports (its path is printed; put the
@@ -18,11 +18,14 @@ checkout first with ``PYTHONPATH=.`` if another copy is installed) and runs the
   (ms per point);
 - a cold CLI call ``evtms cycle run --luts LUT_FOLDER``: wall time and peak
   resident memory of the child process (its own rusage, from ``os.wait4`` in
-  a small launcher process), median of ``--cli-runs`` runs;
-- with ``--grids``, ``evtms bench all --grid cycle -o TMP`` (about 2 min); with
-  ``--demo``, README command 1, ``evtms demo -o TMP`` (a fresh folder, so every
-  LUT is computed): wall time and peak memory of the child (for a child with
-  worker processes, the largest single process of its tree, not their sum);
+  a small launcher process), first with an empty cache folder
+  (``EVTMS_CACHE_DIR``: the run builds the cache, as the first run after the
+  LUTs changed does), then the median of ``--cli-runs`` runs on that cache;
+- with ``--grids``, ``evtms bench all --grid cycle -o TMP`` in one process
+  (about 4 min) and with ``--workers 2``; with ``--demo``, README command 1,
+  ``evtms demo -o TMP`` (a fresh folder, so every LUT is computed): wall time
+  and peak memory of the child (for a child with worker processes, the largest
+  single process of its tree, not their sum);
 - with ``--accuracy-points N``, the LUT cycle against the direct physics on N
   random points (``accuracy_cycle.compare``; the direct physics takes about
   0.25 s a point);
@@ -35,6 +38,9 @@ checkout first with ``PYTHONPATH=.`` if another copy is installed) and runs the
 
 Timings are wall-clock (``time.perf_counter``) on whatever else the machine is
 running; the machine block at the top says which CPU, how many cores, and when.
+With ``--write`` (which needs ``--grids`` and ``--demo``: the page's table has
+every row) the table and the machine go to docs/performance.md, which
+``performance_page.py`` writes whole.
 """
 
 from __future__ import annotations
@@ -42,7 +48,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import cProfile
-import datetime as dt
 import io
 import json
 import os
@@ -57,6 +62,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import performance_page
 from accuracy_cycle import compare, envelope
 
 import evtms
@@ -72,23 +78,13 @@ BATCHES = (10, 100, 1000, 10000)
 
 # -- machine ------------------------------------------------------------------
 def machine() -> dict[str, str]:
-    """CPU model, cores, date and versions, for citing the figures."""
-    cpu = platform.processor() or platform.machine()
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    """CPU model, cores, date, load, git commit (the page's fields) and versions, for citing the figures."""
     return {
-        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "cpu": cpu,
-        "cores": f"{usable} usable of {os.cpu_count()}",
-        "load average": " ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "n/a",
+        **performance_page.machine(Path(evtms.__file__).parent),
         "os": platform.platform(),
         "python": platform.python_version(),
         "numpy": np.__version__,
-        "evtms": f"{evtms.__version__} ({Path(evtms.__file__).parent}{_git_head(Path(evtms.__file__).parent)})",
+        "evtms": f"{evtms.__version__} ({Path(evtms.__file__).parent})",
         "CoolProp": _version("CoolProp"),
         "tespy": _version("tespy"),
     }
@@ -99,18 +95,6 @@ def _version(module: str) -> str:
         return str(__import__(module).__version__).split()[0]
     except ImportError:
         return "not importable"
-
-
-def _git_head(folder: Path) -> str:
-    """``, commit abc1234`` (``+ uncommitted changes``) when ``folder`` is in a git checkout."""
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=folder, capture_output=True, text=True)
-        dirty = subprocess.run(["git", "status", "--porcelain", "."], cwd=folder, capture_output=True, text=True)
-    except OSError:
-        return ""
-    if head.returncode != 0:
-        return ""
-    return f", commit {head.stdout.strip()}" + (" + uncommitted changes" if dirty.stdout.strip() else "")
 
 
 # -- helpers ------------------------------------------------------------------
@@ -147,11 +131,17 @@ with open(sys.argv[1], "w") as f:
 """
 
 
-def run_child(cmd: list[str]) -> dict:
-    """Run ``cmd``; its wall time [s], peak RSS [MB] (its own rusage) and exit code, and its last output lines."""
+def run_child(cmd: list[str], env: dict[str, str] | None = None) -> dict:
+    """Run ``cmd`` (with ``env`` added to the environment); its wall time [s], peak RSS [MB] (its own rusage),
+    exit code and last output lines."""
     with tempfile.TemporaryDirectory(prefix="evtms-perf-") as tmp, tempfile.TemporaryFile() as out:
         report = Path(tmp) / "rusage.json"
-        subprocess.run([sys.executable, "-c", LAUNCHER, str(report), *cmd], stdout=out, stderr=subprocess.STDOUT)
+        subprocess.run(
+            [sys.executable, "-c", LAUNCHER, str(report), *cmd],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env={**os.environ, **(env or {})},
+        )
         out.seek(0)
         tail = out.read().decode(errors="replace").strip().splitlines()[-3:]
         if not report.exists():
@@ -163,7 +153,7 @@ def child_row(runs: list[dict]) -> str:
     walls = [r["wall_s"] for r in runs]
     rss = [r["rss_mb"] for r in runs]
     failed = sum(r["rc"] != 0 for r in runs)
-    text = f"{np.median(walls):.2f} s, {np.median(rss):.0f} MB peak RSS"
+    text = f"{np.median(walls):.2f} s, {np.median(rss):.0f} MB"
     if len(runs) > 1:
         text += f" (median of {len(runs)}; {min(walls):.2f}-{max(walls):.2f} s)"
     if failed:
@@ -175,14 +165,12 @@ class Table:
     def __init__(self) -> None:
         self.rows: list[dict] = []
 
-    def add(self, figure: str, value: str, **data) -> None:
-        self.rows.append({"figure": figure, "value": value, **data})
+    def add(self, figure: str, value: str, target: str = "", **data) -> None:
+        self.rows.append({"figure": figure, "value": value, "target": target, **data})
         print(f"  {figure}: {value}", flush=True)
 
     def markdown(self) -> str:
-        lines = ["| figure | value |", "|---|---|"]
-        lines += [f"| {r['figure']} | {r['value']} |" for r in self.rows]
-        return "\n".join(lines)
+        return performance_page.cycle_table({"rows": self.rows})
 
 
 # -- in-process LUT cycle -----------------------------------------------------
@@ -215,9 +203,10 @@ def lut_cycle(args, table: Table) -> CycleSolver:
         ok += valid(r)
     ms = np.array(times) * 1e3
     table.add(
-        "LUT cycle, one point (warm, in-process)",
-        f"{np.median(ms):.1f} ms (median of {args.repeat}; 90 % within {np.quantile(ms, 0.9):.1f} ms, "
+        f"LUT cycle, one point (warm, in-process, median of {args.repeat})",
+        f"{np.median(ms):.1f} ms (90 % within {np.quantile(ms, 0.9):.1f} ms, "
         f"slowest {ms.max():.0f} ms; {ok - valid(first)}/{args.repeat} valid)",
+        "1 ms",
         median_ms=float(np.median(ms)),
         p90_ms=float(np.quantile(ms, 0.9)),
         max_ms=float(ms.max()),
@@ -229,8 +218,9 @@ def lut_cycle(args, table: Table) -> CycleSolver:
         r = solver.solve(points)
         dt_ = time.perf_counter() - t0
         table.add(
-            f"LUT cycle, {n:,} points (one batch)",
-            f"{dt_ / n * 1e3:.3f} ms/pt ({dt_:.2f} s; {valid(r)}/{n} valid)",
+            f"LUT cycle, {n:,} points in one batch",
+            f"{dt_ / n * 1e3:.3f} ms a point ({dt_:.2f} s; {valid(r)}/{n} valid)",
+            "30 us" if n == 10000 else "",
             ms_per_point=dt_ / n * 1e3,
             seconds=dt_,
             n=n,
@@ -260,30 +250,48 @@ def cli_calls(args, table: Table) -> None:
     cmd = [*evtms_command(), "cycle", "run", "--luts", str(args.luts)]
     if args.topology != "cabin":
         cmd += ["--topology", args.topology]
-    print(f"  (running {' '.join(cmd)} x {args.cli_runs})", flush=True)
-    runs = [run_child(cmd) for _ in range(args.cli_runs)]
+    print(f"  (running {' '.join(cmd)}, once on an empty cache folder, then x {args.cli_runs})", flush=True)
+    with tempfile.TemporaryDirectory(prefix="evtms-perf-cache-") as cache:
+        env = {"EVTMS_CACHE_DIR": cache}
+        first = run_child(cmd, env)
+        runs = [run_child(cmd, env) for _ in range(args.cli_runs)]
     table.add(
-        "cold CLI call (`cycle run`)",
+        f"cold `evtms cycle run --luts luts/` (cache warm; median of {args.cli_runs})",
         child_row(runs),
+        "1.5 s, 300 MB",
         wall_s=[r["wall_s"] for r in runs],
         rss_mb=[r["rss_mb"] for r in runs],
+    )
+    table.add(
+        "the same, first run after the LUTs changed (builds the cache)",
+        child_row([first]),
+        wall_s=first["wall_s"],
+        rss_mb=first["rss_mb"],
     )
 
 
 def long_commands(args, table: Table) -> None:
+    bench_all = ["bench", "all", "--grid", "cycle", "-q"]
     jobs = (
-        (args.grids, "`bench all --grid cycle`", ["bench", "all", "--grid", "cycle", "-q", "-o"], "--grids"),
-        (args.demo, "README command 1 (`demo`)", ["demo", "-o"], "--demo"),
+        (
+            args.grids,
+            "`evtms bench all --grid cycle` (five benches, one process)",
+            [*bench_all, "-o"],
+            "40 s",
+            "--grids",
+        ),
+        (args.grids, "the same with `--workers 2`", [*bench_all, "--workers", "2", "-o"], "", "--grids"),
+        (args.demo, "README command 1 (`evtms demo`)", ["demo", "-o"], "60 s", "--demo"),
     )
-    for wanted, figure, argv, flag in jobs:
+    for wanted, figure, argv, target, flag in jobs:
         if not wanted:
-            table.add(figure, f"not run (add {flag})")
+            table.add(figure, f"not run (add {flag})", target)
             continue
         with tempfile.TemporaryDirectory(prefix="evtms-perf-") as tmp:
             cmd = [*evtms_command(), *argv, tmp]
             print(f"  (running {' '.join(cmd)})", flush=True)
             run = run_child(cmd)
-        table.add(figure, child_row([run]), wall_s=run["wall_s"], rss_mb=run["rss_mb"], rc=run["rc"])
+        table.add(figure, child_row([run]), target, wall_s=run["wall_s"], rss_mb=run["rss_mb"], rc=run["rc"])
 
 
 # -- accuracy -----------------------------------------------------------------
@@ -448,7 +456,7 @@ def tespy_peer(args, solver: CycleSolver, table: Table) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("luts", metavar="LUT_FOLDER", help="folder with the cycle LUTs (evtms bench all --grid cycle)")
-    ap.add_argument("--grids", action="store_true", help="also time 'evtms bench all --grid cycle' (about 2 min)")
+    ap.add_argument("--grids", action="store_true", help="also time 'evtms bench all --grid cycle' (about 6 min)")
     ap.add_argument("--demo", action="store_true", help="also time README command 1, 'evtms demo' (minutes)")
     ap.add_argument("--json", action="store_true", help="also print the table and machine as one JSON object")
     ap.add_argument("--topology", default="cabin", help="circuit: cabin, chiller or cabin+chiller")
@@ -457,7 +465,10 @@ def main() -> None:
     ap.add_argument("--cli-runs", type=int, default=3, help="cold 'cycle run' calls (median)")
     ap.add_argument("--peer-points", type=int, default=50, help="points solved by TESPy when it is installed")
     ap.add_argument("--profile", type=int, default=0, help="cProfile N single-point solves (0 = skip)")
+    ap.add_argument("--write", action="store_true", help="rewrite docs/performance.md with this run's table")
     args = ap.parse_args()
+    if args.write and not (args.grids and args.demo):
+        ap.error("--write needs --grids and --demo: the page's table has every row")
 
     info = machine()
     print("== machine")
@@ -470,8 +481,11 @@ def main() -> None:
     long_commands(args, table)
     accuracy(args, table)
     tespy_peer(args, solver, table)
-    print(f"\n== table ({info['date']}, {info['cpu']}, {info['cores']} cores)\n")
+    print(f"\n== table ({info['date']}, {info['cpu']}, {info['cores']} cores, commit {info['commit']})\n")
     print(table.markdown())
+    if args.write:
+        page = performance_page.write("cycle", {"machine": info, "rows": table.rows})
+        print(f"\nwrote {page}")
     if args.profile > 0:
         profile(solver, args.profile)
     if args.json:

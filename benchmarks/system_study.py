@@ -1,6 +1,7 @@
-"""Step-size study and performance of the system simulator (issue 15; cf. the thesis' Tables 5-6).
+"""Step-size study and performance of the system simulator (cf. the thesis' Tables 5-6).
 
-Run:  python benchmarks/system_study.py LUT_FOLDER [--json] [--repeat 20] [--sweep 64]
+Run:  python benchmarks/system_study.py LUT_FOLDER [--json] [--repeat 20] [--sweep 64] [--write]
+      python benchmarks/system_study.py LUT_FOLDER --markdown RESULT.json [--write]
 
 LUT_FOLDER holds the cycle LUTs (``evtms bench all --grid cycle -o luts/``);
 the cycle maps are built there on first use. It prints:
@@ -14,13 +15,18 @@ the cycle maps are built there on first use. It prints:
   ``evtms simulate --cycle wltc3b --t-amb 30 -o TMP --json`` with the maps
   cached (median of 3, wall time of the child); and a ``--sweep N``-scenario
   sweep (N ambients from -20 to 45 degC in one call) per run.
+
+``--write`` puts the performance figures and the machine into
+docs/performance.md, which ``performance_page.py`` writes whole; the step-size
+table is docs/guide/system.md's (``--markdown`` prints both tables). With
+``--markdown`` a stored ``--json`` result is printed (and written) instead of
+measuring again.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import platform
 import statistics
 import subprocess
@@ -30,6 +36,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import performance_page
 
 FIELDS = (
     "traction_energy_kWh",
@@ -51,21 +58,13 @@ CASES = {
 
 
 def machine() -> dict:
+    """The page's fields (date, CPU, cores, load, git commit) and the versions that set the loop's speed."""
     import numba
 
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
+    import evtms
+
     return {
-        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-        "cpu": cpu,
-        "cores": os.cpu_count(),
-        "load": os.getloadavg()[0],
+        **performance_page.machine(Path(evtms.__file__).parent),
         "python": platform.python_version(),
         "numpy": np.__version__,
         "numba": numba.__version__,
@@ -135,8 +134,18 @@ def performance(cycle, refrigerant, luts: Path, repeat: int, sweep: int) -> dict
     return res
 
 
-def markdown(result: dict) -> str:
-    """The README's step-size and performance tables from a --json result."""
+def page_entry(result: dict, repeat: int) -> dict:
+    """The performance page's entry of a result: its machine and performance figures (no step sizes)."""
+    m = result["machine"]
+    load = m.get("load", "")
+    fields = {k: str(m.get(k, "")) for k in ("date", "cpu", "cores", "commit")}
+    fields["load"] = f"{load:.1f}" if isinstance(load, float) else str(load)
+    perf = {k: v for k, v in result["performance"].items() if k != "cli_json"}
+    return {"machine": fields, "repeat": repeat, "performance": perf}
+
+
+def markdown(result: dict, repeat: int = 20) -> str:
+    """The step-size table (docs/guide/system.md) and the performance table (docs/performance.md) of a result."""
     short = {
         "battery_energy_kWh": "battery energy",
         "battery_chemical_kWh": "chemical",
@@ -155,23 +164,9 @@ def markdown(result: dict) -> str:
                 v = row["deviation"][f]
                 cells.append(f"{v:+.3f}" if f.endswith("degC") else f"{100 * v:+.3f} %")
             lines.append(f"| {case} | {float(dt):g} | " + " | ".join(cells) + f" | {row['ledger_worst']:.0e} |")
-    p, m = result["performance"], result["machine"]
-    perf = [
-        "| figure | measured | target / reference |",
-        "|---|---|---|",
-        f"| time loop, WLTC 1800 s at dt 0.1 s (maps loaded, compiled; median of 20) "
-        f"| {p['loop_dt0.1_s'] * 1e3:.1f} ms | 200 ms; thesis 686 ms (refrigerant loop alone), Simscape 72.5 s, "
-        "FASTSim-3 46-53 ms (no refrigerant loop) |",
-        f"| the same at dt 1 s | {p['loop_dt1_s'] * 1e3:.2f} ms | |",
-        "| `simulate()` call at dt 0.1 s (set-up, loop, records, ledgers) "
-        f"| {p['simulate_call_dt0.1_s'] * 1e3:.1f} ms | |",
-        f"| whole command `evtms simulate --cycle wltc3b --t-amb 30 -o run.nc --json`, maps cached "
-        f"| {p['cli_wall_s']:.2f} s | 3 s |",
-        f"| sweep of {p['sweep_runs']} ambients in one call (`--t-amb -20:45:{p['sweep_runs']}`) "
-        f"| {p['sweep_wall_s']:.2f} s, {p['sweep_per_run_s'] * 1e3:.0f} ms per run | |",
-    ]
-    head = f"Measured {m['date']}, {m['cpu']}, {m['cores']} cores, load average {m['load']:.1f}."
-    return "\n".join(lines) + "\n\n" + head + "\n\n" + "\n".join(perf)
+    entry = page_entry(result, repeat)
+    perf = performance_page.measured_line(entry["machine"]) + "\n\n" + performance_page.system_table(entry)
+    return "\n".join(lines) + "\n\n" + perf
 
 
 def model_speed(cycle, refrigerant, mode_models, repeat: int) -> dict:
@@ -197,12 +192,18 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--repeat", type=int, default=20)
     ap.add_argument("--sweep", type=int, default=64)
-    ap.add_argument("--markdown", type=Path, help="Also read a --json result from this file and print README tables.")
+    ap.add_argument("--markdown", type=Path, help="Read a --json result from this file and print its tables.")
+    ap.add_argument("--write", action="store_true", help="Rewrite docs/performance.md with the performance figures.")
     ap.add_argument("--surrogates", type=Path, help="Mode-model file: also time the surrogate against the LUT loop.")
     args = ap.parse_args()
     if args.markdown:
-        print(markdown(json.loads(args.markdown.read_text())))
+        result = json.loads(args.markdown.read_text())
+        print(markdown(result, args.repeat))
+        if args.write:
+            print(f"\nwrote {performance_page.write('system', page_entry(result, args.repeat))}")
         return
+    if args.write and args.surrogates:
+        ap.error("--write takes the step-size and performance run, not --surrogates")
     from evtms.system.drive_cycles import drive_cycle
     from evtms.system.refrigerant import load_refrigerant
 
@@ -217,11 +218,13 @@ def main() -> None:
         return
     result["step_size"] = step_study(cycle, refrigerant)
     result["performance"] = performance(cycle, refrigerant, args.luts, args.repeat, args.sweep)
+    if args.write:
+        print(f"wrote {performance_page.write('system', page_entry(result, args.repeat))}")
     if args.json:
         print(json.dumps(result, indent=1, default=str))
         return
     m = result["machine"]
-    print(f"{m['date']}  {m['cpu']}  {m['cores']} cores  load {m['load']:.2f}  numba {m['numba']}")
+    print(f"{m['date']}  {m['cpu']}  {m['cores']} cores  load {m['load']}  commit {m['commit']}  numba {m['numba']}")
     for case, rows in result["step_size"].items():
         print(f"\nWLTC, {case}: deviation from dt = 0.01 s (relative; degC fields in K)")
         print(f"{'dt [s]':>7} " + " ".join(f"{f.replace('_kWh', '').replace('_degC', ''):>16}" for f in FIELDS))
