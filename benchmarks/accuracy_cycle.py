@@ -3,7 +3,7 @@
 Run:  python benchmarks/accuracy_cycle.py LUT_FOLDER [--points 100] [--topology cabin,chiller,cabin+chiller] [--wide]
 
 The tests compare 24 points (fan and blower from 0.2, speed from 0.15); this
-script draws points over the full envelope of the README (speed 0.1-1, fan and
+script draws points over the full envelope of docs/guide/cycle.md (speed 0.1-1, fan and
 blower 0.1-1, ambient 15-45 degC, cabin 15-35 degC at RH 0.2-0.8, superheat
 5-10 K; with --wide ambient -10-50 degC and cabin 10-50 degC, the system
 simulator's) and prints the median, 90th percentile and worst relative error of

@@ -3,7 +3,7 @@ vent and evaporator air, and the mode over time.
 
 Run:  python benchmarks/runs_figure.py A.nc B.nc --labels "v1,v2" --t-set 22 -o docs/figures/x.png
 
-The README's before/after figure of the climate control is drawn with it
+The before/after figure of docs/guide/system.md of the climate control is drawn with it
 (the "before" file written by the first version's `evtms simulate`, which has
 no vent or evaporator air records: those panels then show what the file has).
 """

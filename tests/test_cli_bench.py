@@ -132,7 +132,7 @@ def test_params_file_changes_the_physics(tmp_path):
 
 
 def test_output_folder_created_or_refused(tmp_path):
-    """A missing output folder is made (as the README's commands need); a file in the way is refused."""
+    """A missing output folder is made (as the documented commands need); a file in the way is refused."""
     plain = tmp_path / "file"
     plain.write_text("x")
     res = run("bench", "condenser", "-o", str(plain / "c.nc"))

@@ -56,7 +56,7 @@ def test_lut_cycle_matches_direct_reference(comparison):
     assert ok.sum() >= 20
     for name in ("p_A", "p_B", "Q_evap", "COP"):
         err = np.abs(lut[name][ok] / direct[name][ok] - 1)
-        # Measured (README): at most 0.71 % (discharge pressure), 0.77 % on COP, the median 0.07-0.13 %.
+        # Measured (docs/guide/cycle.md): at most 0.71 % (discharge pressure), 0.77 % on COP, the median 0.07-0.13 %.
         assert err.max() < 0.01, (name, err.max(), int(np.argmax(err)))
         assert np.median(err) < 0.003, (name, np.median(err))
 
@@ -300,7 +300,7 @@ def test_saturated_valve_floats_the_superheat_alike_on_luts_and_direct(saturated
     # The colder evaporators of the last two (cabin air at 27 degC) also risk frost; the flags agree.
     np.testing.assert_array_equal(lut["status"], direct["status"])
     assert not np.isin(lut["status"][:2], FROST_RISK_FLAGS).any() and np.isin(lut["status"][2:], FROST_RISK_FLAGS).all()
-    # Within the cycle's accuracy (README): 1 % on the states, 0.5 K on the superheat.
+    # Within the cycle's accuracy (docs/guide/cycle.md): 1 % on the states, 0.5 K on the superheat.
     np.testing.assert_allclose(lut["superheat_actual"], direct["superheat_actual"], atol=0.5)
     for name in ("p_A", "p_B", "Q_evap", "COP"):
         np.testing.assert_allclose(lut[name], direct[name], rtol=0.01, err_msg=name)

@@ -38,7 +38,7 @@ def test_library_never_prints_or_exits():
 
 
 #: Package -> packages it must not import (at module level or inside functions): lower layers
-#: never import upper ones (README, Layout). fluid <- hx <- benches <- cycle; luts knows no physics.
+#: never import upper ones (docs/architecture.md). fluid <- hx <- benches <- cycle; luts knows no physics.
 FORBIDDEN_IMPORTS = {
     "fluid": ("hx", "benches", "luts", "cycle", "reports", "cli", "demo", "params"),
     "params": ("hx", "benches", "luts", "cycle", "reports", "cli", "demo"),

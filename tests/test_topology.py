@@ -166,7 +166,7 @@ def test_cycle_format_doc_lists_every_input_variable_and_status():
 
 
 def test_lut_circuits_match_the_direct_physics(circuits, cycle_luts_dir):
-    """The chiller circuits on the cycle LUTs against the bench physics (README: accuracy per topology)."""
+    """The chiller circuits on the cycle LUTs against the bench physics (docs/guide/cycle.md: accuracy per topology)."""
     from evtms.cycle import load_cycle_luts, run_cycle
 
     points, results, np = circuits
