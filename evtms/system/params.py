@@ -29,10 +29,10 @@ class CabinParams:
     Walls: area [m2], thickness [m], conductivity [W/(m K)] and heat capacity
     [J/K] each; ``wall_htc`` [W/(m2 K)] on both sides. ``interior_heat_capacity``
     [J/K] 0 turns the interior node off (the sun then heats the air).
-    ``recirc_cool``, ``recirc_heat``, ``recirc_warmup`` [1] are the
-    recirculated shares of the blower's air while cooling, heating and
-    warming up (the climate control chooses among them, or sets its own
-    share in fresh-air economy);
+    ``recirc_cool``, ``recirc_heat``, ``recirc_warmup``, ``recirc_vent`` [1]
+    are the recirculated shares of the blower's air while cooling, heating,
+    warming up and with no request (the climate control chooses among them,
+    fog-limited outside cooling, or sets its own share in fresh-air economy);
     ``sun`` [W/m2] (None: the scenario's) and ``sun_shield`` [1] give
     ``Q_sun = 3 sun sun_shield`` [W]; ``blower_flow_max`` [m3/s] and ``blower_power_max`` [W] (x u^3);
     ``T_set`` [K] the cabin setpoint; ``rh_cabin`` [1] the initial relative
@@ -58,6 +58,7 @@ class CabinParams:
     recirc_cool: float = 0.85
     recirc_heat: float = 0.8
     recirc_warmup: float = 0.8
+    recirc_vent: float = 0.5
     n_occupants: int = 1
     rh_cabin: float = 0.5
     sun: float | None = None
@@ -314,6 +315,7 @@ RANGES: dict[str, dict[str, tuple[float, float]]] = {
         "recirc_cool": (0.0, 1.0),
         "recirc_heat": (0.0, 1.0),
         "recirc_warmup": (0.0, 1.0),
+        "recirc_vent": (0.0, 1.0),
         "n_occupants": (0, 100),
         "rh_cabin": (0.0, 1.0),
         "sun": (0.0, 1500.0),

@@ -245,6 +245,7 @@ def pack_parameters(
     par[L.P_M_AIR] = rho_amb * c.volume
     par[L.P_C_INT], par[L.P_G_INT] = c.interior_heat_capacity, c.interior_conductance
     par[L.P_RC_COOL], par[L.P_RC_HEAT], par[L.P_RC_WARM] = c.recirc_cool, c.recirc_heat, c.recirc_warmup
+    par[L.P_RC_VENT] = c.recirc_vent
     par[L.P_Q_OCC] = 70.0 * c.n_occupants
     par[L.P_MOIST] = 1.4e-5 * c.n_occupants
     par[L.P_Q_SUN] = 3.0 * (sun if c.sun is None else c.sun) * c.sun_shield
