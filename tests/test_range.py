@@ -319,7 +319,7 @@ def test_report_checks_the_geotab_shape_and_the_baseline(tmp_path):
 
 @pytest.fixture
 def cli_maps(monkeypatch, refrigerant):  # noqa: F811
-    monkeypatch.setattr(cli, "_system_refrigerant", lambda *args, **kwargs: refrigerant)
+    monkeypatch.setattr(cli.simulate, "_system_refrigerant", lambda *args, **kwargs: refrigerant)
 
 
 def _run(*args):
