@@ -5,5 +5,7 @@ class EvtmsInputError(ValueError):
     """A user-supplied value is not allowed.
 
     The message is one line that names the bad value and what is allowed; the
-    CLI prints it and exits with code 2.
+    CLI prints it and exits with code 2. A request field the message names is
+    written in backticks (```max_points` 0 is not allowed``); the CLI shows it
+    as its option (``--max-points 0 is not allowed``).
     """

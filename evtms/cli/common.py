@@ -1,17 +1,21 @@
-"""What every command shares: the error boundary, JSON printing and progress bars.
+"""What every command shares: the error boundary, JSON printing, notes and progress bars.
 
-Every error leaves as one ``error: ...`` line (bad input: exit 2, no traceback); ``--json``
-prints one strict JSON object; progress goes to a rich bar on stderr.
+Every error leaves as one ``error: ...`` line (bad input: exit 2, no traceback); a request
+field a library message names (```max_points```) is shown as its option (``--max-points``);
+``--json`` prints one strict JSON object; progress goes to a rich bar on stderr.
 """
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
+import re
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import Annotated, NoReturn
 
 import typer
 from typer.core import TyperGroup
@@ -48,7 +52,7 @@ class _EvtmsGroup(TyperGroup):
         except typer.Abort:
             code = _error("aborted", 130)
         except EvtmsInputError as exc:
-            code = _error(str(exc))
+            code = _error(cli_message(str(exc)))
         except OSError as exc:
             code = _error(_os_message(exc))
         except MemoryError:
@@ -65,6 +69,22 @@ _ARGV: list[str] = []
 def _error(message: str, code: int = 2) -> int:
     typer.echo(f"error: {' '.join(str(message).split())}", err=True)
     return code
+
+
+#: Request fields whose option is not ``--`` and the field's name with dashes.
+_OPTION_OF = {"fmt": "--format", "range_test": "--range"}
+_FIELD = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)`")
+
+
+def cli_message(message: str) -> str:
+    """A library message with the request fields it names (```max_points```) as options (``--max-points``)."""
+    return _FIELD.sub(lambda m: _OPTION_OF.get(m[1], "--" + m[1].replace("_", "-")), message)
+
+
+def note(message: str) -> None:
+    """A workflow's note on stderr: ``note: ...``, or as it is when indented (a detail of the note before)."""
+    message = cli_message(message)
+    typer.echo(message if message.startswith(" ") else f"note: {message}", err=True)
 
 
 def _usage_message(exc: UsageError) -> str:
@@ -110,10 +130,31 @@ def print_json(obj) -> None:
 
 
 _JSON = typer.Option("--json", help="Print one JSON object on stdout (SI units) instead of the text summary.")
+JsonOut = Annotated[bool, _JSON]
+
+
+def with_options(block: Callable) -> Callable:
+    """Decorator: a command's ``**options`` parameter becomes the parameters of ``block``.
+
+    An option block shared by several commands is declared once, as the
+    signature of ``block``; the command receives those options in its
+    ``**options`` dictionary, by name.
+    """
+    shared = list(inspect.signature(block, eval_str=True).parameters.values())
+
+    def decorate(command: Callable) -> Callable:
+        params = []
+        for p in inspect.signature(command, eval_str=True).parameters.values():
+            params += shared if p.kind is p.VAR_KEYWORD else [p]
+        command.__signature__ = inspect.Signature(params)
+        command.__annotations__ = {p.name: p.annotation for p in params}
+        return command
+
+    return decorate
 
 
 class _ProgressBar:
-    """A rich progress bar on stderr, one task per bench."""
+    """A rich progress bar on stderr, one task per label (a bench, a cycle map)."""
 
     def __init__(self, quiet: bool) -> None:
         from rich.console import Console
@@ -131,13 +172,17 @@ class _ProgressBar:
         )
 
     def __enter__(self) -> _ProgressBar:
-        self._progress.__enter__()
+        self._started = False
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self._progress.__exit__(*exc)
+        if self._started:
+            self._progress.__exit__(*exc)
 
     def task(self, name: str, total: int):
+        if not self._started:  # shown from the first task on: a request refused before any work draws nothing
+            self._progress.__enter__()
+            self._started = True
         task = self._progress.add_task(name, total=total, rate="")
         t0 = time.perf_counter()
 
@@ -146,3 +191,21 @@ class _ProgressBar:
             self._progress.update(task, completed=done, total=total, rate=f"{rate:,.0f} pt/s")
 
         return update
+
+    def by_label(self, first: Callable[[str], None] | None = None):
+        """A workflow's ``progress(done, total, label)``: one task per label (``first(label)`` as it appears)."""
+        tasks = {}
+
+        def progress(done: int, total: int, label: str) -> None:
+            if label not in tasks:
+                if first is not None:
+                    first(label)
+                tasks[label] = self.task(label, total)
+            tasks[label](done, total)
+
+        return progress
+
+    def single(self, name: str):
+        """A workflow's ``progress(done, total, message)`` shown as one task ``name``."""
+        progress = self.by_label()
+        return lambda done, total, message: progress(done, total, name)
