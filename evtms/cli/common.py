@@ -133,8 +133,8 @@ _JSON = typer.Option("--json", help="Print one JSON object on stdout (SI units) 
 JsonOut = Annotated[bool, _JSON]
 
 
-def with_options(block: Callable) -> Callable:
-    """Decorator: a command's ``**options`` parameter becomes the parameters of ``block``.
+def with_options(block: Callable, at: int = 0) -> Callable:
+    """Decorator: the parameters of ``block`` become options of the command, from its ``at``-th option on.
 
     An option block shared by several commands is declared once, as the
     signature of ``block``; the command receives those options in its
@@ -143,9 +143,8 @@ def with_options(block: Callable) -> Callable:
     shared = list(inspect.signature(block, eval_str=True).parameters.values())
 
     def decorate(command: Callable) -> Callable:
-        params = []
-        for p in inspect.signature(command, eval_str=True).parameters.values():
-            params += shared if p.kind is p.VAR_KEYWORD else [p]
+        own = [p for p in inspect.signature(command, eval_str=True).parameters.values() if p.kind is not p.VAR_KEYWORD]
+        params = [*own[:at], *shared, *own[at:]]
         command.__signature__ = inspect.Signature(params)
         command.__annotations__ = {p.name: p.annotation for p in params}
         return command

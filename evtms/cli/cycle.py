@@ -2,68 +2,15 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from evtms.cli.common import _JSON, fail, print_json
-from evtms.paths import creating_parents, input_file, output_file
+from evtms.cli.common import JsonOut, print_json, with_options
+from evtms.workflows.cycle import DEFAULT_MAX_CYCLE_POINTS
 
 cycle_app = typer.Typer(help="Solve the vapor-compression cycle on the component LUTs.", no_args_is_help=True)
-
-
-#: Operating points one 'cycle sweep' solves at most unless --max-points says otherwise.
-DEFAULT_MAX_CYCLE_POINTS = 2_000_000
-
-
-def _texts(*values: str | None) -> dict[str, str | None]:
-    """The cycle commands' input options by input name (their order: ``evtms.cycle.topology.INPUTS``)."""
-    from evtms.cycle.topology import INPUTS
-
-    return dict(zip(INPUTS, values, strict=True))
-
-
-def _cycle_inputs(topology: str, texts: dict[str, str | None], max_points: int = DEFAULT_MAX_CYCLE_POINTS):
-    """(circuit, grid of its inputs) from the command line's texts; the library checks every value."""
-    from evtms.cycle.topology import parse_inputs
-    from evtms.cycle.topology import topology as circuit_named
-
-    circuit = circuit_named(topology)
-    return circuit, parse_inputs(texts, circuit, max_points)
-
-
-def _cycle_models(luts: Path | None, direct: bool, params: Path | None, circuit):
-    """(LUT tables or None, parameters) for a cycle command; a --params that the LUTs contradict is refused."""
-    from evtms.benches.parameters import load_parameters
-    from evtms.cycle import load_cycle_luts
-    from evtms.cycle.api import parameter_conflicts
-
-    if direct and luts is not None:
-        fail("give --direct (bench physics) or --luts (LUT folder), not both")
-    if params is not None:
-        input_file(params, "params file")
-    parameters = load_parameters(params)
-    if direct:
-        return None, parameters
-    folder = luts or Path("luts")
-    tables = load_cycle_luts(folder, circuit)
-    if params is not None:
-        conflicts = parameter_conflicts(tables, parameters)
-        if conflicts:
-            shown = ", ".join(conflicts[:6]) + (f" and {len(conflicts) - 6} more" if len(conflicts) > 6 else "")
-            fail(
-                f"--params {str(params)!r} differs from the parameters the LUTs in {str(folder)!r} were made with "
-                f"({shown}); rebuild the LUTs with these parameters or use --direct"
-            )
-    return tables, parameters
-
-
-def _lut_folder(tables: dict) -> Path:
-    """The folder the cycle LUTs were found in (one folder for all of them)."""
-    return next(iter(tables.values())).path.parent
-
 
 _SPEED = typer.Option("--speed", help="Compressor speed fraction (0-1].")
 _FAN = typer.Option("--fan", help="Condenser fan fraction (0-1].")
@@ -119,14 +66,24 @@ _PERFORMANCE_NEEDS = {
 }
 
 
-def _performance(circuit) -> list[tuple]:
-    """The performance rows that apply to ``circuit``."""
-    have = set(circuit.components)
+def _performance(components: tuple[str, ...]) -> list[tuple]:
+    """The performance rows that apply to a circuit of ``components``."""
+    have = set(components)
     return [row for row in _PERFORMANCE if set(_PERFORMANCE_NEEDS.get(row[0], ())) <= have]
 
 
-@cycle_app.command("run")
-def cycle_run(
+#: Input options whose parameter is not the input's name (evtms.cycle.topology.INPUTS).
+_INPUT_OF = {
+    "t_amb": "T_amb",
+    "rh_amb": "RH_amb",
+    "t_cabin": "T_cabin",
+    "rh_cabin": "RH_cabin",
+    "coolant_flow": "mdot_coolant",
+    "t_coolant": "T_coolant_in",
+}
+
+
+def _circuit_options(
     topology: Annotated[str, _TOPOLOGY] = "cabin",
     speed: Annotated[str | None, _SPEED] = None,
     fan: Annotated[str | None, _FAN] = None,
@@ -142,116 +99,75 @@ def cycle_run(
     luts: Annotated[Path | None, _LUTS] = None,
     direct: Annotated[bool, _DIRECT] = False,
     params: Annotated[Path | None, _PARAMS] = None,
-    json_out: Annotated[bool, _JSON] = False,
 ) -> None:
+    """The options 'cycle run' and 'cycle sweep' share (declared once, see :func:`with_options`)."""
+
+
+def _request(topology: str, luts: Path | None, direct: bool, params: Path | None, **inputs: str | None):
+    """The workflow's request from the shared options."""
+    from evtms.workflows.cycle import CycleRequest
+
+    return CycleRequest(topology, {_INPUT_OF.get(k, k): v for k, v in inputs.items()}, luts, direct, params)
+
+
+@cycle_app.command("run")
+@with_options(_circuit_options)
+def cycle_run(json_out: JsonOut = False, **options) -> None:
     """Solve one operating point and print its states and performance.
 
     Example: evtms cycle run --luts luts/ --speed 0.6 --fan 0.5 --blower 0.4 --t-amb 30 --t-cabin 27
     """
-    from evtms.cycle.api import solve_grid
-    from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
-    from evtms.cycle.topology import INPUTS
+    from evtms.workflows.cycle import run_cycle
 
-    circuit, grid = _cycle_inputs(
-        topology,
-        _texts(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, coolant_flow, t_coolant, superheat, subcooling),
-    )
-    several = [f"{INPUTS[k].option} ({len(v)} values)" for k, v in grid.items() if len(v) != 1]
-    if several:
-        fail(f"{', '.join(several)}: cycle run takes one value per input; use 'evtms cycle sweep' for several")
-    tables, parameters = _cycle_models(luts, direct, params, circuit)
-    _, r = solve_grid(grid, tables, parameters, circuit)
-    status = int(r["status"][0])
-    if status not in VALID_CYCLE_FLAGS:
-        fail(f"operating point not solved: {r['reason'][0]}")
+    p = run_cycle(_request(**options))
+    rows = _performance(p.components)
     if json_out:
         print_json(
             {
-                "topology": circuit.name,
-                "inputs": {k: v[0] for k, v in grid.items()},
-                "models": "direct" if tables is None else str(_lut_folder(tables)),
-                "status": status,
-                "status_meaning": CYCLE_FLAGS[status],
-                "note": str(r["reason"][0]),
-                "states": {s: {q: float(r[f"{q}_{s}"][0]) for q in ("p", "T", "h")} for s in _STATES},
-                **{key: float(r[key][0]) for key, *_ in _performance(circuit)},
-                "units": {"p": "Pa", "T": "K", "h": "J kg-1", **{key: si for key, *_, si in _performance(circuit)}},
+                "topology": p.topology,
+                "inputs": p.inputs,
+                "models": p.models,
+                "status": p.status,
+                "status_meaning": p.status_meaning,
+                "note": p.note,
+                "states": {s: {q: p.values[f"{q}_{s}"] for q in ("p", "T", "h")} for s in _STATES},
+                **{key: p.values[key] for key, *_ in rows},
+                "units": {"p": "Pa", "T": "K", "h": "J kg-1", **{key: si for key, *_, si in rows}},
             }
         )
         return
+    v = p.values
     typer.echo(f"{'state':<26} {'p [MPa]':>9} {'T [degC]':>9} {'h [kJ/kg]':>10}")
     for s, label in _STATES.items():
-        typer.echo(
-            f"{label:<26} {r['p_' + s][0] / 1e6:9.4f} {r['T_' + s][0] - 273.15:9.2f} {r['h_' + s][0] / 1e3:10.2f}"
-        )
-    for key, label, scale, unit, _ in _performance(circuit):
-        typer.echo(f"{label:<26} {scale * r[key][0]:10.4g} {unit}")
-    if r["reason"][0]:
-        typer.echo(f"note: {r['reason'][0]}")
+        typer.echo(f"{label:<26} {v['p_' + s] / 1e6:9.4f} {v['T_' + s] - 273.15:9.2f} {v['h_' + s] / 1e3:10.2f}")
+    for key, label, scale, unit, _ in rows:
+        typer.echo(f"{label:<26} {scale * v[key]:10.4g} {unit}")
+    if p.note:
+        typer.echo(f"note: {p.note}")
 
 
 @cycle_app.command("sweep")
+@with_options(_circuit_options, at=1)
 def cycle_sweep(
     output: Annotated[Path, typer.Option("--output", "-o", help="Output netCDF file.")],
-    topology: Annotated[str, _TOPOLOGY] = "cabin",
-    speed: Annotated[str | None, _SPEED] = None,
-    fan: Annotated[str | None, _FAN] = None,
-    blower: Annotated[str | None, _BLOWER] = None,
-    t_amb: Annotated[str | None, _TAMB] = None,
-    rh_amb: Annotated[str | None, _RHAMB] = None,
-    t_cabin: Annotated[str | None, _TCAB] = None,
-    rh_cabin: Annotated[str | None, _RHCAB] = None,
-    coolant_flow: Annotated[str | None, _MCOOL] = None,
-    t_coolant: Annotated[str | None, _TCOOL] = None,
-    superheat: Annotated[str | None, _SH] = None,
-    subcooling: Annotated[str | None, _SC] = None,
-    luts: Annotated[Path | None, _LUTS] = None,
-    direct: Annotated[bool, _DIRECT] = False,
-    params: Annotated[Path | None, _PARAMS] = None,
     max_points: Annotated[
         int, typer.Option("--max-points", help="Refuse sweeps above this many operating points.")
     ] = DEFAULT_MAX_CYCLE_POINTS,
-    json_out: Annotated[bool, _JSON] = False,
+    json_out: JsonOut = False,
+    **options,
 ) -> None:
     """Solve a grid of operating points (any input as v1,v2,... or start:stop:count) and write netCDF.
 
     Example: evtms cycle sweep --luts luts/ --speed 0.2:1:9 --t-amb 25,35,45 -o cycle.nc
     """
-    import numpy as np
+    import dataclasses
 
-    from evtms.cycle import cycle_dataset
-    from evtms.cycle.api import cycle_encoding, solve_grid
-    from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
-    from evtms.luts.io import atomic_output
+    from evtms.workflows.cycle import sweep_cycle
 
-    if max_points < 1:
-        fail(f"--max-points {max_points} is not allowed; allowed: 1 or more")
-    circuit, grid = _cycle_inputs(
-        topology,
-        _texts(speed, fan, blower, t_amb, rh_amb, t_cabin, rh_cabin, coolant_flow, t_coolant, superheat, subcooling),
-        max_points,
-    )
-    tables, parameters = _cycle_models(luts, direct, params, circuit)
-    # The LUT files found (headers read, data not yet): the output may not be one of them.
-    inputs = [params] + ([] if tables is None else [t.path for t in tables.values()])
-    output_file(output, inputs, (".nc",))
-    t0 = time.perf_counter()
-    points, r = solve_grid(grid, tables, parameters, circuit)
-    wall = time.perf_counter() - t0
-    ds = cycle_dataset(grid, r, "direct" if tables is None else f"LUTs in {_lut_folder(tables)}", circuit)
-    with creating_parents(output), atomic_output(output) as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4", encoding=cycle_encoding(ds))
-    status = np.asarray(r["status"])
-    ok = int(np.isin(status, VALID_CYCLE_FLAGS).sum())
+    s = sweep_cycle(dataclasses.replace(_request(**options), output=output, max_points=max_points))
     if json_out:
         print_json(
-            {
-                "path": str(output),
-                "points": len(points),
-                "solved": ok,
-                "seconds": wall,
-                "status": {CYCLE_FLAGS[c]: int((status == c).sum()) for c in sorted(CYCLE_FLAGS)},
-            }
+            {"path": str(output), "points": s.points, "solved": s.solved, "seconds": s.seconds, "status": s.status}
         )
         return
-    typer.echo(f"cycle: {len(points)} operating points, {ok} solved, {wall:.2f} s, wrote {output}")
+    typer.echo(f"cycle: {s.points} operating points, {s.solved} solved, {s.seconds:.2f} s, wrote {output}")
