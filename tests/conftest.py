@@ -127,7 +127,7 @@ def small_maps(monkeypatch):
 #: What the collected tests need of the background job (set at collection).
 _NEEDS = {"cycle_luts": False, "demo": False}
 
-#: The background job: the cycle LUTs (``evtms.demo.ensure_luts``, as 'evtms bench all --grid cycle'
+#: The background job: the cycle LUTs (``evtms.workflows.demo.ensure_luts``, as 'evtms bench all --grid cycle'
 #: writes them), a marker when they are complete, then (if asked) 'evtms demo' into a fresh folder
 #: holding a copy of them, with its result as JSON.
 _BACKGROUND = """
@@ -137,7 +137,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from evtms.demo import ensure_luts
+from evtms.workflows.demo import ensure_luts
 from evtms.benches.parameters import Parameters
 
 os.nice(10)  # the tests run first: timing checks (e.g. 'evtms --help' under 1 s) keep their CPU
@@ -150,7 +150,7 @@ if demo:
         shutil.copy2(f, out / "luts" / "cycle" / f.name)
 done.touch()
 if demo:
-    from evtms.demo import run_demo
+    from evtms.workflows.demo import run_demo
     from evtms.system.maps import MapSettings
 
     messages = []
@@ -224,11 +224,11 @@ def _background_failed(job, what):
 @pytest.fixture(scope="session")
 def cycle_luts_dir(_background, tmp_path_factory, params):
     """Every bench's LUT on the 'cycle' grid preset, as 'evtms bench all --grid cycle' writes them
-    (``evtms.demo.ensure_luts(folder, "cycle", Parameters(), workers=2)``, started with the session)."""
+    (``evtms.workflows.demo.ensure_luts(folder, "cycle", Parameters(), workers=2)``, started with the session)."""
     import time
 
     if _background is None:  # requested by name at run time only: build it here
-        from evtms.demo import ensure_luts
+        from evtms.workflows.demo import ensure_luts
 
         folder = tmp_path_factory.mktemp("cycle_luts")
         ensure_luts(folder, "cycle", params, workers=2)
@@ -249,13 +249,13 @@ def demo_run(_background, tmp_path_factory, cycle_luts_dir):
     import json
     from pathlib import Path
 
-    from evtms.demo import DemoResult
+    from evtms.workflows.demo import DemoResult
 
     if _background is None or not _background["demo"]:  # requested by name at run time only
         import shutil
 
-        from evtms.demo import run_demo
         from evtms.system.maps import MapSettings
+        from evtms.workflows.demo import run_demo
 
         out = tmp_path_factory.mktemp("demo")
         shutil.copytree(cycle_luts_dir, out / "luts" / "cycle")

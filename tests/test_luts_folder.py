@@ -69,12 +69,12 @@ def run(*args):
 @pytest.fixture()
 def no_build(monkeypatch):
     """Building LUTs fails the test (the folders here must be taken or refused as they are)."""
-    import evtms.demo
+    import evtms.workflows.demo
 
     def refuse(*args, **kwargs):
         raise AssertionError(f"ensure_luts{args[:2]} called: LUTs would be built")
 
-    monkeypatch.setattr(evtms.demo, "ensure_luts", refuse)
+    monkeypatch.setattr(evtms.workflows.demo, "ensure_luts", refuse)
 
 
 # ---- the library ---------------------------------------------------------------------------------
@@ -158,7 +158,7 @@ def test_simulate_does_not_complete_an_incomplete_set(tiny, tmp_path, no_build):
 
 @pytest.mark.parametrize("state", ["missing", "empty"])
 def test_simulate_builds_in_a_missing_or_empty_folder_and_says_so(tmp_path, monkeypatch, state):
-    import evtms.demo
+    import evtms.workflows.demo
 
     calls = []
 
@@ -166,7 +166,7 @@ def test_simulate_builds_in_a_missing_or_empty_folder_and_says_so(tmp_path, monk
         calls.append((folder, grid))
         raise EvtmsInputError("stopped before the build")  # the real build takes minutes
 
-    monkeypatch.setattr(evtms.demo, "ensure_luts", record)
+    monkeypatch.setattr(evtms.workflows.demo, "ensure_luts", record)
     luts = tmp_path / "luts"
     if state == "empty":
         luts.mkdir()

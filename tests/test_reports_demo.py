@@ -162,8 +162,8 @@ def test_html_opens_in_headless_browser_without_console_errors(demo_run, tmp_pat
 
 
 def test_a_lut_from_another_grid_or_bench_version_is_not_reused(thesis, params, tmp_path):
-    from evtms.demo import lut_is_current
     from evtms.luts.io import write_lut
+    from evtms.workflows.demo import lut_is_current
 
     ds = thesis("condenser")
     write_lut(ds, tmp_path / "same.nc")

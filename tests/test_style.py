@@ -41,15 +41,15 @@ def test_library_never_prints_or_exits():
 #: never import upper ones (docs/architecture.md). fluid <- hx <- benches <- cycle <- system <- workflows <- cli;
 #: luts knows no physics.
 FORBIDDEN_IMPORTS = {
-    "fluid": ("hx", "benches", "luts", "cycle", "reports", "workflows", "cli", "demo", "params"),
-    "params": ("hx", "benches", "luts", "cycle", "reports", "workflows", "cli", "demo"),
-    "hx": ("benches", "luts", "cycle", "reports", "workflows", "cli", "demo"),
-    "luts": ("fluid", "hx", "benches", "cycle", "reports", "workflows", "cli", "demo", "params"),
-    "benches": ("cycle", "system", "reports", "workflows", "cli", "demo"),
-    "cycle": ("system", "reports", "workflows", "cli", "demo"),
-    "system": ("surrogates", "reports", "workflows", "cli", "demo"),
-    "surrogates": ("reports", "workflows", "cli", "demo"),
-    "reports": ("workflows", "cli", "demo"),
+    "fluid": ("hx", "benches", "luts", "cycle", "reports", "workflows", "cli", "params"),
+    "params": ("hx", "benches", "luts", "cycle", "reports", "workflows", "cli"),
+    "hx": ("benches", "luts", "cycle", "reports", "workflows", "cli"),
+    "luts": ("fluid", "hx", "benches", "cycle", "reports", "workflows", "cli", "params"),
+    "benches": ("cycle", "system", "reports", "workflows", "cli"),
+    "cycle": ("system", "reports", "workflows", "cli"),
+    "system": ("surrogates", "reports", "workflows", "cli"),
+    "surrogates": ("reports", "workflows", "cli"),
+    "reports": ("workflows", "cli"),
     "workflows": ("cli",),
 }
 

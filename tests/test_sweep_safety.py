@@ -567,7 +567,7 @@ _ENSURE_LUTS_SCRIPT = """
 import sys
 from pathlib import Path
 
-import evtms.demo as demo
+import evtms.workflows.demo as demo
 from evtms.benches import BENCHES
 from evtms.benches.parameters import Parameters
 

@@ -333,8 +333,8 @@ def _system_refrigerant(luts: Path, folder: Path | None, system, quiet: bool):
     first; maps are built where missing (with a bar).
     """
     from evtms.benches.parameters import Parameters
-    from evtms.demo import ensure_luts
     from evtms.system.refrigerant import load_refrigerant
+    from evtms.workflows.demo import ensure_luts
 
     if folder is None:
         typer.echo(f"note: no cycle LUTs in {luts}/; building them (evtms bench all --grid cycle, 1-2 min)", err=True)

@@ -725,7 +725,7 @@ def _build(plans: Sequence[_Plan], folder: Path, progress: Progress | None, work
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        # fork where the platform has it (as evtms.demo's pool): a spawned worker re-runs the caller's
+        # fork where the platform has it (as evtms.workflows.demo's pool): a spawned worker re-runs the caller's
         # main script, which breaks scripts without an ``if __name__ == "__main__"`` guard
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method)) as pool:

@@ -191,27 +191,60 @@ def ensure_luts(
 
 def run_demo(
     out: str | Path,
-    params: Parameters | None = None,
+    params: Parameters | str | Path | None = None,
     force: bool = False,
     workers: int = 2,
     notify: Notify | None = None,
     map_settings=None,
 ) -> DemoResult:
-    """Run benches, cycle and reports into ``out`` (see the module notes).
+    """Run benches, cycle and reports into ``out`` (see the module notes); what ``evtms demo`` runs.
 
-    ``notify(message)`` is called as each step starts or ends (for progress).
-    ``map_settings`` (:class:`evtms.system.maps.MapSettings`) overrides the
-    cycle maps of the system simulation (default: the full axes).
+    Parameters
+    ----------
+    out : str or Path
+        Output folder (created if missing; LUTs already there and up to date are reused).
+    params : Parameters, or str or Path, optional
+        Parameters, or a TOML file of parameter overrides (default: the defaults).
+    force : bool
+        Recompute LUTs even if they are up to date.
+    workers : int
+        Processes for the bench sweeps (1 or more).
+    notify : callable, optional
+        ``notify(message)`` as each step starts or ends (for progress).
+    map_settings : MapSettings, optional
+        Overrides the cycle maps of the system simulation (:class:`evtms.system.maps.MapSettings`;
+        default: the full axes).
+
+    Returns
+    -------
+    DemoResult
+
+    Raises
+    ------
+    EvtmsInputError
+        ``workers`` below 1, a parameter file that is missing or not valid, or
+        an output folder that cannot be written (checked before any work).
     """
-    params = params or Parameters()
+    from evtms.benches.parameters import load_parameters
+    from evtms.errors import EvtmsInputError
+    from evtms.paths import creating_parents, output_folder
+    from evtms.workflows.common import params_input
+
+    if workers < 1:
+        raise EvtmsInputError(f"`workers` {workers} is not allowed; allowed: 1 or more")
+    inputs = []
+    if not isinstance(params, Parameters):
+        inputs = params_input(params)
+        params = load_parameters(params)
+    out = output_folder(out, inputs)
     notify = notify or (lambda message: None)
-    out = Path(out)
     result = DemoResult(index=out / "index.html")
-    for grid in GRIDS:
-        ensure_luts(out / "luts" / grid, grid, params, force, workers, notify, result)
-    t0 = time.perf_counter()
-    simulation = _simulation(out, notify, map_settings)
-    _cycle_and_reports(out, params, result, notify, simulation)
+    with creating_parents(out, folder=True):
+        for grid in GRIDS:
+            ensure_luts(out / "luts" / grid, grid, params, force, workers, notify, result)
+        t0 = time.perf_counter()
+        simulation = _simulation(out, notify, map_settings)
+        _cycle_and_reports(out, params, result, notify, simulation)
     result.timings["cycle and reports"] = time.perf_counter() - t0
     return result
 
