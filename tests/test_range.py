@@ -32,6 +32,7 @@ from evtms.system.range_test import (
     run_range_test,
 )
 from evtms.system.simulate import SimulationResult, simulate, usable_energy
+from evtms.workflows import simulate as simulate_workflow
 
 UDDS, HWFET, WLTC = drive_cycle("udds"), drive_cycle("hwfet"), drive_cycle("wltc3b")
 runner = CliRunner()
@@ -319,7 +320,7 @@ def test_report_checks_the_geotab_shape_and_the_baseline(tmp_path):
 
 @pytest.fixture
 def cli_maps(monkeypatch, refrigerant):  # noqa: F811
-    monkeypatch.setattr(cli.simulate, "_system_refrigerant", lambda *args, **kwargs: refrigerant)
+    monkeypatch.setattr(simulate_workflow, "system_refrigerant", lambda *args, **kwargs: refrigerant)
 
 
 def _run(*args):

@@ -10,9 +10,13 @@ import typer
 
 from evtms.cli.common import _JSON, fail, print_json
 from evtms.cli.lut import _open, _parse_point
-from evtms.cli.simulate import _check_soak, _cycle_luts, _mode_models, _system_refrigerant, _trace_files
+from evtms.cli.simulate import _system_refrigerant
 from evtms.errors import EvtmsInputError
 from evtms.paths import creating_parents, input_file, output_file, output_folder, staged_folder
+from evtms.workflows.simulate import check_soak as _check_soak
+from evtms.workflows.simulate import cycle_luts as _cycle_luts
+from evtms.workflows.simulate import surrogate_models as _mode_models
+from evtms.workflows.simulate import trace_files as _trace_files
 
 report_app = typer.Typer(
     help="Figures and reports from LUT files, cycle sweeps and system simulations.", no_args_is_help=True

@@ -9,8 +9,9 @@ from typing import Annotated
 import typer
 
 from evtms.cli.common import _JSON, _ProgressBar, fail, print_json
-from evtms.cli.simulate import _cycle_luts, _system_refrigerant
+from evtms.cli.simulate import _system_refrigerant
 from evtms.paths import input_file, output_folder
+from evtms.workflows.simulate import cycle_luts as _cycle_luts
 
 surrogate_app = typer.Typer(
     help="Data-driven mode models: train them on the simulator (evtms simulate --model surrogate runs them).",
