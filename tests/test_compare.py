@@ -1,4 +1,5 @@
-"""Comparison of the modelling approaches (evtms.reports.compare): errors, measured files, step study, output.
+"""Comparison of the modelling approaches (evtms.workflows.compare, evtms.reports.compare): errors, measured
+files, step study, output.
 
 The simulations run the LUT model on the small synthetic cycle maps of
 ``test_simulate.py`` over a two-minute trace; where a test needs another
@@ -17,11 +18,12 @@ import pytest
 from test_simulate import refrigerant  # noqa: F401 - the synthetic maps' fixture
 
 from evtms.errors import EvtmsInputError
-from evtms.reports import compare as C  # noqa: N812
+from evtms.reports import compare as R  # noqa: N812
 from evtms.reports.html import referenced_files
 from evtms.system import loop as L  # noqa: N812
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.simulate import simulate
+from evtms.workflows import compare as C  # noqa: N812
 
 
 def short_cycle(seconds: float = 120.0) -> DriveCycle:
@@ -39,7 +41,7 @@ def records(time, **values) -> dict[str, np.ndarray]:
     return {"time": np.asarray(time, float), **{k: np.asarray(v, float) for k, v in values.items()}}
 
 
-def fake_run(dt: float, **summary_changes) -> C.Run:
+def fake_run(dt: float, **summary_changes) -> R.Run:
     t = np.arange(0.0, 61.0)
     rec = records(t, T_cabin=300.0 - 0.01 * t, T_battery=298.0 + 0 * t, SOC=0.9 - 1e-4 * t, P_hvac=1000.0 + 0 * t)
     rec["P_hvac"][0] = np.nan
@@ -52,7 +54,7 @@ def fake_run(dt: float, **summary_changes) -> C.Run:
         "wall_time_s": 0.01,
         **summary_changes,
     }
-    return C.Run("lut", "short", 303.15, dt, rec, summary)
+    return R.Run("lut", "short", 303.15, dt, rec, summary)
 
 
 # ---------------------------------------------------------------------------------------------- errors
@@ -356,9 +358,9 @@ def test_measured_reference_replaces_physics_where_given(refrigerant, tmp_path):
         assert row.rmse_T_cabin_K == pytest.approx(1.0, abs=1e-9) and row.max_T_cabin_K == pytest.approx(1.0)
         assert row.rmse_T_battery_K == 0.0 and row.rmse_SOC == 0.0  # still against physics
         assert row.compared_records == 121
-    summary = C.compare_summary(result)
+    summary = R.compare_summary(result)
     assert summary["reference"] == "measured" and summary["measured"] == str(path)
-    d = C.trajectory_data(result, "short", 303.15)
+    d = R.trajectory_data(result, "short", 303.15)
     assert set(d["measured"]) == {"time_min", "T_cabin"}
     np.testing.assert_allclose(d["measured"]["T_cabin"], base.records["T_cabin"][::5] + 1.0 - 273.15)
 
@@ -369,7 +371,7 @@ def test_measured_reference_replaces_physics_where_given(refrigerant, tmp_path):
 def test_written_files_parse_back(compared, tmp_path):
     result, _ = compared
     out = tmp_path / "compare"
-    files = C.write_compare(result, out)
+    files = R.write_compare(result, out)
     names = sorted(p.name for p in files)
     assert names == sorted(
         [
@@ -388,15 +390,15 @@ def test_written_files_parse_back(compared, tmp_path):
     assert not [p for p in tmp_path.iterdir() if p.name != "compare"]
     with open(out / "compare.csv", newline="") as fh:
         table = list(csv.DictReader(fh))
-    assert list(table[0]) == [f.name for f in dataclasses.fields(C.CompareRow)]
+    assert list(table[0]) == [f.name for f in dataclasses.fields(R.CompareRow)]
     assert len(table) == 4 and table[0]["approach"] == "physics" and float(table[0]["speedup"]) == 1.0
     assert float(table[1]["rmse_T_cabin_K"]) == 0.0 and float(table[1]["battery_energy_kWh"]) > 0
     with open(out / "steps.csv", newline="") as fh:
         steps = list(csv.DictReader(fh))
-    assert list(steps[0]) == [f.name for f in dataclasses.fields(C.StepRow)]
+    assert list(steps[0]) == [f.name for f in dataclasses.fields(R.StepRow)]
     assert len(steps) == len(result.steps) and {s["stable"] for s in steps} <= {"true", "false"}
     summary = json.loads((out / "summary.json").read_text())
-    assert summary == json.loads(json.dumps(C.compare_summary(result)))
+    assert summary == json.loads(json.dumps(R.compare_summary(result)))
     assert summary["reference"] == "physics" and len(summary["table"]) == 4
     assert set(summary["largest_stable_dt_s"]) == {"physics", "lut"}
     links = {p.name for p in referenced_files(out / "index.html")}
@@ -411,12 +413,12 @@ def test_a_failed_write_leaves_the_folder_as_it_was(compared, tmp_path, monkeypa
     def broken(*args, **kwargs):
         raise RuntimeError("disk gone")
 
-    monkeypatch.setattr(C, "trajectory_figure", broken)
+    monkeypatch.setattr(R, "trajectory_figure", broken)
     with pytest.raises(RuntimeError, match="disk gone"):
-        C.write_compare(result, out)
+        R.write_compare(result, out)
     assert not out.exists() and list(tmp_path.iterdir()) == []
     out.mkdir()
     (out / "compare.csv").write_text("old")
     with pytest.raises(RuntimeError):
-        C.write_compare(result, out)
+        R.write_compare(result, out)
     assert (out / "compare.csv").read_text() == "old" and [p.name for p in out.iterdir()] == ["compare.csv"]

@@ -356,16 +356,10 @@ def report_compare(
         fail("give --output FOLDER for the comparison's tables and figures")
     approaches = "physics,lut,surrogate" if approaches is None else approaches
     from evtms.cycle.topology import parse_values
-    from evtms.reports.compare import (
-        APPROACHES,
-        check_request,
-        compare_summary,
-        read_measured,
-        run_compare,
-        write_compare,
-    )
+    from evtms.reports.compare import APPROACHES, compare_summary, write_compare
     from evtms.system.drive_cycles import drive_cycle
     from evtms.system.params import load_system_params
+    from evtms.workflows.compare import check_request, read_measured, run_compare
 
     chosen = [a.strip() for a in approaches.split(",")]
     for a in chosen:

@@ -11,7 +11,7 @@ reference approach, the electrical power the thesis reports per mode
 a callback ``progress(done, total, message)``; the tables are written by
 :mod:`evtms.reports.table12`.
 
-Timing as :func:`evtms.reports.compare.run_compare`: lut and surrogate run
+Timing as :func:`evtms.workflows.compare.run_compare`: lut and surrogate run
 ``repeat`` times per scenario and report the median; physics runs once (its
 solves are memoised on the ``refrigerant`` object).
 
