@@ -2,21 +2,17 @@
 
 from __future__ import annotations
 
-import math
+import sys
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from evtms.cli.common import _JSON, fail, print_json
+from evtms.cli.common import _JSON, JsonOut, _ProgressBar, fail, note, print_json
 from evtms.cli.lut import _open, _parse_point
-from evtms.cli.simulate import _system_refrigerant
+from evtms.cli.simulate import SoakCabin, SystemToml
 from evtms.errors import EvtmsInputError
 from evtms.paths import creating_parents, input_file, output_file, output_folder, staged_folder
-from evtms.workflows.simulate import check_soak as _check_soak
-from evtms.workflows.simulate import cycle_luts as _cycle_luts
-from evtms.workflows.simulate import surrogate_models as _mode_models
-from evtms.workflows.simulate import trace_files as _trace_files
 
 report_app = typer.Typer(
     help="Figures and reports from LUT files, cycle sweeps and system simulations.", no_args_is_help=True
@@ -80,6 +76,7 @@ def _diagram(kind: str, sweep: Path, output: Path, point: str | None) -> None:
     typer.echo(f"wrote {output}")
 
 
+_Format = Annotated[str, typer.Option("--format", help="Figure format: png or svg.")]
 _POINT = typer.Option("--point", help="Operating point as input=index,... (0-based); default: the first solved.")
 
 
@@ -149,7 +146,7 @@ def report_bench(
     surface: Annotated[
         str | None, typer.Option("--surface", help="Two different axes for the 3-D map, e.g. p_in,T_in (default).")
     ] = None,
-    fmt: Annotated[str, typer.Option("--format", help="Figure format: png or svg.")] = "png",
+    fmt: _Format = "png",
 ) -> None:
     """Bench figures and an HTML report from a LUT: response per axis, 3-D map, provenance.
 
@@ -260,263 +257,106 @@ def report_range(
     typer.echo(f"wrote {output}")
 
 
-def _float_list(option: str, text: str, most: int = 20) -> list[float]:
-    """Comma-separated numbers of an option; anything else is one line, exit 2."""
-    items = [t.strip() for t in text.split(",")]
-    if not items or len(items) > most:
-        fail(f"{option} {text!r}: give 1 to {most} comma-separated numbers")
-    try:
-        values = [float(t) for t in items]
-    except ValueError:
-        fail(f"{option} {text!r}: not comma-separated numbers")
-    if not all(math.isfinite(v) for v in values):
-        fail(f"{option} {text!r}: numbers must be finite")
-    return values
+_Cycles = Annotated[
+    str | None, typer.Option("--cycle", help="Drive cycles, comma-separated: built-in names or CSV files.")
+]
+_Ambients = Annotated[str | None, typer.Option("--t-amb", help="Ambient temperatures [degC], comma-separated.")]
+_Folder = Annotated[
+    Path | None, typer.Option("--output", "-o", help="Output folder (created if missing); optional with --scenarios.")
+]
+_Scenarios = Annotated[
+    str | None,
+    typer.Option(
+        "--scenarios",
+        help="Scenarios instead of --cycle/--t-amb, comma-separated names or groups: t12 (the 16 Table 12 "
+        "rows), t12-cc, t12-bh-1, ...; prints the thesis's Table 12 columns per row.",
+    ),
+]
+_ScenarioFile = Annotated[
+    Path | None,
+    typer.Option("--scenario-file", help="TOML scenario file whose scenarios --scenarios may name (else: all)."),
+]
+_Approaches = Annotated[
+    str | None,
+    typer.Option(
+        "--approaches",
+        help="Approaches to compare, comma-separated: physics, lut, surrogate (default: all three; with "
+        "--scenarios lut and those available).",
+    ),
+]
+_Surrogates = Annotated[
+    Path, typer.Option("--surrogates", help="Mode-model file or folder (evtms surrogate train -o).")
+]
+_Luts = Annotated[
+    Path,
+    typer.Option(
+        "--luts", help="Cycle LUT folder (evtms bench all --grid cycle), or evtms demo's luts/ or output folder."
+    ),
+]
+_Dt = Annotated[float, typer.Option("--dt", help="Step of the comparison table and trajectories [s].")]
+_Dts = Annotated[str, typer.Option("--dts", help="Steps of the step-size study [s].")]
+_PhysicsDts = Annotated[
+    str | None,
+    typer.Option("--physics-dts", help="Steps at which physics joins the study [s] (slow); default: --dts >= 1 s."),
+]
+_NoSteps = Annotated[bool, typer.Option("--no-steps", help="Skip the step-size study.")]
+_Measured = Annotated[
+    Path | None,
+    typer.Option(
+        "--measured",
+        help="CSV of measured time,T_cabin,T_battery,SOC,P_hvac (any subset; s, K, 1, W): the reference where "
+        "given; needs one cycle and one ambient.",
+    ),
+]
+_Repeat = Annotated[int, typer.Option("--repeat", help="Runs of lut and surrogate per scenario, median time.")]
+_Sun = Annotated[float, typer.Option("--sun", help="Solar irradiance [W/m2].")]
 
 
 @report_app.command("compare")
 def report_compare(
-    cycle: Annotated[
-        str | None, typer.Option("--cycle", help="Drive cycles, comma-separated: built-in names or CSV files.")
-    ] = None,
-    t_amb: Annotated[str | None, typer.Option("--t-amb", help="Ambient temperatures [degC], comma-separated.")] = None,
-    output: Annotated[
-        Path | None,
-        typer.Option("--output", "-o", help="Output folder (created if missing); optional with --scenarios."),
-    ] = None,
-    scenarios: Annotated[
-        str | None,
-        typer.Option(
-            "--scenarios",
-            help="Scenarios instead of --cycle/--t-amb, comma-separated names or groups: t12 (the 16 Table 12 "
-            "rows), t12-cc, t12-bh-1, ...; prints the thesis's Table 12 columns per row.",
-        ),
-    ] = None,
-    scenario_file: Annotated[
-        Path | None,
-        typer.Option("--scenario-file", help="TOML scenario file whose scenarios --scenarios may name (else: all)."),
-    ] = None,
-    approaches: Annotated[
-        str | None,
-        typer.Option(
-            "--approaches",
-            help="Approaches to compare, comma-separated: physics, lut, surrogate (default: all three; with "
-            "--scenarios lut and those available).",
-        ),
-    ] = None,
-    surrogates: Annotated[
-        Path, typer.Option("--surrogates", help="Mode-model file or folder (evtms surrogate train -o).")
-    ] = Path("models"),
-    luts: Annotated[
-        Path,
-        typer.Option(
-            "--luts", help="Cycle LUT folder (evtms bench all --grid cycle), or evtms demo's luts/ or output folder."
-        ),
-    ] = Path("luts"),
-    params: Annotated[Path | None, typer.Option("--params", help="System TOML, as evtms simulate.")] = None,
-    dt: Annotated[float, typer.Option("--dt", help="Step of the comparison table and trajectories [s].")] = 1.0,
-    dts: Annotated[str, typer.Option("--dts", help="Steps of the step-size study [s].")] = "0.01,0.1,1,10",
-    physics_dts: Annotated[
-        str | None,
-        typer.Option("--physics-dts", help="Steps at which physics joins the study [s] (slow); default: --dts >= 1 s."),
-    ] = None,
-    no_steps: Annotated[bool, typer.Option("--no-steps", help="Skip the step-size study.")] = False,
-    measured: Annotated[
-        Path | None,
-        typer.Option(
-            "--measured",
-            help="CSV of measured time,T_cabin,T_battery,SOC,P_hvac (any subset; s, K, 1, W): the reference where "
-            "given; needs one cycle and one ambient.",
-        ),
-    ] = None,
-    repeat: Annotated[int, typer.Option("--repeat", help="Runs of lut and surrogate per scenario, median time.")] = 3,
-    sun: Annotated[float, typer.Option("--sun", help="Solar irradiance [W/m2].")] = 0.0,
-    soak_cabin: Annotated[
-        float | None, typer.Option("--soak-cabin", help="Initial cabin air, walls and interior [degC].")
-    ] = None,
-    fmt: Annotated[str, typer.Option("--format", help="Figure format: png or svg.")] = "png",
-    json_out: Annotated[bool, _JSON] = False,
+    cycle: _Cycles = None,
+    t_amb: _Ambients = None,
+    output: _Folder = None,
+    scenarios: _Scenarios = None,
+    scenario_file: _ScenarioFile = None,
+    approaches: _Approaches = None,
+    surrogates: _Surrogates = Path("models"),
+    luts: _Luts = Path("luts"),
+    params: SystemToml = None,
+    dt: _Dt = 1.0,
+    dts: _Dts = "0.01,0.1,1,10",
+    physics_dts: _PhysicsDts = None,
+    no_steps: _NoSteps = False,
+    measured: _Measured = None,
+    repeat: _Repeat = 3,
+    sun: _Sun = 0.0,
+    soak_cabin: SoakCabin = None,
+    fmt: _Format = "png",
+    json_out: JsonOut = False,
 ) -> None:
     """Physics, LUT and surrogate models side by side: time per simulation, error, trajectories, step size.
 
     Example: evtms report compare --cycle wltc3b,nedc --t-amb -10,30,40 -o compare/
     Table 12: evtms report compare --scenarios t12 --approaches lut
     """
-    if scenarios is not None or scenario_file is not None:
-        if cycle is not None or t_amb is not None or measured is not None:
-            fail("--scenarios runs scenarios with their own cycle and ambient; leave out --cycle, --t-amb, --measured")
-        if sun != 0.0 or soak_cabin is not None or physics_dts is not None:
-            fail("--scenarios set their own sun and initial state and run no step-size study; "
-                 "leave out --sun, --soak-cabin, --physics-dts")  # fmt: skip
-        _compare_scenarios(scenarios, scenario_file, approaches, surrogates, luts, params, dt, repeat, output, json_out)
-        return
-    if cycle is None or t_amb is None:
-        fail("give --cycle NAMES and --t-amb DEGC (or --scenarios NAMES)")
-    if output is None:
-        fail("give --output FOLDER for the comparison's tables and figures")
-    approaches = "physics,lut,surrogate" if approaches is None else approaches
-    from evtms.cycle.topology import parse_values
-    from evtms.reports.compare import APPROACHES, compare_summary, write_compare
-    from evtms.system.drive_cycles import drive_cycle
-    from evtms.system.params import load_system_params
-    from evtms.workflows.compare import check_request, read_measured, run_compare
+    options = dict(locals())  # every option by name: the request's fields
+    del options["json_out"]
+    from evtms.reports.compare import compare_summary
+    from evtms.reports.table12 import table12_summary, table12_text
+    from evtms.workflows.compare import CompareRequest, run_comparison
 
-    chosen = [a.strip() for a in approaches.split(",")]
-    for a in chosen:
-        if a not in APPROACHES:
-            fail(f"--approaches {a!r} is unknown; allowed: {', '.join(APPROACHES)}")
-    if fmt not in ("png", "svg"):
-        fail(f"--format {fmt!r} is unknown; allowed: png, svg")
-    if not 1 <= repeat <= 20:
-        fail(f"--repeat {repeat} is not allowed; allowed: 1 to 20")
-    if not (math.isfinite(sun) and 0.0 <= sun <= 1500.0):
-        fail(f"--sun {sun:g} is not allowed; allowed: 0 to 1500 W/m2")
-    _check_soak(soak_cabin)
-    ambients = parse_values("T_amb", t_amb, 20)
-    step_list = _float_list("--dts", dts)
-    physics_steps = _float_list("--physics-dts", physics_dts) if physics_dts is not None else None
-    names = [c.strip() for c in cycle.split(",")]
-    if len(names) > 20:
-        fail(f"--cycle: {len(names)} cycles; at most 20")
-    cycles = [drive_cycle(c) for c in names]
-    inputs = [Path(c.source) for c in cycles if Path(c.source).is_file()]
-    if params is not None:
-        inputs.append(input_file(params, "params file"))
-    system = load_system_params(params)
-    reference = None
-    if measured is not None:
-        reference = read_measured(input_file(measured, "measured file"))
-        inputs.append(measured)
-    mode_models = None
-    if "surrogate" in chosen:
-        mode_models, surrogate_file = _mode_models(surrogates)
-        inputs.append(surrogate_file)
-    check_request(
-        cycles, ambients, chosen, mode_models, step_list, physics_steps, dt, reference, repeat
-    )  # before the maps are built
-    lut_folder, lut_files = _cycle_luts(luts)
-    inputs += lut_files
-    output_folder(output, inputs)
-    refrigerant = _system_refrigerant(luts, lut_folder, system, quiet=json_out)
-
-    def progress(done: int, total: int, message: str) -> None:
+    def on_run(done: int, total: int, message: str) -> None:
         if not json_out:
             typer.echo(f"[{done}/{total}] {message}", err=True)
 
-    result = run_compare(
-        cycles,
-        ambients,
-        refrigerant,
-        params=system,
-        approaches=tuple(chosen),
-        mode_models=mode_models,
-        dts=tuple(step_list),
-        physics_dts=None if physics_steps is None else tuple(physics_steps),
-        dt=dt,
-        measured=reference,
-        measured_source=str(measured) if measured is not None else "",
-        repeat=repeat,
-        step_study=not no_steps,
-        simulate_options={"sun": sun, "soak_cabin": None if soak_cabin is None else soak_cabin + 273.15},
-        progress=progress,
-    )
-    files = write_compare(result, output, fmt)
+    with _ProgressBar(json_out or not sys.stderr.isatty()) as bar:
+        c = run_comparison(CompareRequest(**options), notify=note, progress=bar.by_label(), on_run=on_run)
+    files = [str(f) for f in c.files]
     if json_out:
-        print_json({**compare_summary(result), "files": [str(f) for f in files]})
-        return
-    typer.echo(f"wrote {len(files)} files and {output / 'index.html'}")
-
-
-def _compare_scenarios(
-    names: str | None,
-    scenario_file: Path | None,
-    approaches: str | None,
-    surrogates: Path,
-    luts: Path,
-    params: Path | None,
-    dt: float,
-    repeat: int,
-    output: Path | None,
-    json_out: bool,
-) -> None:
-    """``report compare --scenarios``: the scenarios run by each approach, the Table 12 columns printed."""
-    from evtms.reports.table12 import table12_summary, table12_text, write_table12
-    from evtms.system.params import load_system_params
-    from evtms.system.scenarios import SCENARIOS, read_scenario_file, select_scenarios
-    from evtms.system.simulate import check_model
-    from evtms.system.table12 import APPROACHES, run_table12
-
-    if not 1 <= repeat <= 20:
-        fail(f"--repeat {repeat} is not allowed; allowed: 1 to 20")
-    inputs: list[Path] = []
-    from_file = {}
-    if scenario_file is not None:
-        from_file = read_scenario_file(input_file(scenario_file, "scenario file"))
-        inputs.append(scenario_file)
-    chosen = select_scenarios(names, {**SCENARIOS, **from_file}) if names is not None else list(from_file.values())
-    if params is not None:
-        inputs.append(input_file(params, "params file"))
-    system = load_system_params(params)
-    setups = [sc.setup(system) for sc in chosen]
-    for st in setups:
-        if st.T_amb is None:
-            fail(f"scenario {st.scenario.name!r} has no ambient of its own; give scenarios with T_amb")
-        if Path(st.cycle.source).is_file():
-            inputs.append(Path(st.cycle.source))
-        inputs += _trace_files(st.inputs)
-    asked = None if approaches is None else [a.strip() for a in approaches.split(",")]
-    for a in asked or ():
-        if a not in APPROACHES:
-            fail(f"--approaches {a!r} is unknown; allowed: {', '.join(APPROACHES)}")
-    skipped: dict[str, str] = {}
-    mode_models = None
-    if asked is None or "surrogate" in asked:
-        from evtms.surrogates.io import MODEL_FILE
-
-        file = surrogates / MODEL_FILE if surrogates.is_dir() else surrogates
-        if asked is None and not file.is_file():
-            skipped["surrogate"] = f"no mode-model file at {surrogates} (evtms surrogate train)"
-        else:
-            mode_models, surrogate_file = _mode_models(surrogates)
-            inputs.append(surrogate_file)
-    lut_folder, lut_files = _cycle_luts(luts)
-    inputs += lut_files
-    if output is not None:
-        output_folder(output, inputs)
-    refrigerant = _system_refrigerant(luts, lut_folder, system, quiet=json_out)
-    chosen_approaches = []
-    for a in APPROACHES:
-        if (asked is None and a in skipped) or (asked is not None and a not in asked):
-            continue
-        try:
-            for st in setups:
-                check_model(a, st.mode, mode_models, refrigerant)
-        except EvtmsInputError as exc:
-            if asked is not None:
-                raise
-            skipped[a] = str(exc)
-            continue
-        chosen_approaches.append(a)
-
-    def progress(done: int, total: int, message: str) -> None:
-        if not json_out:
-            typer.echo(f"[{done}/{total}] {message}", err=True)
-
-    result = run_table12(
-        chosen,
-        refrigerant,
-        params=system,
-        approaches=chosen_approaches,
-        mode_models=mode_models,
-        dt=dt,
-        repeat=repeat,
-        progress=progress,
-    )
-    result.skipped = skipped
-    files = write_table12(result, output) if output is not None else []
-    if json_out:
-        print_json({**table12_summary(result), "files": [str(f) for f in files]})
-        return
-    typer.echo(table12_text(result))
-    if files:
-        typer.echo(f"wrote {', '.join(str(f) for f in files)}")
+        print_json({**(table12_summary if c.table12 else compare_summary)(c.result), "files": files})
+    elif not c.table12:
+        typer.echo(f"wrote {len(files)} files and {output / 'index.html'}")
+    else:
+        typer.echo(table12_text(c.result))
+        if files:
+            typer.echo(f"wrote {', '.join(files)}")

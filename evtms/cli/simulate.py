@@ -158,14 +158,6 @@ def simulate(
     typer.echo(f"wrote {output} ({run.wall_time_s:.2f} s)")
 
 
-def _system_refrigerant(luts: Path, folder: Path | None, system, quiet: bool):
-    """The simulator's cycle maps (:func:`evtms.workflows.simulate.system_refrigerant`), with notes and a bar."""
-    from evtms.workflows.simulate import system_refrigerant
-
-    with _ProgressBar(quiet or not sys.stderr.isatty()) as bar:
-        return system_refrigerant(luts, folder, system, note, bar.by_label())
-
-
 def _range_line(s: dict) -> str:
     """One line of a depletion test's figures (evtms simulate --range mct|ccp)."""
     f = s["range"]

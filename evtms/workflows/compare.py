@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from evtms.errors import EvtmsInputError
-from evtms.paths import csv_rows, read_small_text
+from evtms.paths import csv_rows, input_file, output_folder, read_small_text
 from evtms.reports.compare import (
     APPROACHES,
     COMPARED,
@@ -730,3 +730,326 @@ def largest_stable(rows: Sequence[StepRow]) -> float | None:
             break
         best = row.dt_s
     return best
+
+
+# ---------------------------------------------------------------------------------------------- the request
+
+
+@dataclass
+class CompareRequest:
+    """One ``evtms report compare``: drive cycles x ambients, or named scenarios (Table 12).
+
+    Attributes
+    ----------
+    cycle : str or sequence of str, optional
+        Drive cycles (built-in names or CSV files); text is comma-separated.
+    t_amb : str, float or sequence of float, optional
+        Ambient temperatures [degC]; text is comma-separated.
+    output : Path, optional
+        Output folder (required for cycles; optional with scenarios).
+    scenarios : str, optional
+        Scenarios instead of cycles and ambients, comma-separated names or groups (``t12``, ``t12-cc`` ...).
+    scenario_file : Path, optional
+        TOML scenario file whose scenarios ``scenarios`` may name (else: all of them).
+    approaches : str or sequence of str, optional
+        Among physics, lut, surrogate (default: all three; with scenarios lut and those available).
+    surrogates : Path
+        Mode-model file or folder (``evtms surrogate train -o``).
+    luts : Path
+        Cycle LUT folder (or ``evtms demo``'s luts/ or output folder); built there if missing or empty.
+    params : Path, optional
+        System TOML, as for a simulation.
+    dt : float
+        Step of the comparison table and trajectories [s].
+    dts, physics_dts : str or sequence of float
+        Steps of the step-size study [s], and those at which physics joins it (default: ``dts`` >= 1 s).
+    no_steps : bool
+        Skip the step-size study.
+    measured : Path, optional
+        CSV of measured values (:func:`read_measured`): the reference where given (one cycle, one ambient).
+    repeat : int
+        Runs of lut and surrogate per scenario, median time (1 to 20).
+    sun : float
+        Solar irradiance [W/m2], 0 to 1500.
+    soak_cabin : float, optional
+        Initial cabin air, walls and interior [degC].
+    fmt : str
+        Figure format, png or svg.
+    """
+
+    cycle: str | Sequence[str] | None = None
+    t_amb: str | float | Sequence[float] | None = None
+    output: Path | None = None
+    scenarios: str | None = None
+    scenario_file: Path | None = None
+    approaches: str | Sequence[str] | None = None
+    surrogates: Path = Path("models")
+    luts: Path = Path("luts")
+    params: Path | None = None
+    dt: float = 1.0
+    dts: str | Sequence[float] = "0.01,0.1,1,10"
+    physics_dts: str | Sequence[float] | None = None
+    no_steps: bool = False
+    measured: Path | None = None
+    repeat: int = 3
+    sun: float = 0.0
+    soak_cabin: float | None = None
+    fmt: str = "png"
+
+
+@dataclass
+class Comparison:
+    """What :func:`run_comparison` ran and wrote.
+
+    Attributes
+    ----------
+    result : CompareResult or Table12Result
+        The comparison (:class:`~evtms.reports.compare.CompareResult`), or with scenarios the Table 12
+        rows (:class:`~evtms.system.table12.Table12Result`).
+    files : list of Path
+        The files written.
+    table12 : bool
+        The request named scenarios.
+    """
+
+    result: Any
+    files: list[Path]
+    table12: bool
+
+
+def _names(value: str | Sequence[str]) -> list[str]:
+    """Comma-separated names (or a sequence of them), stripped."""
+    return [v.strip() for v in (value.split(",") if isinstance(value, str) else value)]
+
+
+def _float_list(field_name: str, value: str | Sequence[float], most: int = 20) -> list[float]:
+    """Comma-separated numbers of a request field (or a sequence of them)."""
+    from evtms.workflows.common import as_text
+
+    text = as_text(value)
+    items = [t.strip() for t in text.split(",")]
+    if not items or len(items) > most:
+        raise EvtmsInputError(f"`{field_name}` {text!r}: give 1 to {most} comma-separated numbers")
+    try:
+        values = [float(t) for t in items]
+    except ValueError:
+        raise EvtmsInputError(f"`{field_name}` {text!r}: not comma-separated numbers") from None
+    if not all(math.isfinite(v) for v in values):
+        raise EvtmsInputError(f"`{field_name}` {text!r}: numbers must be finite")
+    return values
+
+
+def _check_repeat(repeat: int) -> None:
+    if not 1 <= repeat <= 20:
+        raise EvtmsInputError(f"`repeat` {repeat} is not allowed; allowed: 1 to 20")
+
+
+def run_comparison(
+    request: CompareRequest,
+    *,
+    notify: Callable[[str], None] | None = None,
+    progress: Progress | None = None,
+    on_run: Progress | None = None,
+) -> Comparison:
+    """Compare the approaches on cycles x ambients (or on named scenarios) and write the report.
+
+    Parameters
+    ----------
+    request : CompareRequest
+        Checked in full before any LUT, map or simulation work.
+    notify : callable, optional
+        ``notify(message)`` for notes (LUTs or maps being built).
+    progress : callable, optional
+        ``progress(done, total, map_name)`` while cycle maps are built.
+    on_run : callable, optional
+        ``on_run(done, total, message)`` before each simulation.
+
+    Returns
+    -------
+    Comparison
+        The comparison and the files :func:`evtms.reports.compare.write_compare` wrote, or with scenarios
+        the Table 12 rows and the files of :func:`evtms.reports.table12.write_table12`.
+
+    Raises
+    ------
+    EvtmsInputError
+        Anything the request asks that is not allowed (the message names the request field).
+    """
+    r = request
+    if r.scenarios is not None or r.scenario_file is not None:
+        if r.cycle is not None or r.t_amb is not None or r.measured is not None:
+            raise EvtmsInputError(
+                "`scenarios` runs scenarios with their own cycle and ambient; leave out `cycle`, `t_amb`, `measured`"
+            )
+        if r.sun != 0.0 or r.soak_cabin is not None or r.physics_dts is not None:
+            raise EvtmsInputError(
+                "`scenarios` set their own sun and initial state and run no step-size study; "
+                "leave out `sun`, `soak_cabin`, `physics_dts`"
+            )
+        return _compare_scenarios(r, notify, progress, on_run)
+    if r.cycle is None or r.t_amb is None:
+        raise EvtmsInputError("give `cycle` NAMES and `t_amb` DEGC (or `scenarios` NAMES)")
+    if r.output is None:
+        raise EvtmsInputError("give `output` FOLDER for the comparison's tables and figures")
+    return _compare_cycles(r, notify, progress, on_run)
+
+
+def _cycles_plan(r: CompareRequest) -> dict:
+    """The arguments of :func:`run_compare` and the files read, from a request of cycles x ambients."""
+    from evtms.cycle.topology import parse_values
+    from evtms.system.drive_cycles import drive_cycle
+    from evtms.system.params import load_system_params
+    from evtms.workflows.common import as_text
+    from evtms.workflows.simulate import check_soak, surrogate_models
+
+    chosen = _names("physics,lut,surrogate" if r.approaches is None else r.approaches)
+    for a in chosen:
+        if a not in APPROACHES:
+            raise EvtmsInputError(f"`approaches` {a!r} is unknown; allowed: {', '.join(APPROACHES)}")
+    if r.fmt not in ("png", "svg"):
+        raise EvtmsInputError(f"`fmt` {r.fmt!r} is unknown; allowed: png, svg")
+    _check_repeat(r.repeat)
+    if not (math.isfinite(r.sun) and 0.0 <= r.sun <= 1500.0):
+        raise EvtmsInputError(f"`sun` {r.sun:g} is not allowed; allowed: 0 to 1500 W/m2")
+    check_soak(r.soak_cabin)
+    ambients = parse_values("T_amb", as_text(r.t_amb), 20)
+    step_list = _float_list("dts", r.dts)
+    physics_steps = _float_list("physics_dts", r.physics_dts) if r.physics_dts is not None else None
+    names = _names(r.cycle)
+    if len(names) > 20:
+        raise EvtmsInputError(f"`cycle`: {len(names)} cycles; at most 20")
+    cycles = [drive_cycle(c) for c in names]
+    inputs = [Path(c.source) for c in cycles if Path(c.source).is_file()]
+    if r.params is not None:
+        inputs.append(input_file(r.params, "params file"))
+    system = load_system_params(r.params)
+    reference = None
+    if r.measured is not None:
+        reference = read_measured(input_file(r.measured, "measured file"))
+        inputs.append(r.measured)
+    mode_models = None
+    if "surrogate" in chosen:
+        mode_models, surrogate_file = surrogate_models(r.surrogates)
+        inputs.append(surrogate_file)
+    check_request(cycles, ambients, chosen, mode_models, step_list, physics_steps, r.dt, reference, r.repeat)
+    return {
+        "inputs": inputs,
+        "cycles": cycles,
+        "t_ambs_K": ambients,
+        "params": system,
+        "approaches": tuple(chosen),
+        "mode_models": mode_models,
+        "dts": tuple(step_list),
+        "physics_dts": None if physics_steps is None else tuple(physics_steps),
+        "measured": reference,
+    }
+
+
+def _compare_cycles(r: CompareRequest, notify, progress, on_run) -> Comparison:
+    """``run_comparison`` of cycles x ambients: :func:`run_compare`, then the report written."""
+    from evtms.reports.compare import write_compare
+    from evtms.workflows.simulate import cycle_luts, system_refrigerant
+
+    plan = _cycles_plan(r)  # before the maps are built
+    inputs = plan.pop("inputs")
+    lut_folder, lut_files = cycle_luts(r.luts)
+    output_folder(r.output, inputs + lut_files)
+    refrigerant = system_refrigerant(r.luts, lut_folder, plan["params"], notify, progress)
+    result = run_compare(
+        plan.pop("cycles"),
+        plan.pop("t_ambs_K"),
+        refrigerant,
+        **plan,
+        dt=r.dt,
+        measured_source=str(r.measured) if r.measured is not None else "",
+        repeat=r.repeat,
+        step_study=not r.no_steps,
+        simulate_options={"sun": r.sun, "soak_cabin": None if r.soak_cabin is None else r.soak_cabin + 273.15},
+        progress=on_run,
+    )
+    return Comparison(result, write_compare(result, r.output, r.fmt), table12=False)
+
+
+def _scenarios_plan(r: CompareRequest):
+    """(scenarios, their setups, system parameters, files read) of a request of named scenarios."""
+    from evtms.system.params import load_system_params
+    from evtms.system.scenarios import SCENARIOS, read_scenario_file, select_scenarios
+    from evtms.workflows.simulate import trace_files
+
+    _check_repeat(r.repeat)
+    inputs: list[Path] = []
+    from_file = {}
+    if r.scenario_file is not None:
+        from_file = read_scenario_file(input_file(r.scenario_file, "scenario file"))
+        inputs.append(r.scenario_file)
+    available = {**SCENARIOS, **from_file}
+    chosen = select_scenarios(r.scenarios, available) if r.scenarios is not None else list(from_file.values())
+    if r.params is not None:
+        inputs.append(input_file(r.params, "params file"))
+    system = load_system_params(r.params)
+    setups = [sc.setup(system) for sc in chosen]
+    for st in setups:
+        if st.T_amb is None:
+            raise EvtmsInputError(f"scenario {st.scenario.name!r} has no ambient of its own; give scenarios with T_amb")
+        if Path(st.cycle.source).is_file():
+            inputs.append(Path(st.cycle.source))
+        inputs += trace_files(st.inputs)
+    return chosen, setups, system, inputs
+
+
+def _available(asked: list[str] | None, skipped: dict[str, str], setups, mode_models, refrigerant) -> list[str]:
+    """The approaches to run: those asked, or (none asked) those that can run every scenario."""
+    from evtms.system.simulate import check_model
+    from evtms.system.table12 import APPROACHES as TABLE12_APPROACHES
+
+    chosen = []
+    for a in TABLE12_APPROACHES:
+        if (asked is None and a in skipped) or (asked is not None and a not in asked):
+            continue
+        try:
+            for st in setups:
+                check_model(a, st.mode, mode_models, refrigerant)
+        except EvtmsInputError as exc:
+            if asked is not None:
+                raise
+            skipped[a] = str(exc)
+            continue
+        chosen.append(a)
+    return chosen
+
+
+def _compare_scenarios(r: CompareRequest, notify, progress, on_run) -> Comparison:
+    """``run_comparison`` of named scenarios: each approach on each scenario, the Table 12 rows written."""
+    from evtms.reports.table12 import write_table12
+    from evtms.system.table12 import APPROACHES as TABLE12_APPROACHES
+    from evtms.system.table12 import run_table12
+    from evtms.workflows.simulate import cycle_luts, surrogate_models, system_refrigerant
+
+    chosen, setups, system, inputs = _scenarios_plan(r)
+    asked = None if r.approaches is None else _names(r.approaches)
+    for a in asked or ():
+        if a not in TABLE12_APPROACHES:
+            raise EvtmsInputError(f"`approaches` {a!r} is unknown; allowed: {', '.join(TABLE12_APPROACHES)}")
+    skipped: dict[str, str] = {}
+    mode_models = None
+    if asked is None or "surrogate" in asked:
+        from evtms.surrogates.io import MODEL_FILE
+
+        surrogates = Path(r.surrogates)
+        file = surrogates / MODEL_FILE if surrogates.is_dir() else surrogates
+        if asked is None and not file.is_file():
+            skipped["surrogate"] = f"no mode-model file at {surrogates} (evtms surrogate train)"
+        else:
+            mode_models, surrogate_file = surrogate_models(surrogates)
+            inputs.append(surrogate_file)
+    lut_folder, lut_files = cycle_luts(r.luts)
+    if r.output is not None:
+        output_folder(r.output, inputs + lut_files)
+    refrigerant = system_refrigerant(r.luts, lut_folder, system, notify, progress)
+    approaches = _available(asked, skipped, setups, mode_models, refrigerant)
+    result = run_table12(
+        chosen, refrigerant, params=system, approaches=approaches, mode_models=mode_models, dt=r.dt,
+        repeat=r.repeat, progress=on_run,
+    )  # fmt: skip
+    result.skipped = skipped
+    return Comparison(result, write_table12(result, r.output) if r.output is not None else [], table12=True)
