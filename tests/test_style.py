@@ -81,3 +81,16 @@ def test_lower_layers_never_import_upper_ones():
         for path in files:
             bad = _evtms_imports(path) & set(forbidden)
             assert not bad, f"{path.relative_to(ROOT)} imports evtms.{', evtms.'.join(sorted(bad))}"
+
+
+#: All the CLI package (evtms/cli/) may import of evtms: the application layer, the reports whose
+#: summaries it prints and the error types.
+CLI_MAY_IMPORT = {"cli", "workflows", "reports", "errors"}
+
+
+def test_the_cli_imports_only_workflows_reports_and_errors():
+    files = list((ROOT / "evtms" / "cli").rglob("*.py"))
+    assert files
+    for path in files:
+        bad = _evtms_imports(path) - CLI_MAY_IMPORT
+        assert not bad, f"{path.relative_to(ROOT)} imports evtms.{', evtms.'.join(sorted(bad))}"

@@ -3,24 +3,14 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from evtms.cli.common import _JSON, fail, print_json
-from evtms.errors import EvtmsInputError
-from evtms.paths import creating_parents, input_file, output_file
+from evtms.cli.common import JsonOut, print_json
 
 lut_app = typer.Typer(help="Read, check, query, export and compare LUT files.", no_args_is_help=True)
-
-
-def _open(path: Path, **kwargs):
-    """A validated LUT (see :func:`evtms.luts.open_lut`); a bad file is one line, exit 2."""
-    from evtms.luts import open_lut
-
-    return open_lut(input_file(path, "LUT file"), **kwargs)
 
 
 def _fmt(x: float) -> str:
@@ -30,7 +20,7 @@ def _fmt(x: float) -> str:
 @lut_app.command("info")
 def lut_info(
     file: Annotated[Path, typer.Argument(help="LUT file (.nc).")],
-    json_out: Annotated[bool, _JSON] = False,
+    json_out: JsonOut = False,
 ) -> None:
     """Show a LUT's component, axes, variables, invalid points and provenance.
 
@@ -39,9 +29,9 @@ def lut_info(
 
     Example: evtms lut info luts/condenser.nc
     """
-    from evtms.luts.summary import lut_summary
+    from evtms.workflows.lut import lut_info as summary
 
-    s = lut_summary(input_file(file, "LUT file"))
+    s = summary(file)
     if json_out:
         print_json({"file": str(file), **s})
         return
@@ -67,44 +57,6 @@ def lut_info(
     typer.echo(f"parameters: {json.dumps(s['parameters'], sort_keys=True)}")
 
 
-def _parse_point(text: str, names: tuple[str, ...], partial: bool = False, fixed: dict | None = None) -> dict:
-    """``name=value[unit],...`` -> SI values (units as for --axis).
-
-    A fixed input of the LUT (``fixed``: name -> value) may be given too; it
-    must then equal the LUT's value, as the LUT holds no other.
-    """
-    from evtms.benches.grid import parse_value
-
-    fixed = fixed or {}
-    point: dict[str, float] = {}
-    for item in text.split(","):
-        if not item.strip():
-            continue
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep:
-            raise EvtmsInputError(f"--at item {item!r} is not name=value")
-        if name not in names and name not in fixed:
-            raise EvtmsInputError(f"unknown axis {name!r} in --at; allowed: {', '.join((*names, *fixed))}")
-        if name in point:
-            raise EvtmsInputError(f"axis {name!r} is given twice in --at")
-        x = parse_value(name, value)
-        if name in fixed:
-            if not math.isclose(x, fixed[name], rel_tol=1e-9, abs_tol=1e-12):
-                raise EvtmsInputError(
-                    f"{name} = {x:g} in --at: the LUT holds {name} fixed at {fixed[name]:g} only (not an axis)"
-                )
-            continue
-        point[name] = x
-    missing = [n for n in names if n not in point]
-    if missing and not partial:
-        raise EvtmsInputError(f"--at has no value for axis {missing[0]!r}; give all of {', '.join(names)}")
-    return point
-
-
-_MAX_QUERY_POINTS = 100_000
-
-
 @lut_app.command("query")
 def lut_query(
     file: Annotated[Path, typer.Argument(help="LUT file (.nc).")],
@@ -115,49 +67,30 @@ def lut_query(
     out_of_range: Annotated[
         str, typer.Option("--out-of-range", help="Policy outside the grid: error, clip or nan.")
     ] = "error",
-    json_out: Annotated[bool, _JSON] = False,
+    json_out: JsonOut = False,
 ) -> None:
     """Interpolate LUT variables at points (N-D multilinear).
 
     Example: evtms lut query luts/condenser.nc --at mdot=0.005,fan=0.2,p_in=1e6,T_in=340,T_res=300 --var Q
     """
-    from evtms.luts import Interpolator
-    from evtms.luts.validate import fixed_inputs
+    from evtms.workflows.lut import query_lut
 
-    if len(at) > _MAX_QUERY_POINTS:
-        fail(f"{len(at)} --at points is above the limit of {_MAX_QUERY_POINTS:,}")
-    if out_of_range not in ("error", "clip", "nan"):
-        fail(f"--out-of-range {out_of_range!r} is not allowed; allowed: error, clip, nan")
-    variables = [v.strip() for item in (var or []) for v in item.split(",") if v.strip()] or None
-    if variables is not None and len(set(variables)) != len(variables):
-        fail(f"--var names a variable twice: {', '.join(variables)}")
-    ds = _open(file, variables=variables)
-    names = tuple(ds["status"].dims)
-    fixed = fixed_inputs(ds)
-    itp = Interpolator.from_dataset(ds, variables, out_of_range)
-    points = [_parse_point(text, names, fixed=fixed) for text in at]
-    query = {n: [p[n] for p in points] for n in names}
-    result = itp(query)
+    q = query_lut(file, at, var, out_of_range)
     if json_out:
         print_json(
             {
                 "file": str(file),
-                "axes": list(names),
-                "fixed_inputs": fixed,
-                "variables": list(itp.variables),
-                "units": {n: ds[n].attrs["units"] for n in (*names, *itp.variables)},
-                "points": [
-                    {**{n: p[n] for n in names}, **{v: float(result[v][i]) for v in itp.variables}}
-                    for i, p in enumerate(points)
-                ],
+                "axes": list(q.axes),
+                "fixed_inputs": q.fixed_inputs,
+                "variables": list(q.variables),
+                "units": q.units,
+                "points": q.points,
             }
         )
         return
-    header = [f"{n} [{ds[n].attrs['units']}]" for n in names] + [f"{v} [{ds[v].attrs['units']}]" for v in itp.variables]
-    typer.echo("  ".join(header))
-    for i, p in enumerate(points):
-        row = [_fmt(p[n]) for n in names] + [_fmt(float(result[v][i])) for v in itp.variables]
-        typer.echo("  ".join(row))
+    typer.echo("  ".join(f"{n} [{q.units[n]}]" for n in (*q.axes, *q.variables)))
+    for p in q.points:
+        typer.echo("  ".join(_fmt(p[n]) for n in (*q.axes, *q.variables)))
 
 
 @lut_app.command("export")
@@ -173,22 +106,16 @@ def lut_export(
 
     Example: evtms lut export luts/condenser.nc --format mat -o condenser.mat
     """
-    from evtms.luts.export import FORMATS, to_csv, to_mat
+    from evtms.workflows.lut import export_lut
 
-    if fmt not in FORMATS:
-        fail(f"export format {fmt!r} is not allowed; allowed: {', '.join(FORMATS)}")
-    output_file(output, [file])
-    ds = _open(file)
-    with creating_parents(output):
-        path = (to_mat if fmt == "mat" else to_csv)(ds, output)
-    typer.echo(f"wrote {path}")
+    typer.echo(f"wrote {export_lut(file, fmt, output)}")
 
 
 @lut_app.command("diff")
 def lut_diff_cmd(
     a: Annotated[Path, typer.Argument(help="First LUT file.")],
     b: Annotated[Path, typer.Argument(help="Second LUT file.")],
-    json_out: Annotated[bool, _JSON] = False,
+    json_out: JsonOut = False,
 ) -> None:
     """Compare two LUTs: per-variable max and RMS differences, parameter and version changes.
 
@@ -196,9 +123,9 @@ def lut_diff_cmd(
     """
     import dataclasses
 
-    from evtms.luts.diff import lut_diff
+    from evtms.workflows.lut import diff_luts
 
-    d = lut_diff(_open(a), _open(b))
+    d = diff_luts(a, b)
     if json_out:
         summary = dataclasses.asdict(d)
         changed = {**summary.pop("attributes"), **summary.pop("parameters")}

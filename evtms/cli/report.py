@@ -8,72 +8,18 @@ from typing import Annotated
 
 import typer
 
-from evtms.cli.common import _JSON, JsonOut, _ProgressBar, fail, note, print_json
-from evtms.cli.lut import _open, _parse_point
+from evtms.cli.common import JsonOut, _ProgressBar, note, print_json
 from evtms.cli.simulate import SoakCabin, SystemToml
-from evtms.errors import EvtmsInputError
-from evtms.paths import creating_parents, input_file, output_file, output_folder, staged_folder
 
 report_app = typer.Typer(
     help="Figures and reports from LUT files, cycle sweeps and system simulations.", no_args_is_help=True
 )
 
 
-def _load_netcdf(path: Path, what: str):
-    """The netCDF file ``path`` loaded into memory; missing, not netCDF or truncated: one line, exit 2."""
-    import xarray as xr
-
-    input_file(path, what)
-    try:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
-            return ds.load()
-    except Exception as exc:  # not netCDF, truncated: one line, not an HDF5 traceback
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        fail(f"{path}: not a readable {what} ({first})")
-
-
-def _open_cycle(path: Path):
-    """A cycle sweep file, loaded; anything else is one line, exit 2."""
-
-    ds = _load_netcdf(path, "cycle sweep file")
-    if "status" not in ds or "p_A" not in ds or "reason" not in ds:
-        fail(f"{path}: not an evtms cycle sweep (write one with 'evtms cycle sweep')")
-    return ds
-
-
-def _parse_index(ds, text: str | None):
-    if text is None:
-        return None
-    index = {}
-    for item in text.split(","):
-        name, _, value = item.partition("=")
-        name = name.strip()
-        if name not in ds["status"].dims:
-            fail(f"unknown input {name!r} in --point; allowed: {', '.join(ds['status'].dims)}")
-        if name in index:
-            fail(f"input {name!r} is given twice in --point")
-        try:
-            index[name] = int(value)
-        except ValueError:
-            fail(f"--point {name}={value!r}: give a 0-based index along that input")
-        if not 0 <= index[name] < ds.sizes[name]:
-            fail(f"--point {name}={value}: allowed 0 to {ds.sizes[name] - 1}")
-    return {d: index.get(d, 0) for d in ds["status"].dims}
-
-
 def _diagram(kind: str, sweep: Path, output: Path, point: str | None) -> None:
-    from evtms.fluid import Fluid
-    from evtms.reports.cycle_plots import diagram_data, ph_diagram, pt_diagram
+    from evtms.workflows.report import cycle_diagram
 
-    output_file(output, [sweep], (".png", ".svg"))
-    ds = _open_cycle(sweep)
-    try:
-        states = diagram_data(ds, _parse_index(ds, point))
-    except ValueError as exc:
-        fail(str(exc))
-    with creating_parents(output):
-        (ph_diagram if kind == "ph" else pt_diagram)(states, Fluid(), output)
-    typer.echo(f"wrote {output}")
+    typer.echo(f"wrote {cycle_diagram(kind, sweep, output, point)}")
 
 
 _Format = Annotated[str, typer.Option("--format", help="Figure format: png or svg.")]
@@ -118,22 +64,10 @@ def report_energy_balance(
 
     Example: evtms cycle sweep --speed 0.2:1:9 -o speed.nc && evtms report energy-balance speed.nc -o eb.png
     """
-    from evtms.reports.cycle_plots import energy_balance_figure
+    from evtms.workflows.report import energy_balance_report
 
-    output_file(output, [sweep], (".png", ".svg"))
-    output_file(output.with_suffix(".csv"), [sweep])
-    ds = _open_cycle(sweep)
-    if x is None:
-        varied = [d for d in ds["status"].dims if ds.sizes[d] > 1]
-        if len(varied) != 1:
-            fail(f"the sweep varies {len(varied)} inputs ({', '.join(varied) or 'none'}); an energy balance takes one")
-        x = varied[0]
-    try:
-        with creating_parents(output):
-            energy_balance_figure(ds, x, output)
-    except ValueError as exc:
-        fail(str(exc))
-    typer.echo(f"wrote {output} and {output.with_suffix('.csv')}")
+    figure, table = energy_balance_report(sweep, output, x)
+    typer.echo(f"wrote {figure} and {table}")
 
 
 @report_app.command("bench")
@@ -155,42 +89,10 @@ def report_bench(
 
     Example: evtms report bench luts/condenser.nc -o reports/condenser/
     """
-    from evtms.luts.validate import fixed_inputs
-    from evtms.reports.bench_plots import base_point, bench_report_figures, surface_data
-    from evtms.reports.html import bench_report_page
+    from evtms.workflows.report import bench_report
 
-    if fmt not in ("png", "svg"):
-        fail(f"figure format {fmt!r} is not allowed; allowed: png, svg")
-    output_folder(output, [file])
-    ds = _open(file)
-    dims = tuple(ds["status"].dims)
-    base = base_point(ds, _parse_point(at, dims, partial=True, fixed=fixed_inputs(ds)) if at else None)
-    pair = None
-    if surface:
-        parts = tuple(p.strip() for p in surface.split(","))
-        if len(parts) != 2:
-            fail(f"--surface {surface!r} must name two axes, e.g. p_in,T_in")
-        if parts[0] == parts[1]:
-            fail(f"--surface {surface!r} names the axis {parts[0]!r} twice; give two different axes")
-        surface_data(ds, parts, base)  # checks the axes before anything is drawn
-        pair = parts
-    with staged_folder(output) as stage:
-        figures = bench_report_figures(ds, stage, base, pair, fmt)
-        bench_report_page(ds, figures, stage / "index.html", str(file))
-    typer.echo(f"wrote {len(figures)} figures and {output / 'index.html'}")
-
-
-def _open_simulation(path: Path, variables: tuple[str, ...] = ()):
-    """A simulation output file (evtms simulate), loaded and checked; anything else is one line, exit 2."""
-
-    from evtms.reports.system_plots import check_simulation
-
-    ds = _load_netcdf(path, "simulation file")
-    try:
-        check_simulation(ds, variables)
-    except EvtmsInputError as exc:
-        fail(f"{path}: {exc}")
-    return ds
+    count, page = bench_report(file, output, at, surface, fmt)
+    typer.echo(f"wrote {count} figures and {page}")
 
 
 @report_app.command("simulation")
@@ -201,21 +103,15 @@ def report_simulation(
         float | None,
         typer.Option("--t-amb", help="Ambient [degC] of the run to draw from a sweep; default: the first."),
     ] = None,
-    json_out: Annotated[bool, _JSON] = False,
+    json_out: JsonOut = False,
 ) -> None:
     """Time series of one run: speed, temperatures, powers, heat flows, SOC and the modes.
 
     Example: evtms simulate --cycle wltc3b --t-amb 35 -o run.nc && evtms report simulation run.nc -o run.png
     """
-    from evtms.reports.system_plots import SIMULATION_VARIABLES, simulation_figure
+    from evtms.workflows.report import simulation_report
 
-    output_file(output, [run], (".png", ".svg"))
-    ds = _open_simulation(run, SIMULATION_VARIABLES)
-    try:
-        with creating_parents(output):
-            simulation_figure(ds, output, None if t_amb is None else t_amb + 273.15)
-    except EvtmsInputError as exc:
-        fail(f"{run}: {exc}")
+    simulation_report(run, output, t_amb)
     if json_out:
         print_json({"path": str(output)})
         return
@@ -229,7 +125,7 @@ def report_range(
         typer.Argument(help="Simulation sweep over the ambient (evtms simulate --t-amb a:b:n), or range tests."),
     ],
     output: Annotated[Path, typer.Option("--output", "-o", help="Figure file, .png or .svg.")],
-    json_out: Annotated[bool, _JSON] = False,
+    json_out: JsonOut = False,
 ) -> None:
     """Range against the ambient temperature.
 
@@ -241,16 +137,9 @@ def report_range(
 
     Example: evtms simulate --range mct --t-amb -10:40:11 -o mct.nc && evtms report range mct.nc -o range.png
     """
-    from evtms.reports.system_plots import depletion_report, range_figure, range_test
+    from evtms.workflows.report import range_report
 
-    output_file(output, [sweep], (".png", ".svg"))
-    ds = _open_simulation(sweep)
-    try:
-        with creating_parents(output):
-            range_figure(ds, output)
-        report = depletion_report(ds) if range_test(ds) != "single" else {}
-    except EvtmsInputError as exc:
-        fail(f"{sweep}: {exc}")
+    report = range_report(sweep, output)
     if json_out:
         print_json({"path": str(output), **report})
         return
