@@ -16,9 +16,9 @@ import typer
 
 from evtms import __version__
 from evtms.cli import bench, cycle, demo, lut, report, simulate, surrogate
-from evtms.cli.common import _EvtmsGroup, _json_safe, fail, print_json
+from evtms.cli.common import _EvtmsGroup, _json_safe, print_json
 
-__all__ = ["_json_safe", "app", "fail", "main", "print_json"]
+__all__ = ["_json_safe", "app", "main", "print_json"]
 
 app = typer.Typer(
     cls=_EvtmsGroup,

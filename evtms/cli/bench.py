@@ -44,56 +44,64 @@ def _bench_help(bench: BenchInfo) -> str:
     return "\n".join(lines)
 
 
+_Grid = Annotated[str, typer.Option("--grid", "-g", help="Grid preset: thesis, cycle, or custom.")]
+_Axis = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--axis",
+        "-a",
+        help="Override or add an axis: name=start:stop:count[unit] or name=v1,v2,...[unit]. Repeatable.",
+    ),
+]
+_Params = Annotated[Path | None, typer.Option("--params", help="TOML file overriding component parameters.")]
+_Output = Annotated[
+    Path | None,
+    typer.Option("--output", "-o", help="Output .nc file (a folder for 'all'). Default: luts/<name>.nc"),
+]
+_Backend = Annotated[str | None, typer.Option("--backend", help="CoolProp backend: HEOS (default) or BICUBIC&HEOS.")]
+_Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+_Workers = Annotated[int | None, typer.Option("--workers", help="Run the sweep in N local dask worker processes.")]
+_Scheduler = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        help="Send the sweep to a dask.distributed scheduler, tcp://host:port (it runs the code sent to it: "
+        "use only a cluster you trust).",
+    ),
+]
+_Resume = Annotated[
+    bool, typer.Option("--resume", help="Reuse the finished chunks of an interrupted sweep to the same output.")
+]
+_ChunkPoints = Annotated[int, typer.Option("--chunk-points", help="Points per chunk (bounds memory).")]
+_MaxPoints = Annotated[
+    int | None, typer.Option("--max-points", help="Refuse grids above this many points (default 200,000,000).")
+]
+_Float32 = Annotated[
+    bool, typer.Option("--float32", help="Store the variables as float32 (lossy, about half the size).")
+]
+_Digits = Annotated[
+    int | None,
+    typer.Option("--significant-digits", help="Keep N significant digits (1-15; lossy, compresses better)."),
+]
+
+
 def _bench_command(names: list[str]):
     """The command that sweeps ``names`` (one bench, or all for 'bench all')."""
 
     def command(
-        grid: Annotated[str, typer.Option("--grid", "-g", help="Grid preset: thesis, cycle, or custom.")] = "thesis",
-        axis: Annotated[
-            list[str] | None,
-            typer.Option(
-                "--axis",
-                "-a",
-                help="Override or add an axis: name=start:stop:count[unit] or name=v1,v2,...[unit]. Repeatable.",
-            ),
-        ] = None,
-        params: Annotated[
-            Path | None, typer.Option("--params", help="TOML file overriding component parameters.")
-        ] = None,
-        output: Annotated[
-            Path | None,
-            typer.Option("--output", "-o", help="Output .nc file (a folder for 'all'). Default: luts/<name>.nc"),
-        ] = None,
-        backend: Annotated[
-            str | None, typer.Option("--backend", help="CoolProp backend: HEOS (default) or BICUBIC&HEOS.")
-        ] = None,
-        quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
-        workers: Annotated[
-            int | None, typer.Option("--workers", help="Run the sweep in N local dask worker processes.")
-        ] = None,
-        scheduler: Annotated[
-            str | None,
-            typer.Option(
-                "--scheduler",
-                help="Send the sweep to a dask.distributed scheduler, tcp://host:port (it runs the code sent to it: "
-                "use only a cluster you trust).",
-            ),
-        ] = None,
-        resume: Annotated[
-            bool, typer.Option("--resume", help="Reuse the finished chunks of an interrupted sweep to the same output.")
-        ] = False,
-        chunk_points: Annotated[int, typer.Option("--chunk-points", help="Points per chunk (bounds memory).")] = 16384,
-        max_points: Annotated[
-            int | None,
-            typer.Option("--max-points", help="Refuse grids above this many points (default 200,000,000)."),
-        ] = None,
-        float32: Annotated[
-            bool, typer.Option("--float32", help="Store the variables as float32 (lossy, about half the size).")
-        ] = False,
-        significant_digits: Annotated[
-            int | None,
-            typer.Option("--significant-digits", help="Keep N significant digits (1-15; lossy, compresses better)."),
-        ] = None,
+        grid: _Grid = "thesis",
+        axis: _Axis = None,
+        params: _Params = None,
+        output: _Output = None,
+        backend: _Backend = None,
+        quiet: _Quiet = False,
+        workers: _Workers = None,
+        scheduler: _Scheduler = None,
+        resume: _Resume = False,
+        chunk_points: _ChunkPoints = 16384,
+        max_points: _MaxPoints = None,
+        float32: _Float32 = False,
+        significant_digits: _Digits = None,
         json_out: JsonOut = False,
     ) -> None:
         _run_benches(**{**locals(), "names": names})  # every option of this command, by name

@@ -15,7 +15,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, NoReturn
+from typing import Annotated
 
 import typer
 from typer.core import TyperGroup
@@ -101,11 +101,6 @@ def _os_message(exc: OSError) -> str:
     path = exc.filename if exc.filename is not None else ""
     reason = exc.strerror or type(exc).__name__
     return f"{str(path)!r}: {reason}" if path else reason
-
-
-def fail(message: str) -> NoReturn:
-    """Print a one-line error and exit with code 2 (bad input)."""
-    raise typer.Exit(_error(message))
 
 
 def _json_safe(value):

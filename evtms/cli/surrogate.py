@@ -17,27 +17,33 @@ surrogate_app = typer.Typer(
 )
 
 
+_Output = Annotated[Path, typer.Option("--output", "-o", help="Output folder; the file is mode_models.npz.")]
+_Mode = Annotated[
+    str,
+    typer.Option(
+        "--mode", help="Modes, comma-separated: off, bh, bc, cc, ch, ch+bh, ch+bc, cc+bc, or all (every one)."
+    ),
+]
+_Luts = Annotated[
+    Path,
+    typer.Option("--luts", help="Cycle LUT folder, or evtms demo's luts/ or output folder; built if missing or empty."),
+]
+_Seed = Annotated[int, typer.Option("--seed", help="Seed of the scenario design and of every fit.")]
+_RunsPerMode = Annotated[int, typer.Option("--runs-per-mode", help="Training simulations per mode.")]
+_Quick = Annotated[
+    bool, typer.Option("--quick", help="Small design and tiny networks (tests; errors not representative).")
+]
+
+
 @surrogate_app.command("train")
 def surrogate_train(
-    output: Annotated[Path, typer.Option("--output", "-o", help="Output folder; the file is mode_models.npz.")],
-    mode: Annotated[
-        str,
-        typer.Option(
-            "--mode", help="Modes, comma-separated: off, bh, bc, cc, ch, ch+bh, ch+bc, cc+bc, or all (every one)."
-        ),
-    ] = "all",
-    luts: Annotated[
-        Path,
-        typer.Option(
-            "--luts", help="Cycle LUT folder, or evtms demo's luts/ or output folder; built if missing or empty."
-        ),
-    ] = Path("luts"),
+    output: _Output,
+    mode: _Mode = "all",
+    luts: _Luts = Path("luts"),
     params: SystemToml = None,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the scenario design and of every fit.")] = 0,
-    runs_per_mode: Annotated[int, typer.Option("--runs-per-mode", help="Training simulations per mode.")] = 24,
-    quick: Annotated[
-        bool, typer.Option("--quick", help="Small design and tiny networks (tests; errors not representative).")
-    ] = False,
+    seed: _Seed = 0,
+    runs_per_mode: _RunsPerMode = 24,
+    quick: _Quick = False,
     json_out: JsonOut = False,
 ) -> None:
     """Train the mode models: simulate a designed set of scenarios on the cycle maps (dt 1 s), fit per mode a
@@ -57,6 +63,11 @@ def surrogate_train(
     if json_out:
         print_json(report.to_dict())
         return
+    _print_report(report)
+
+
+def _print_report(report) -> None:
+    """The training report as text: per mode its steps, fit time and held-out errors."""
     for name, m in report.modes.items():
         line = f"{name}: {m.n_train} steps, fit {m.fit_power.time_s + m.fit_dynamics.time_s:.0f} s"
         if m.rollout:
