@@ -239,11 +239,11 @@ def test_refrigerant_filter_keeps_the_map_closure_every_record(refrigerant):
 
 
 def test_bad_arguments_are_one_line_errors(refrigerant):
-    with pytest.raises(EvtmsInputError, match="--dt"):
+    with pytest.raises(EvtmsInputError, match="`dt`"):
         simulate(WLTC, 298.15, refrigerant, dt=0.0)
-    with pytest.raises(EvtmsInputError, match="--mode"):
+    with pytest.raises(EvtmsInputError, match="`mode`"):
         simulate(WLTC, 298.15, refrigerant, mode="heat")
-    with pytest.raises(EvtmsInputError, match="--output-every"):
+    with pytest.raises(EvtmsInputError, match="`output_every`"):
         simulate(WLTC, 298.15, refrigerant, dt=0.3, output_every=1.0)
 
 
@@ -317,5 +317,5 @@ def test_precondition_runs_on_the_grid_before_the_cycle(refrigerant):
     s = pre.summary
     parts = s["motor_energy_kWh"] + s["hvac_cabin_kWh"] + s["battery_thermal_kWh"] + s["aux_energy_kWh"]
     assert parts + s["battery_loss_kWh"] == pytest.approx(s["battery_chemical_kWh"], rel=1e-9)
-    with pytest.raises(EvtmsInputError, match="--precondition"):
+    with pytest.raises(EvtmsInputError, match="`precondition`"):
         simulate(WLTC, 313.15, refrigerant, precondition=0.5)

@@ -180,7 +180,7 @@ def step_count(duration: float, dt: float) -> int:
     n = math.ceil(duration / dt - 1e-9)
     if n > MAX_STEPS:
         raise EvtmsInputError(
-            f"--dt {dt:g} s gives {n:,} steps over {duration:g} s; allowed: at most {MAX_STEPS:,} steps"
+            f"`dt` {dt:g} s gives {n:,} steps over {duration:g} s; allowed: at most {MAX_STEPS:,} steps"
         )
     return n
 
@@ -605,22 +605,22 @@ def check_run_options(
         :data:`MAX_STEPS` steps.
     """
     if not (math.isfinite(dt) and 1e-3 <= dt <= 60.0):
-        raise EvtmsInputError(f"--dt {dt:g} is not allowed; allowed: 0.001 to 60 s")
+        raise EvtmsInputError(f"`dt` {dt:g} is not allowed; allowed: 0.001 to 60 s")
     if mode not in MODES:
-        raise EvtmsInputError(f"--mode {mode!r} is unknown; allowed: {', '.join(MODES)}")
+        raise EvtmsInputError(f"`mode` {mode!r} is unknown; allowed: {', '.join(MODES)}")
     every = max(1.0, dt) if output_every is None else output_every
     m = round(every / dt) if math.isfinite(every) else 0
     if not (math.isfinite(every) and m >= 1 and abs(m * dt - every) <= 1e-9 * every):
-        raise EvtmsInputError(f"--output-every {every:g} s is not allowed; allowed: a whole multiple of --dt {dt:g} s")
+        raise EvtmsInputError(f"`output_every` {every:g} s is not allowed; allowed: a whole multiple of `dt` {dt:g} s")
     if precondition:
         k = round(precondition / every) if math.isfinite(precondition) else 0
         if not (0 < precondition <= 86400.0 and abs(k * every - precondition) <= 1e-9 * precondition):
             raise EvtmsInputError(
-                f"--precondition {precondition:g} s is not allowed; allowed: a multiple of the record spacing "
+                f"`precondition` {precondition:g} s is not allowed; allowed: a multiple of the record spacing "
                 f"{every:g} s, up to 86400 s"
             )
         if cycle.speed[0] != 0.0:
-            raise EvtmsInputError(f"--precondition needs a cycle that starts at standstill; {cycle.name} does not")
+            raise EvtmsInputError(f"`precondition` needs a cycle that starts at standstill; {cycle.name} does not")
     step_count(cycle.duration + precondition, dt)  # bounds the steps before anything is allocated
     return every
 
