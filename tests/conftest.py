@@ -85,6 +85,18 @@ def small_map_axes():
     return SMALL_MAP_AXES
 
 
+def sigint_default() -> None:
+    """``preexec_fn`` of a child process a test interrupts: SIGINT at its default disposition.
+
+    A shell starts a background job (``nohup``, a script's ``&``) with SIGINT ignored, and a
+    child inherits that: its Python would never raise KeyboardInterrupt and the test would see
+    it run to the end. With the default disposition the child's Python installs its own handler.
+    """
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def one_error_line(result, *fragments: str) -> str:
     """A CLI result that failed as bad input must: exit 2 and one ``error: ...`` line holding every fragment."""
     assert result.exit_code == 2, result.output

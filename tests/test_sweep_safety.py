@@ -23,6 +23,7 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 import pytest
+from conftest import sigint_default
 
 from evtms.benches import BENCHES
 from evtms.benches.chunked import ChunkPlan, SweepInterrupted, sweep_to_file
@@ -391,7 +392,10 @@ def test_sigint_to_a_cli_sweep_leaves_a_resumable_state(tmp_path):
     axes += ["-a", "T_in=250:275:20", "-a", "T_res=280"]  # 4800 points, 48 chunks of 100
     args = ["bench", "evaporator", *axes, "--chunk-points", "100", "-q"]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "evtms.cli", *args, "-o", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        [sys.executable, "-m", "evtms.cli", *args, "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        preexec_fn=sigint_default,  # interruptible even where the test run ignores SIGINT
     )
     deadline = time.monotonic() + 120
     while not list(partial.glob("chunk_*.npy")):
@@ -600,7 +604,10 @@ def test_sigint_to_ensure_luts_spreading_one_grid_stops_promptly(tmp_path):
     folder = tmp_path / "luts"
     partial = folder / "evaporator.nc.partial"
     proc = subprocess.Popen(
-        [sys.executable, "-c", _ENSURE_LUTS_SCRIPT, str(folder)], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        [sys.executable, "-c", _ENSURE_LUTS_SCRIPT, str(folder)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        preexec_fn=sigint_default,
     )
     deadline = time.monotonic() + 120
     while not list(partial.glob("chunk_*.npy")):
