@@ -52,6 +52,8 @@ BACKENDS = ("HEOS", "BICUBIC&HEOS")
 
 #: Largest parameter file read [bytes]; a parameter file is a few hundred bytes.
 MAX_PARAMS_BYTES = 1024 * 1024
+#: Deepest nesting of tables and arrays a parameter or scenario file may have (theirs is 4 at most).
+MAX_TOML_DEPTH = 32
 
 
 @dataclass(frozen=True)
@@ -397,6 +399,19 @@ def _read_params_file(path: Path, what: str = "params file") -> str:
     return text.removeprefix("\ufeff")
 
 
+def _depth(value: Any) -> int:
+    """How deeply tables (dicts) and arrays (lists) nest in ``value`` (0 for a plain value), without recursion."""
+    deepest, stack = 0, [(value, 0)]
+    while stack:
+        v, level = stack.pop()
+        if isinstance(v, dict | list):
+            level += 1
+            deepest = max(deepest, level)
+            if level <= MAX_TOML_DEPTH:  # deeper is refused anyway: stop counting
+                stack.extend((item, level) for item in (v.values() if isinstance(v, dict) else v))
+    return deepest
+
+
 def read_params_toml(path: str | Path, what: str = "params file") -> dict[str, Any]:
     """The tables of TOML parameter file ``path`` (read by :func:`_read_params_file`), parsed.
 
@@ -405,16 +420,22 @@ def read_params_toml(path: str | Path, what: str = "params file") -> dict[str, A
     EvtmsInputError
         One line naming the file (as ``what``, default ``params file``) and
         what is wrong: it is missing, not a regular file, too large, binary,
-        not UTF-8, not valid TOML or empty.
+        not UTF-8, not valid TOML, nested more than :data:`MAX_TOML_DEPTH`
+        levels deep or empty.
     """
     path = Path(path)
     name = repr(str(path))
     text = _read_params_file(path, what)
+    deep = f"{what} {name} nests tables or arrays more than {MAX_TOML_DEPTH} levels deep; allowed: at most that"
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         reason = " ".join(str(exc).split())
         raise EvtmsInputError(f"{what} {name} is not valid TOML: {reason}") from None
+    except RecursionError:  # the parser recurses once per level: deeper than Python's stack allows
+        raise EvtmsInputError(deep) from None
+    if _depth(data) > MAX_TOML_DEPTH:  # the checks and messages after this recurse as well
+        raise EvtmsInputError(deep)
     if not data:
         raise EvtmsInputError(f"{what} {name} is empty; give at least one [table]")
     return data
