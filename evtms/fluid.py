@@ -31,6 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from evtms.errors import EvtmsInputError
+
 #: Enthalpy margin [J/kg] from the tabulated saturation curve (within 30 J/kg of CoolProp)
 #: inside which a state is left to CoolProp's own (p, h) flash.
 FAST_PH_MARGIN = 200.0
@@ -94,14 +96,31 @@ class Fluid:
         tabular one such as ``"BICUBIC&HEOS"`` (about 10x faster; its tables
         are built and cached on first use; bench outputs stay within 0.5 % of
         HEOS, checked in the tests).
+
+    Raises
+    ------
+    EvtmsInputError
+        CoolProp cannot load ``name`` with ``backend`` (an unknown fluid, a
+        mixture without its fractions); one line naming both.
     """
 
     def __init__(self, name: str = "R134a", backend: str = "HEOS") -> None:
         CP = _cp()
         try:
-            self._state = CP.AbstractState(backend, name)
-        except ValueError as exc:  # unknown fluid or backend
-            raise ValueError(f"CoolProp cannot load fluid {name!r} with backend {backend!r}: {exc}") from exc
+            self._state = st = CP.AbstractState(backend, name)
+            # A mixture without fractions (``R134a&R32``) loads and fails on its first property.
+            self.p_crit = float(st.p_critical())
+            self.T_crit = float(st.T_critical())
+            self.T_triple = float(st.Ttriple())
+            self.T_max = float(st.Tmax())
+            self.p_max = float(st.pmax())
+            self.molar_mass = float(st.molar_mass())
+        except (ValueError, RuntimeError) as exc:  # unknown fluid or backend
+            reason = " ".join(str(exc).split())
+            raise EvtmsInputError(
+                f"fluid {name!r} with backend {backend!r} cannot be loaded by CoolProp ({reason}); "
+                'allowed: a pure fluid CoolProp knows, such as "R134a"'
+            ) from None
         self.name = name
         self.backend = backend
         self._pairs = {
@@ -111,13 +130,6 @@ class Fluid:
             "PQ": (CP.PQ_INPUTS, False),
             "TQ": (CP.QT_INPUTS, True),
         }
-        st = self._state
-        self.p_crit = float(st.p_critical())
-        self.T_crit = float(st.T_critical())
-        self.T_triple = float(st.Ttriple())
-        self.T_max = float(st.Tmax())
-        self.p_max = float(st.pmax())
-        self.molar_mass = float(st.molar_mass())
         # CoolProp does not report p_triple for every backend; take it from a
         # saturated state at the triple-point temperature.
         self.p_triple = float(self.state("TQ", self.T_triple, 0.0, ("P",))["P"])

@@ -10,10 +10,14 @@ session: what is refused is refused before any LUT is interpolated.
 from __future__ import annotations
 
 import hashlib
+import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
+import netCDF4
+import numpy as np
 import pytest
 
 CLI = "import sys; from evtms.cli import main; sys.argv[0] = 'evtms'; main()"
@@ -72,3 +76,84 @@ def test_toml_nested_as_deep_as_a_scenario_file_is_read(tmp_path):
 
     (tmp_path / "s.toml").write_text("[a.b.c]\nx = [[1.0, 2.0], [3.0, 4.0]]\n")  # 5 levels
     assert read_params_toml(tmp_path / "s.toml")["a"]["b"]["c"]["x"][1] == [3.0, 4.0]
+
+
+# --- Fluids CoolProp does not know, and LUTs that do not belong to their component --------------
+
+
+@pytest.mark.parametrize("fluid", ["R999x", "R134a&R32"])  # unknown; a mixture without fractions
+def test_a_direct_cycle_of_a_fluid_coolprop_cannot_load_is_one_line(tmp_path, fluid):
+    (tmp_path / "bad.toml").write_text(f'fluid = "{fluid}"\n')
+    refused(tmp_path, "cycle", "run", "--direct", "--params", "bad.toml", message=f"fluid {fluid!r}")
+
+
+@pytest.fixture(scope="module")
+def tiny_luts(tmp_path_factory):
+    """The four LUTs of the cabin cycle on two nodes per axis (valid files, too coarse to solve on)."""
+    from evtms.benches import BENCHES
+    from evtms.benches.grid import build_grid
+    from evtms.benches.parameters import Parameters
+    from evtms.benches.sweep import run_sweep
+    from evtms.luts.io import write_lut
+
+    folder = tmp_path_factory.mktemp("tiny_luts")
+    for c in ("condenser", "evaporator", "expansion_valve", "compressor"):
+        bench = BENCHES[c]
+        axes = {k: np.asarray(v[:2], float) for k, v in bench.presets["cycle"].items()}
+        write_lut(run_sweep(bench, build_grid(bench, None, axes), Parameters(), grid_name="custom"), folder / f"{c}.nc")
+    return folder
+
+
+def _condenser_parameters(nc, params: dict, component: str) -> dict:
+    with netCDF4.Dataset(Path(nc.filepath()).parent / "condenser.nc") as cond:
+        return json.loads(cond.getncattr("parameters"))
+
+
+def _set(**values):
+    def edit(nc, params: dict, component: str) -> dict:
+        params[component].update(values)
+        return params
+
+    return edit
+
+
+def _backend(nc, params: dict, component: str) -> dict:
+    return {**params, "backend": "XYZ"}
+
+
+def _fluid_attribute(nc, params: dict, component: str) -> dict:
+    nc.setncattr("fluid", "R999x")
+    return params
+
+
+PROVENANCE = {
+    # id: (file, edit(nc, parsed parameters, component) -> parameters to write, message)
+    "valve-holds-condenser-parameters": ("expansion_valve", _condenser_parameters, "unknown table or key 'condenser'"),
+    "compressor-holds-condenser-parameters": ("compressor", _condenser_parameters, "unknown table or key 'condenser'"),
+    "valve-parameter-out-of-range": ("expansion_valve", _set(port_diameter=-1), "port_diameter = -1 is not allowed"),
+    "valve-unknown-parameter": ("expansion_valve", _set(n_tubes=40), "unknown parameter 'n_tubes'"),
+    "unknown-backend": ("expansion_valve", _backend, 'backend = "XYZ" is not allowed'),
+    "fluid-attribute-unlike-parameters": ("compressor", _fluid_attribute, "'fluid' is 'R999x'"),
+}
+
+
+@pytest.mark.parametrize("case", PROVENANCE)
+def test_cycle_luts_whose_parameters_do_not_belong_are_one_line(tmp_path, tiny_luts, case):
+    component, edit, message = PROVENANCE[case]
+    luts = tmp_path / "luts"
+    shutil.copytree(tiny_luts, luts)
+    with netCDF4.Dataset(luts / f"{component}.nc", "a") as nc:
+        params = edit(nc, json.loads(nc.getncattr("parameters")), component)
+        nc.setncattr("parameters", json.dumps(params))
+    line = refused(tmp_path, "cycle", "run", "--luts", "luts", message=message)
+    assert f"{component}.nc" in line
+
+
+def test_cycle_luts_of_two_fluids_are_one_line(tmp_path, tiny_luts):
+    luts = tmp_path / "luts"
+    shutil.copytree(tiny_luts, luts)
+    with netCDF4.Dataset(luts / "compressor.nc", "a") as nc:
+        params = json.loads(nc.getncattr("parameters"))
+        nc.setncattr("parameters", json.dumps({**params, "fluid": "R1234yf"}))
+        nc.setncattr("fluid", "R1234yf")
+    refused(tmp_path, "cycle", "run", "--luts", "luts", message="'R1234yf' (compressor); allowed: one fluid")

@@ -12,7 +12,7 @@ from evtms import __version__
 from evtms.benches.parameters import Parameters
 from evtms.cycle.models import DirectModels, LutModels
 from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
-from evtms.cycle.tables import CycleLut, fluid_tables
+from evtms.cycle.tables import CycleLut, cycle_lut, fluid_tables, made_with
 from evtms.cycle.topology import INPUTS, Topology, topology
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid, SaturationCurve
@@ -190,8 +190,10 @@ def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> di
     EvtmsInputError
         The folder is missing, a file, holds no LUTs, or holds LUT files but
         no complete set of cycle LUTs (a file missing, not a valid LUT, of
-        another component or on the thesis grid); one line saying what was
-        found and what is expected.
+        another component or on the thesis grid), or a file's parameters do
+        not belong to its component (:func:`evtms.cycle.tables.made_with`) or
+        name another fluid than the others; one line saying what was found and
+        what is expected.
     """
     folder = Path(folder)
     needed = topology(circuit).components
@@ -200,7 +202,15 @@ def load_cycle_luts(folder: str | Path, circuit: Topology | str = "cabin") -> di
         state = "does not exist" if not folder.is_dir() else "holds no LUTs"
         raise EvtmsInputError(f"LUT folder {_q(folder)} {state}; {EXPECTED_LUT_FOLDER}")
     _, headers = found
-    return {c: CycleLut(headers[c].path, c, headers[c]) for c in needed}
+    luts = {c: CycleLut(headers[c].path, c, headers[c]) for c in needed}
+    fluids: dict[str, list[str]] = {}
+    for c, lut in luts.items():
+        made_with(lut)  # each file's parameters, checked before any work
+        fluids.setdefault(lut.attrs.get("fluid", "R134a"), []).append(c)
+    if len(fluids) > 1:
+        made = " and ".join(f"{f!r} ({', '.join(cs)})" for f, cs in fluids.items())
+        raise EvtmsInputError(f"the cycle LUTs in {_q(found[0])} are made for fluids {made}; allowed: one fluid")
+    return luts
 
 
 def saturation_curve(luts: dict, fluid: Fluid | None = None) -> SaturationCurve:
@@ -226,12 +236,9 @@ def parameter_conflicts(luts: dict[str, xr.Dataset], params: Parameters) -> list
     and air boundary each file records; a parameter set that differs would be
     silently ignored, so the caller refuses it.
     """
-    from evtms.benches.parameters import parameters_from_json
-
     conflicts: list[str] = []
     for c, ds in luts.items():
-        made_with = parameters_from_json(c, ds.attrs["parameters"], ds.attrs.get("environment"))
-        conflicts += params.differences(made_with, sections=("fluid", "backend", c, "environment"))
+        conflicts += params.differences(made_with(cycle_lut(ds, c)), sections=("fluid", "backend", c, "environment"))
     return list(dict.fromkeys(conflicts))
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
 from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, outlet_enthalpy
-from evtms.cycle.tables import cycle_lut, values_made_at, vapour_table
+from evtms.cycle.tables import cycle_lut, made_with, values_made_at, vapour_table
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
 from evtms.hx.crossflow import per_point_searches
@@ -468,14 +468,14 @@ class LutModels:
         """
         if self._valve is None:
             attrs = self.valve_attrs
-            made_with = json.loads(attrs["parameters"])
-            valve = ExpansionValveParams(**made_with["expansion_valve"])
+            checked = made_with(self.valve_lut)
+            valve = checked.expansion_valve
 
             def area():  # CoolProp's densities at the nominal conditions; cached
-                fluid = Fluid(attrs.get("fluid", "R134a"), made_with.get("backend", "HEOS"))
+                fluid = Fluid(attrs.get("fluid", "R134a"), checked.backend)
                 return {"area": np.array([nominal_opening(valve, fluid)])}, {}
 
-            recipe = {"parameters": made_with, "fluid": attrs.get("fluid", "R134a")}
+            recipe = {"parameters": json.loads(attrs["parameters"]), "fluid": attrs.get("fluid", "R134a")}
             arrays, _ = self.valve_lut.derived("area", recipe, area)
             self._valve = (valve, float(arrays["area"][0]))
         return self._valve

@@ -25,6 +25,7 @@ from evtms.luts.validate import fixed_inputs, read_lut_metadata, status_flags
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from evtms.benches.parameters import Parameters
     from evtms.fluid import VapourTable
     from evtms.luts import Interpolator
     from evtms.luts.validate import LutMetadata
@@ -203,6 +204,41 @@ def values_made_at(attrs) -> dict[str, float | None]:
     return {"T_air_in": env.get("T"), "RH_air_in": env.get("RH")} | fixed_inputs(attrs)
 
 
+def made_with(lut: CycleLut | DatasetLut) -> Parameters:
+    """The parameters ``lut`` was made with (its ``parameters`` and ``environment``), checked; kept on ``lut``.
+
+    The ``parameters`` attribute must hold ``fluid``, ``backend`` and the
+    table of the LUT's own component only, each value known and in its range
+    (:func:`evtms.benches.parameters.parameters_from_json`); the ``fluid``
+    attribute must be a fluid name, the one the parameters name (if they do).
+
+    Raises
+    ------
+    EvtmsInputError
+        ``<file>: LUT attribute 'parameters': unknown table or key 'condenser';
+        allowed: fluid, backend, [expansion_valve]`` and the like.
+    """
+    from evtms.benches.parameters import parameters_from_json
+    from evtms.errors import EvtmsInputError
+    from evtms.params import check_fluid_name
+
+    if getattr(lut, "_made_with", None) is None:
+        attrs = lut.attrs
+        text = attrs.get("parameters", "{}")
+        try:
+            fluid = check_fluid_name(attrs.get("fluid", "R134a"))
+            params = parameters_from_json(lut.component, text, attrs.get("environment"))
+            named = json.loads(text).get("fluid", fluid)
+            if named != fluid:
+                raise EvtmsInputError(
+                    f"LUT attribute 'fluid' is {fluid!r} but its 'parameters' name fluid {named!r}; allowed: one fluid"
+                )
+        except EvtmsInputError as exc:
+            raise EvtmsInputError(f"{lut.encoding['source']}: {exc}") from None
+        lut._made_with = params
+    return lut._made_with
+
+
 def stored_variables(variables: list[str]) -> list[str]:
     """The file's variables ``variables`` are read or derived from."""
     if APPROACH not in variables:
@@ -218,9 +254,9 @@ def fluid_tables(luts: dict, kind: str, layout: list, build: Callable[[str, str]
     cached table spares a LUT run the import of CoolProp (about 2 s). For
     in-memory datasets ``build`` is called.
     """
-    any_lut = next(iter(luts.values()))
+    component, any_lut = next(iter(luts.items()))
     name = any_lut.attrs.get("fluid", "R134a")
-    backend = json.loads(any_lut.attrs.get("parameters", "{}")).get("backend", "HEOS")
+    backend = made_with(cycle_lut(any_lut, component)).backend
     if not any(isinstance(v, CycleLut) for v in luts.values()):
         return build(name, backend)
     from importlib.metadata import version
