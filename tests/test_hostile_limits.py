@@ -157,3 +157,82 @@ def test_cycle_luts_of_two_fluids_are_one_line(tmp_path, tiny_luts):
         nc.setncattr("parameters", json.dumps({**params, "fluid": "R1234yf"}))
         nc.setncattr("fluid", "R1234yf")
     refused(tmp_path, "cycle", "run", "--luts", "luts", message="'R1234yf' (compressor); allowed: one fluid")
+
+
+# --- Model files whose arrays would inflate beyond what the reader allows -------------------------
+
+
+def _zip_member(path: Path, name: str, header: dict, data_bytes: int) -> Path:
+    """A zip holding one deflated ``.npy`` member: ``header`` and ``data_bytes`` zero bytes."""
+    import zipfile
+
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as zf:
+        with zf.open(name, "w", force_zip64=True) as f:
+            np.lib.format.write_array_header_1_0(f, header)
+            block = bytes(1 << 20)
+            for start in range(0, data_bytes, len(block)):
+                f.write(block[: min(len(block), data_bytes - start)])
+    return path
+
+
+def test_a_model_file_whose_array_inflates_past_the_limit_is_refused_unread(tmp_path):
+    from evtms.surrogates.io import MAX_ARRAY_BYTES
+
+    n = MAX_ARRAY_BYTES + (56 << 20)  # 256 MiB of zeros: a file of about 1 MB
+    _zip_member(tmp_path / "m.npz", "format.npy", {"descr": "|u1", "fortran_order": False, "shape": (n,)}, n)
+    args = ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--model", "surrogate", "--surrogates", "m.npz"]
+    refused(tmp_path, *args, "-o", "o.nc", message=f"'format.npy' inflates to {n + 128:,} bytes")
+
+
+def _load_error(path: Path) -> str:
+    from evtms.errors import EvtmsInputError
+    from evtms.surrogates.io import load_mode_models
+
+    with pytest.raises(EvtmsInputError) as exc:
+        load_mode_models(path)
+    return str(exc.value)
+
+
+def test_a_model_array_whose_header_claims_more_than_its_member_is_refused(tmp_path):
+    path = _zip_member(tmp_path / "m.npz", "W0.npy", {"descr": "<f8", "fortran_order": False, "shape": (10**12,)}, 8)
+    assert "declares shape (1000000000000,) of float64 (8,000,000,000,000 bytes)" in _load_error(path)
+
+
+def test_model_arrays_of_python_objects_or_other_members_are_refused(tmp_path):
+    import zipfile
+
+    path = _zip_member(tmp_path / "o.npz", "attrs.npy", {"descr": "|O", "fortran_order": False, "shape": (1,)}, 8)
+    assert "holds Python objects" in _load_error(path)
+    with zipfile.ZipFile(tmp_path / "t.npz", "w") as zf:
+        zf.writestr("readme.txt", "hello")
+    assert "'readme.txt' is not a .npy array" in _load_error(tmp_path / "t.npz")
+
+
+def test_a_model_file_evtms_wrote_reads_back_exactly(tmp_path):
+    from evtms.surrogates.io import load_mode_models, save_mode_models
+    from evtms.system import mode_model as mm
+
+    rng = np.random.default_rng(1)
+
+    def network(n_in: int, n_out: int) -> mm.Network:
+        return mm.Network(
+            "tanh",
+            [rng.normal(size=(n_in, 4)), rng.normal(size=(4, n_out))],
+            [rng.normal(size=4), rng.normal(size=n_out)],
+            x_mean=rng.normal(size=n_in),
+            x_scale=np.ones(n_in),
+            y_mean=rng.normal(size=n_out),
+            y_scale=np.ones(n_out),
+            x_min=-np.ones(n_in),
+            x_max=np.ones(n_in),
+        )
+
+    code = mm.MODE_CODES["bc"]
+    models = mm.ModeModels(
+        power={code: network(len(mm.POWER_FEATURES), 1)},
+        dynamics={code: network(len(mm.DYNAMICS_FEATURES), len(mm.DYNAMICS_TARGETS))},
+        attrs={"scenarios": {}, "metrics": {}},
+    )
+    back = load_mode_models(save_mode_models(models, tmp_path / "m.npz"))
+    for a, b in zip(models.packed(), back.packed(), strict=True):
+        assert np.array_equal(a, b) and a.dtype == b.dtype

@@ -15,10 +15,12 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import math
 import os
 import re
 import tempfile
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +36,13 @@ FILE_NAME = "mode_models.npz"
 MODEL_FILE = FILE_NAME  # the name evtms.cli reads
 #: Largest model file read [bytes].
 MAX_FILE_BYTES = 200 * 1024 * 1024
+#: Most bytes the arrays of a model file may take once inflated: evtms stores them uncompressed,
+#: so a file it wrote never holds more than the file's own limit.
+MAX_ARRAY_BYTES = MAX_FILE_BYTES
+#: Most arrays a model file may hold (8 modes x 2 networks x (10 + 2 x 16 layers) + 4 = 676).
+MAX_ARRAYS = 1000
+#: Bytes inflated per read of an array.
+_READ_BLOCK = 1 << 20
 _VERSION = re.compile(r"^\d+\.\d+(\.\d+)?([.+-]?[0-9A-Za-z.+-]+)?$")
 _HEAD_NAMES = {
     "power": (mm.POWER_FEATURES, mm.POWER_TARGETS),
@@ -194,14 +203,77 @@ def _read_network(r: _Reader, mode: str, head: str) -> mm.Network:
     return mm.Network(activation, weights, biases, **x, **y)
 
 
+def _read_array(fp, where: str, info: zipfile.ZipInfo) -> np.ndarray:
+    """One ``.npy`` member: its header checked against the member's declared size, then read in blocks."""
+    fmt = np.lib.format
+    version = fmt.read_magic(fp)
+    if version not in ((1, 0), (2, 0)):
+        raise EvtmsInputError(f"{where}: array {info.filename!r} is .npy version {version}; allowed: 1.0 or 2.0")
+    read_header = fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+    shape, fortran, dtype = read_header(fp)
+    if dtype.hasobject:
+        raise EvtmsInputError(f"{where}: array {info.filename!r} holds Python objects; allowed: numbers and text")
+    count = math.prod(shape)
+    nbytes = count * dtype.itemsize
+    if any(n < 0 for n in shape) or nbytes > info.file_size:
+        raise EvtmsInputError(
+            f"{where}: array {info.filename!r} declares shape {shape} of {dtype} ({nbytes:,} bytes), "
+            f"more than the {info.file_size:,} bytes of its member"
+        )
+    out = np.empty(count, dtype)
+    view = memoryview(out.view(np.uint8)) if nbytes else memoryview(b"")
+    done = 0
+    while done < nbytes:
+        n = fp.readinto(view[done : done + _READ_BLOCK])
+        if not n:
+            raise EvtmsInputError(f"{where}: array {info.filename!r} is truncated")
+        done += n
+    if fp.read(1):  # and at the member's end, zipfile checks its CRC
+        raise EvtmsInputError(f"{where}: array {info.filename!r} holds more bytes than its header declares")
+    return out.reshape(shape[::-1]).T if fortran else out.reshape(shape)
+
+
+def _read_npz(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of ``.npz`` file ``path``, each one's size checked before it is inflated.
+
+    A zip member says how large it inflates (``ZipInfo.file_size``) and its
+    ``.npy`` header the shape and dtype: both are checked against
+    :data:`MAX_ARRAY_BYTES` (for all arrays together) and against each other
+    before anything is allocated, and no member is read beyond its declared
+    size, so a small file that would inflate to gigabytes is refused.
+    """
+    where = f"model file '{path}'"
+    data: dict[str, np.ndarray] = {}
+    total = 0
+    with zipfile.ZipFile(path) as zf:
+        members = zf.infolist()
+        if len(members) > MAX_ARRAYS:
+            raise EvtmsInputError(f"{where} holds {len(members):,} members; allowed: at most {MAX_ARRAYS:,} arrays")
+        for info in members:
+            key = info.filename.removesuffix(".npy")
+            if key == info.filename or key in data:
+                what = "is not a .npy array" if key == info.filename else "is there twice"
+                raise EvtmsInputError(f"{where}: member {info.filename[:80]!r} {what}; allowed: one .npy per array")
+            total += info.file_size
+            if total > MAX_ARRAY_BYTES:
+                raise EvtmsInputError(
+                    f"{where}: array {info.filename[:80]!r} inflates to {info.file_size:,} bytes, its arrays to "
+                    f"{total:,} bytes at least; allowed: at most {MAX_ARRAY_BYTES:,} bytes of arrays"
+                )
+            with zf.open(info) as fp:
+                data[key] = _read_array(fp, where, info)
+    return data
+
+
 def load_mode_models(path: str | Path) -> mm.ModeModels:
     """Read and check a mode-model file.
 
     Raises
     ------
     EvtmsInputError
-        One line naming the file and what is wrong: not a readable ``.npz``,
-        another format or format version, a missing key, a wrong dtype or
+        One line naming the file and what is wrong: not a readable ``.npz``
+        (or one whose arrays would inflate beyond :data:`MAX_ARRAY_BYTES`,
+        :func:`_read_npz`), another format or format version, a missing key, a wrong dtype or
         shape, non-finite weights, scales <= 0, feature or target names or
         units that differ from :mod:`evtms.system.mode_model`'s, an unknown
         mode, attributes that are not JSON or an evtms version that is not
@@ -214,9 +286,10 @@ def load_mode_models(path: str | Path) -> mm.ModeModels:
     if size > MAX_FILE_BYTES:
         raise EvtmsInputError(f"model file '{path}' is {size:,} bytes; allowed: at most {MAX_FILE_BYTES:,}")
     try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        data = _read_npz(path)
+    except EvtmsInputError:
+        raise
+    except (OSError, ValueError, EOFError, RuntimeError, NotImplementedError, zipfile.BadZipFile, zlib.error) as exc:
         msg = " ".join(str(exc).split()) or type(exc).__name__
         raise EvtmsInputError(f"model file '{path}' is not a readable .npz file ({msg})") from None
     r = _Reader(path, data)
