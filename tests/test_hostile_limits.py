@@ -47,6 +47,30 @@ def refused(cwd: Path, *args: str, message: str) -> str:
     return lines[0]
 
 
+# --- Runs whose time steps and records would not fit in memory ----------------------------------
+
+
+def test_a_simulation_recorded_every_millisecond_is_refused_before_any_work(tmp_path):
+    """1.8 million steps and as many records (2 GB of arrays): refused before the LUTs are looked for."""
+    line = refused(
+        tmp_path,
+        *["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--dt", "0.001", "--output-every", "0.001", "-o", "o.nc"],
+        message="--dt 0.001 s with --output-every 0.001 s gives 1,800,000 steps and 1,800,001 records",
+    )
+    assert "allowed: at most 1,500 MB" in line
+
+
+def test_every_run_the_step_limit_and_the_range_test_allow_fits_the_array_bound():
+    from evtms.system.drive_cycles import MAX_SAMPLES
+    from evtms.system.simulate import MAX_STEPS, check_run_size
+
+    day = 86400.0
+    assert check_run_size(MAX_SAMPLES + day, 1.0, 1.0) == MAX_SAMPLES + day  # a week's range test, preconditioned
+    assert check_run_size(MAX_SAMPLES + day, 0.5, 1.0) == 2 * (MAX_SAMPLES + day)
+    assert check_run_size(MAX_STEPS * 1e-3, 1e-3, 1.0) == MAX_STEPS  # the step limit, records every second
+    assert check_run_size(1800.0, 1e-3, 1.0) == 1_800_000  # a WLTC at 1 ms
+
+
 # --- TOML files nested deeper than the parser's recursion ----------------------------------------
 
 DEEP = {

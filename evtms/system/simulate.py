@@ -23,7 +23,7 @@ import numpy as np
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
 from evtms.system.drive_cycles import DriveCycle
-from evtms.system.inputs import InputValue, check_inputs, per_step
+from evtms.system.inputs import INPUT_NAMES, InputValue, check_inputs, per_step
 from evtms.system.mode_model import MODE_CODES, ModeModels
 from evtms.system.params import FAN_STAGE_CURVES, WALLS, SystemParams
 from evtms.system.refrigerant import Refrigerant
@@ -31,8 +31,12 @@ from evtms.system.tables import battery_cell_tables
 from evtms.system.vehicle import drive_segments
 
 P_ATM = 101325.0  # [Pa]
-#: Most time steps one simulation may take (a week at 1 s; bounds memory: ~0.5 kB per step).
+#: Most time steps one simulation may take (23 days at 1 s; the loop's arrays take ~0.7 kB per step).
 MAX_STEPS = 2_000_000
+#: Most bytes of the step and record arrays of one simulation (:func:`run_bytes`): twice those of the
+#: longest run at the default 1 s (a week's cycle or range test after a day's preconditioning, 0.75 GB),
+#: and more than :data:`MAX_STEPS` steps with sparse records take (1.35 GB). Temporaries add about a quarter.
+MAX_RUN_BYTES = 1_500_000_000
 #: ``--mode``: auto, or a forced mode by name (:data:`evtms.system.mode_model.MODE_CODES`).
 MODES = {"auto": -1, **MODE_CODES}
 #: How the refrigerant loop (and, for surrogates, the thermal plant) is computed.
@@ -181,6 +185,39 @@ def step_count(duration: float, dt: float) -> int:
     if n > MAX_STEPS:
         raise EvtmsInputError(
             f"`dt` {dt:g} s gives {n:,} steps over {duration:g} s; allowed: at most {MAX_STEPS:,} steps"
+        )
+    return n
+
+
+#: Bytes per time step of the arrays :func:`simulate` allocates for the loop: states and outputs, the
+#: step's motor power and external input columns, its edges, length and plug flag (float64), mode and flags.
+STEP_BYTES = 8 * (L.N_S + L.N_O + 4 + len(INPUT_NAMES) + 3) + 1 + 2
+#: Bytes per output record: every record variable and the time (float64), mode and flags.
+RECORD_BYTES = 8 * (len(RECORD_VARIABLES) + 1) + 1 + 2
+
+
+def run_bytes(steps: int, records: int) -> int:
+    """Bytes of the step and record arrays of a run of ``steps`` steps and ``records`` records."""
+    return steps * STEP_BYTES + records * RECORD_BYTES
+
+
+def check_run_size(duration: float, dt: float, every: float) -> int:
+    """Steps of a run of ``duration`` [s] at ``dt`` recorded every ``every`` [s], checked before any allocation.
+
+    Raises
+    ------
+    EvtmsInputError
+        More than :data:`MAX_STEPS` steps (:func:`step_count`), or step and
+        record arrays of more than :data:`MAX_RUN_BYTES` bytes.
+    """
+    n = step_count(duration, dt)
+    records = math.ceil(n / max(1, round(every / dt))) + 1
+    size = run_bytes(n, records)
+    if size > MAX_RUN_BYTES:
+        raise EvtmsInputError(
+            f"--dt {dt:g} s with --output-every {every:g} s gives {n:,} steps and {records:,} records over "
+            f"{duration:g} s, {size / 1e6:,.0f} MB of arrays; allowed: at most {MAX_RUN_BYTES / 1e6:,.0f} MB "
+            "(a larger --dt or --output-every)"
         )
     return n
 
@@ -602,7 +639,8 @@ def check_run_options(
         not a whole multiple of ``dt``, a preconditioning time that is not a
         multiple of the record spacing (or above a day), or preconditioning
         before a cycle that does not start at standstill; or more than
-        :data:`MAX_STEPS` steps.
+        :data:`MAX_STEPS` steps or :data:`MAX_RUN_BYTES` of arrays
+        (:func:`check_run_size`).
     """
     if not (math.isfinite(dt) and 1e-3 <= dt <= 60.0):
         raise EvtmsInputError(f"`dt` {dt:g} is not allowed; allowed: 0.001 to 60 s")
@@ -621,7 +659,7 @@ def check_run_options(
             )
         if cycle.speed[0] != 0.0:
             raise EvtmsInputError(f"`precondition` needs a cycle that starts at standstill; {cycle.name} does not")
-    step_count(cycle.duration + precondition, dt)  # bounds the steps before anything is allocated
+    check_run_size(cycle.duration + precondition, dt, every)  # bounds the arrays before anything is allocated
     return every
 
 
