@@ -113,7 +113,7 @@ def test_a_direct_cycle_of_a_fluid_coolprop_cannot_load_is_one_line(tmp_path, fl
 
 @pytest.fixture(scope="module")
 def tiny_luts(tmp_path_factory):
-    """The four LUTs of the cabin cycle on two nodes per axis (valid files, too coarse to solve on)."""
+    """The five cycle LUTs on two nodes per axis (valid files, too coarse to solve on)."""
     from evtms.benches import BENCHES
     from evtms.benches.grid import build_grid
     from evtms.benches.parameters import Parameters
@@ -121,7 +121,7 @@ def tiny_luts(tmp_path_factory):
     from evtms.luts.io import write_lut
 
     folder = tmp_path_factory.mktemp("tiny_luts")
-    for c in ("condenser", "evaporator", "expansion_valve", "compressor"):
+    for c in ("condenser", "evaporator", "expansion_valve", "compressor", "chiller"):
         bench = BENCHES[c]
         axes = {k: np.asarray(v[:2], float) for k, v in bench.presets["cycle"].items()}
         write_lut(run_sweep(bench, build_grid(bench, None, axes), Parameters(), grid_name="custom"), folder / f"{c}.nc")
@@ -260,3 +260,108 @@ def test_a_model_file_evtms_wrote_reads_back_exactly(tmp_path):
     back = load_mode_models(save_mode_models(models, tmp_path / "m.npz"))
     for a, b in zip(models.packed(), back.packed(), strict=True):
         assert np.array_equal(a, b) and a.dtype == b.dtype
+
+
+# --- Ctrl-C while the cycle maps build ------------------------------------------------------------
+
+_SLOW_MAPS = """
+import sys
+import time
+
+import numpy as np
+
+import evtms.system.maps as maps
+
+# A slow solver (the workers are forked: they run it too) on chunks of 500 of the maps' 100,000
+# nodes: 200 chunks, a minute and a half on two workers if the build ran to its end.
+def slow(folder, topology, inputs):
+    time.sleep(0.8)
+    return {k: np.zeros(next(iter(inputs.values())).size) for k in maps._RESULT_KEYS}
+
+maps._solve_in_worker = slow
+maps.CHUNK_POINTS = 500
+"""
+
+_LOAD_MAPS = (
+    _SLOW_MAPS
+    + """
+from evtms.errors import EvtmsInterrupted
+
+print("building", flush=True)
+try:
+    maps.load_maps(sys.argv[1], workers=2)
+except EvtmsInterrupted as exc:
+    print(f"{type(exc).__name__}: {exc}; KeyboardInterrupt: {isinstance(exc, KeyboardInterrupt)}", flush=True)
+    sys.exit(130)
+"""
+)
+
+_CLI_MAPS = (
+    _SLOW_MAPS
+    + """
+from evtms.cli import main
+
+sys.argv[0] = "evtms"
+main()
+"""
+)
+
+
+def _interrupt_map_build(cwd: Path, script: str, *args: str, started: bytes) -> tuple[int, float, str, str]:
+    """Run ``script args`` in its own process group, SIGINT the group (a terminal's Ctrl-C) 2 s after
+    ``started`` appears in its output; (exit code, seconds from SIGINT to exit, stdout, stderr).
+    Checks that none of its processes (the map workers) outlive it."""
+    import os
+    import signal
+    import time
+
+    from conftest import sigint_default
+
+    out, err = cwd / "stdout.txt", cwd / "stderr.txt"
+    with out.open("wb") as stdout, err.open("wb") as stderr:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", script, *args],
+            cwd=cwd,
+            stdout=stdout,
+            stderr=stderr,
+            start_new_session=True,
+            preexec_fn=sigint_default,
+        )
+        try:
+            deadline = time.monotonic() + 120
+            while started not in out.read_bytes() + err.read_bytes():
+                assert proc.poll() is None and time.monotonic() < deadline, err.read_text()
+                time.sleep(0.05)
+            time.sleep(2.0)  # both workers in the middle of a chunk
+            sent = time.monotonic()
+            os.killpg(proc.pid, signal.SIGINT)
+            proc.wait(timeout=60)
+            stopped = time.monotonic() - sent
+            time.sleep(0.5)
+            with pytest.raises(ProcessLookupError):  # no worker left in the group
+                os.killpg(proc.pid, 0)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+    return proc.returncode, stopped, out.read_text(), err.read_text()
+
+
+def test_ctrl_c_while_the_cycle_maps_build_stops_at_once(tmp_path, tiny_luts):
+    """Two workers build the maps when Ctrl-C comes: they finish their chunk, the others are
+    dropped, and the build raises EvtmsInterrupted (a KeyboardInterrupt) saying what stopped."""
+    shutil.copytree(tiny_luts, tmp_path / "luts")
+    code, stopped, out, err = _interrupt_map_build(tmp_path, _LOAD_MAPS, "luts", started=b"building")
+    assert code == 130, (out, err)
+    assert stopped < 10, stopped  # one chunk per worker (0.8 s), not the 200 queued ones
+    assert "EvtmsInterrupted: interrupted while building the cycle maps ac, chiller, ac+chiller of 'luts'" in out
+    assert "KeyboardInterrupt: True" in out and "Traceback" not in err
+    assert not list((tmp_path / "luts").glob("maps/*.nc"))
+
+
+def test_ctrl_c_while_simulate_builds_the_maps_exits_130_at_once(tmp_path, tiny_luts):
+    shutil.copytree(tiny_luts, tmp_path / "luts")
+    args = ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", "luts", "-o", "o.nc"]
+    code, stopped, out, err = _interrupt_map_build(tmp_path, _CLI_MAPS, *args, started=b"building cycle map")
+    assert code == 130 and stopped < 10, (code, stopped, err)
+    assert "Traceback" not in err and out == ""
+    assert not (tmp_path / "o.nc").exists() and not list((tmp_path / "luts").glob("maps/*.nc"))

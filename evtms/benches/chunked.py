@@ -259,25 +259,32 @@ class PoolRunner:
 
     The workers start from a fork server (not forked from this process, which may
     run threads, e.g. another pool's) and ignore SIGINT, as dask's local workers
-    do: Ctrl-C is the main process's business. A worker that dies fails the
-    sweep (its saved chunks are kept for ``resume``); dask would rerun the chunk.
+    do: Ctrl-C is the main process's business. On Ctrl-C (or any error) in
+    :meth:`run` the chunks not started are cancelled and :meth:`close` waits
+    for the running ones only, so the job stops within one chunk's time. A
+    worker that dies fails the sweep (its saved chunks are kept for
+    ``resume``); dask would rerun the chunk. Any other job of picklable chunks
+    runs the same way (the cycle maps' build, :mod:`evtms.system.maps`).
 
     Parameters
     ----------
     workers : int
         Worker processes.
+    start_method : str
+        How the workers start (:mod:`multiprocessing`): ``forkserver``, or
+        ``fork`` where a job must not import the caller's main script again.
     """
 
     name = "processes"
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int, start_method: str = "forkserver") -> None:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers = max(1, int(workers))
         self._pool = ProcessPoolExecutor(
             max_workers=self.workers,
-            mp_context=multiprocessing.get_context("forkserver"),
+            mp_context=multiprocessing.get_context(start_method),
             initializer=_ignore_sigint,
         )
 

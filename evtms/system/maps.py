@@ -71,7 +71,7 @@ import numpy as np
 
 from evtms import __version__
 from evtms._jit import jit
-from evtms.errors import EvtmsInputError
+from evtms.errors import EvtmsInputError, EvtmsInterrupted
 
 #: The outputs of every map, in slot order.
 MAP_OUTPUTS = (
@@ -567,6 +567,12 @@ def _solve_in_worker(folder: str, topology: str, inputs: dict[str, np.ndarray]) 
     return solve_nodes(_WORKER_LUTS[key], topology, inputs)
 
 
+def _solve_task(task: tuple[int, str, str, dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """A :class:`~evtms.benches.chunked.PoolRunner` job: chunk ``(index, folder, topology, inputs)`` solved."""
+    _, folder, topology, inputs = task
+    return _solve_in_worker(folder, topology, inputs)
+
+
 def map_values(res: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, float]:
     """Node values ``(n, 9)``, valid mask and the largest relative balance residual of the valid nodes."""
     from evtms.cycle.solver import VALID_CYCLE_FLAGS
@@ -721,29 +727,39 @@ def _build(plans: Sequence[_Plan], folder: Path, progress: Progress | None, work
     def piece(plan: _Plan, start: int, stop: int) -> dict[str, np.ndarray]:
         return {k: v[start:stop] for k, v in plan.inputs.items()}
 
-    if workers > 1 and sum(p.size for p in plans) >= POOL_FROM_POINTS:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor, as_completed
+    try:
+        if workers > 1 and sum(p.size for p in plans) >= POOL_FROM_POINTS:
+            import multiprocessing
 
-        # fork where the platform has it (as evtms.workflows.demo's pool): a spawned worker re-runs the caller's
-        # main script, which breaks scripts without an ``if __name__ == "__main__"`` guard
-        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method)) as pool:
-            futures = {
-                pool.submit(_solve_in_worker, str(folder), p.provenance["topology"], piece(p, a, b)): (p, a, b)
-                for p, a, b in chunks
-            }
-            for fut in as_completed(futures):
-                take(*futures[fut], fut.result())
-    else:
-        from evtms.cycle.api import load_cycle_luts
+            from evtms.benches.chunked import PoolRunner
 
-        luts = {}
-        for p, a, b in chunks:
-            topo = p.provenance["topology"]
-            if topo not in luts:
-                luts[topo] = load_cycle_luts(folder, topo)
-            take(p, a, b, solve_nodes(luts[topo], topo, piece(p, a, b)))
+            # fork where the platform has it (as evtms.workflows.demo's pool): a spawned worker re-runs the caller's
+            # main script, which breaks scripts without an ``if __name__ == "__main__"`` guard
+            method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+            # The sweeps' pool: workers ignore SIGINT; on Ctrl-C the chunks not started are dropped.
+            runner = PoolRunner(workers, start_method=method)
+            try:
+                topology = {p.name: p.provenance["topology"] for p in plans}
+                tasks = [(k, str(folder), topology[p.name], piece(p, a, b)) for k, (p, a, b) in enumerate(chunks)]
+                for (k, *_), res in runner.run(_solve_task, tasks):
+                    take(*chunks[k], res)
+            finally:
+                runner.close()
+        else:
+            from evtms.cycle.api import load_cycle_luts
+
+            luts = {}
+            for p, a, b in chunks:
+                topo = p.provenance["topology"]
+                if topo not in luts:
+                    luts[topo] = load_cycle_luts(folder, topo)
+                take(p, a, b, solve_nodes(luts[topo], topo, piece(p, a, b)))
+    except KeyboardInterrupt:
+        names = ", ".join(p.name for p in plans)
+        raise EvtmsInterrupted(
+            f"interrupted while building the cycle maps {names} of {str(folder)!r}; none was saved, "
+            "the next run builds them again"
+        ) from None
     seconds = time.perf_counter() - t0
 
     maps = {}

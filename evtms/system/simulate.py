@@ -215,7 +215,7 @@ def check_run_size(duration: float, dt: float, every: float) -> int:
     size = run_bytes(n, records)
     if size > MAX_RUN_BYTES:
         raise EvtmsInputError(
-            f"--dt {dt:g} s with --output-every {every:g} s gives {n:,} steps and {records:,} records over "
+            f"`dt` {dt:g} s with `output_every` {every:g} s gives {n:,} steps and {records:,} records over "
             f"{duration:g} s, {size / 1e6:,.0f} MB of arrays; allowed: at most {MAX_RUN_BYTES / 1e6:,.0f} MB "
             "(a larger --dt or --output-every)"
         )
