@@ -364,4 +364,5 @@ def test_ctrl_c_while_simulate_builds_the_maps_exits_130_at_once(tmp_path, tiny_
     code, stopped, out, err = _interrupt_map_build(tmp_path, _CLI_MAPS, *args, started=b"building cycle map")
     assert code == 130 and stopped < 10, (code, stopped, err)
     assert "Traceback" not in err and out == ""
+    assert err.splitlines()[-1].startswith("error: interrupted while building the cycle maps"), err
     assert not (tmp_path / "o.nc").exists() and not list((tmp_path / "luts").glob("maps/*.nc"))

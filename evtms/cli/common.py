@@ -25,7 +25,7 @@ try:  # typer >= 0.20 carries its own copy of click
 except ImportError:  # pragma: no cover - older typer on click
     from click.exceptions import UsageError
 
-from evtms.errors import EvtmsInputError
+from evtms.errors import EvtmsInputError, EvtmsInterrupted
 
 
 class _EvtmsGroup(TyperGroup):
@@ -36,6 +36,13 @@ class _EvtmsGroup(TyperGroup):
     (a read-only folder, a full disk, a name too long) that escapes a command
     is one line naming the path and the reason, exit 2, never a traceback.
     """
+
+    def invoke(self, ctx):
+        # Ctrl-C would end as a silent exit 130: a long job's own interrupt says what stopped and what was kept.
+        try:
+            return super().invoke(ctx)
+        except EvtmsInterrupted as exc:
+            raise typer.Exit(_error(str(exc), 130)) from None
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         _ARGV[:] = list(sys.argv[1:] if args is None else args)
