@@ -453,19 +453,31 @@ def _map_interp(knots, starts, table, x, out):
             frac[d] = (xd - knots[lo + i]) / (knots[lo + i + 1] - knots[lo + i])
     for k in range(nout):
         out[k] = 0.0
-    for c in range(1 << ndim):
+    # Only the axes strictly between two nodes span corners (2^active of them); on a node, or on an axis of
+    # one node, the lower node alone carries the weight (a node returns its own values exactly).
+    active = np.empty(ndim, np.int64)
+    n_active = 0
+    row0 = 0
+    for d in range(ndim):
+        if frac[d] == 1.0:
+            row0 += (base[d] + 1) * stride[d]
+        else:
+            row0 += base[d] * stride[d]
+            if not frac[d] <= 0.0:  # NaN too: its weights make the outputs NaN
+                active[n_active] = d
+                n_active += 1
+    for c in range(1 << n_active):
         w = 1.0
-        row = 0
-        for d in range(ndim):
-            if (c >> d) & 1:
+        row = row0
+        for a in range(n_active):
+            d = active[a]
+            if (c >> a) & 1:
                 w *= frac[d]
-                row += (base[d] + 1) * stride[d]
+                row += stride[d]
             else:
                 w *= 1.0 - frac[d]
-                row += base[d] * stride[d]
-        if w != 0.0:  # corners without weight are skipped: a node returns its own values exactly
-            for k in range(nout):
-                out[k] += w * table[row, k]
+        for k in range(nout):
+            out[k] += w * table[row, k]
     return clipped
 
 
