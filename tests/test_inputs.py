@@ -431,7 +431,7 @@ AXIS_CASES = [
         "billion values",
         "condenser",
         "mdot=1:2:1000000000",
-        ["grid of 1,000,000,000 points (mdot 1000000000) is above the limit of 200,000,000 points", "--max-points"],
+        ["grid of 1,000,000,000 points (mdot 1000000000) is above the limit of 200,000,000 points", "`max_points`"],
     ),
     ("count in e-notation", "condenser", "fan=0.1:1:1e12", ["grid of 1,000,000,000,000 points (fan 1000000000000)"]),
 ]
@@ -534,7 +534,7 @@ CHECK_GRID_SIZE = [
         {"mdot": 1_000_000_000, "fan": 4},
         {},
         "grid of 4,000,000,000 points (mdot 1000000000 x fan 4) is above the limit of 200,000,000 points; "
-        "raise it with --max-points or use a coarser grid",
+        "raise it with `max_points` or use a coarser grid",
     ),
     ("raised limit", {"mdot": 10, "fan": 10}, {"max_points": 99}, "grid of 100 points (mdot 10 x fan 10)"),
     (

@@ -260,7 +260,7 @@ def test_soc_start_sets_where_the_test_begins(refrigerant):  # noqa: F811
     assert r.records["SOC"][0] == 0.3 and f.ube_kWh < 0.4 * full.ube_kWh
     with pytest.raises(EvtmsInputError, match="start SOC"):
         run_range_test("ccp", 295.15, refrigerant, params(**SMALL), settings=RangeSettings(soc_start=0.01))
-    with pytest.raises(EvtmsInputError, match="--range 'single'"):
+    with pytest.raises(EvtmsInputError, match="`range_test` 'single'"):
         run_range_test("single", 295.15, refrigerant)
 
 

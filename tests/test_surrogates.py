@@ -353,7 +353,7 @@ def test_a_fit_that_runs_away_in_closed_loop_is_refit_and_the_best_kept(refriger
 
 
 def test_train_refuses_bad_input(refrigerant, tmp_path):
-    with pytest.raises(EvtmsInputError, match="--mode 'heat' is unknown; allowed: off, bh"):
+    with pytest.raises(EvtmsInputError, match="`mode` 'heat' is unknown; allowed: off, bh"):
         train_surrogates(refrigerant, ["heat"], tmp_path)
     (tmp_path / "file").write_text("x")
     with pytest.raises(EvtmsInputError, match="exists and is not a folder"):

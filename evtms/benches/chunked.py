@@ -715,8 +715,8 @@ def sweep_to_file(
         old = read_record(partial / "manifest.json")
         if resume and old is not None and old != manifest:
             raise EvtmsInputError(
-                f"--resume: the partial sweep in {str(partial)!r} was made with other inputs; "
-                "remove it or run without --resume"
+                f"`resume`: the partial sweep in {str(partial)!r} was made with other inputs; "
+                "remove it or run without `resume`"
             )
         if resume and old == manifest:
             done, damaged = done_chunks(partial, plan, names)

@@ -151,7 +151,7 @@ def check_grid_size(
     if points > max_points:
         raise EvtmsInputError(
             f"grid of {points:,} points ({shown}) is above the limit of {max_points:,} points; "
-            "raise it with --max-points or use a coarser grid"
+            "raise it with `max_points` or use a coarser grid"
         )
     available = available_memory() if available_bytes is None else available_bytes
     needed = points * bytes_per_point
@@ -471,7 +471,7 @@ def build_grid(
         elif alt is not None and alt in base:
             grid[alt] = np.asarray(base[alt], float)
         else:
-            raise EvtmsInputError(f"axis {name} of {bench.name} has no values; give it with --axis {name}=...")
+            raise EvtmsInputError(f"axis {name} of {bench.name} has no values; give it with `axis` {name}=...")
     for name in bench.extra_axes:
         if name in overrides:
             grid[name] = np.asarray(overrides[name], float)

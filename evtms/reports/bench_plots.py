@@ -73,12 +73,12 @@ def base_point(ds: xr.Dataset, at: dict[str, float] | None = None) -> dict[str, 
             if abs(value - fixed[name]) > 1e-9 * max(abs(fixed[name]), 1.0):
                 unit = AXES[name].units
                 raise EvtmsInputError(
-                    f"{name} = {value:g} is not allowed in --at; the LUT was made at {name} = {fixed[name]:g} {unit} "
+                    f"{name} = {value:g} is not allowed in `at`; the LUT was made at {name} = {fixed[name]:g} {unit} "
                     "only (a fixed input, not an axis)"
                 )
             continue
         if name not in dims:
-            raise EvtmsInputError(f"unknown axis {name!r} in --at; allowed: {', '.join(dims)}")
+            raise EvtmsInputError(f"unknown axis {name!r} in `at`; allowed: {', '.join(dims)}")
     base = {}
     for d in dims:
         values = ds[d].values

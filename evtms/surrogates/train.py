@@ -478,10 +478,10 @@ def check_modes(modes: list[str]) -> list[str]:
     """The mode names ``modes`` stand for (``all``: every one); an unknown or no mode is an input error."""
     for m in modes:
         if m != "all" and m not in D.MODE_NAMES:
-            raise EvtmsInputError(f"--mode {m!r} is unknown; allowed: {', '.join(D.MODE_NAMES)}, all")
+            raise EvtmsInputError(f"`mode` {m!r} is unknown; allowed: {', '.join(D.MODE_NAMES)}, all")
     names = D.modes_for(list(modes))
     if not names:
-        raise EvtmsInputError("--mode: no mode given; allowed: " + ", ".join(D.MODE_NAMES) + ", all")
+        raise EvtmsInputError("`mode`: no mode given; allowed: " + ", ".join(D.MODE_NAMES) + ", all")
     return names
 
 

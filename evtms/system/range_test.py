@@ -799,7 +799,7 @@ def run_range_test(
         An unknown test, or a test longer than the simulator's step limit or a week.
     """
     if test not in DYNAMIC:
-        raise EvtmsInputError(f"--range {test!r} is not a depletion test; allowed: {', '.join(DYNAMIC)}")
+        raise EvtmsInputError(f"`range_test` {test!r} is not a depletion test; allowed: {', '.join(DYNAMIC)}")
     s = settings or RangeSettings()
     params = params or SystemParams()
     b = params.battery

@@ -281,7 +281,7 @@ def run_scenario(setup: ScenarioSetup, refrigerant, T_amb: float | None = None, 
     T = setup.T_amb if T_amb is None else T_amb
     if T is None:
         raise EvtmsInputError(
-            f"scenario {setup.scenario.name!r} has no ambient of its own; give one (--t-amb DEGC, or T_amb in the file)"
+            f"scenario {setup.scenario.name!r} has no ambient of its own; give one (`t_amb` DEGC, or T_amb in the file)"
         )
     result = simulate(
         setup.cycle,

@@ -217,7 +217,7 @@ def check_run_size(duration: float, dt: float, every: float) -> int:
         raise EvtmsInputError(
             f"`dt` {dt:g} s with `output_every` {every:g} s gives {n:,} steps and {records:,} records over "
             f"{duration:g} s, {size / 1e6:,.0f} MB of arrays; allowed: at most {MAX_RUN_BYTES / 1e6:,.0f} MB "
-            "(a larger --dt or --output-every)"
+            "(a larger `dt` or `output_every`)"
         )
     return n
 

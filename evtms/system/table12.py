@@ -370,7 +370,7 @@ def run_table12(
     if not approaches:
         raise EvtmsInputError(f"no approach to run; allowed: {', '.join(APPROACHES)}")
     if "surrogate" in approaches and mode_models is None:
-        raise EvtmsInputError("the surrogate approach needs mode models (--surrogates FILE)")
+        raise EvtmsInputError("the surrogate approach needs mode models (`surrogates` FILE)")
     if not (isinstance(dt, int | float) and math.isfinite(dt) and 1e-3 <= dt <= 60.0):
         raise EvtmsInputError(f"step {dt!r} s is not allowed; allowed: 0.001 to 60 s")
     if isinstance(repeat, bool) or not isinstance(repeat, int) or not 1 <= repeat <= 20:
