@@ -512,7 +512,7 @@ def run_loop(
             chill_ok = True
         # Inlet air: fixed (Table 12 Tin) or the mix of cabin and ambient air.
         fixed_inlet = not math.isnan(ext[n, X_INLET_T])
-        rc, rh_, rw = par[P_RC_COOL], par[P_RC_HEAT], par[P_RC_WARM]
+        rc, rh_, rw, rv = par[P_RC_COOL], par[P_RC_HEAT], par[P_RC_WARM], par[P_RC_VENT]
         rh_cab = min(max(relative_humidity(Ta, w_cab, p_atm), 0.0), 1.5)
         # Vent-air target: feed-forward of the cabin's steady balance, proportional and integral terms.
         m_max = par[P_BLOWER_FLOW] * p_atm / (_R_AIR * Ta)
@@ -618,7 +618,7 @@ def run_loop(
             # Fog-limited outside cooling: the share falls to 0 as the cabin RH rises from rh_dehum - 0.1 to
             # rh_dehum. Heating recirculates more (a fixed half of fresh air heated 0.66 kW more at 10 degC);
             # with no request the fresh air is what holds a mild cabin (0.8 let 22 degC air drift 1.3 K).
-            share = (rw if warm else rh_) if cab_heat else par[P_RC_VENT]
+            share = (rw if warm else rh_) if cab_heat else rv
             r = share * min(max((par[P_RH_DEHUM] - rh_cab) / 0.1, 0.0), 1.0)
         if fixed_inlet:
             r = 0.0

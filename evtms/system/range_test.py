@@ -64,7 +64,7 @@ from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's flag bits
 from evtms.system.drive_cycles import MAX_SAMPLES, DriveCycle, drive_cycle
 from evtms.system.params import SystemParams
-from evtms.system.simulate import SimulationResult, simulate, step_count, usable_energy
+from evtms.system.simulate import SimulationResult, simulate, usable_energy
 from evtms.system.tables import battery_cell_tables
 
 #: ``--range``: the v1 single trip, the J1634 multi-cycle test, the GTR 15 consecutive cycles.
@@ -809,7 +809,6 @@ def run_range_test(
     params = dataclasses.replace(params, battery=dataclasses.replace(b, soc_init=soc0))
 
     def run(sequence: TestSequence) -> SimulationResult:
-        step_count(sequence.cycle.duration + precondition, dt)  # bounds the steps before anything is allocated
         return simulate(
             sequence.cycle, T_amb, refrigerant, params, dt=dt, precondition=precondition, **simulate_options
         )
