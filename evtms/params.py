@@ -107,10 +107,53 @@ def param(
     lo_open: bool = False,
     hi_open: bool = False,
     whole: bool = False,
+    source: str = "",
+    slot: str | None = None,
+    optional: bool = False,
 ) -> Any:
-    """A dataclass field with its default and its allowed range (``metadata["range"]``, ``metadata["units"]``)."""
+    """A dataclass field with its default, allowed range, units and source, declared once.
+
+    Parameters
+    ----------
+    default
+        The value a table takes when a file does not give one (``None`` for an
+        ``optional`` parameter whose absence means something, e.g. "the
+        ambient").
+    lo, hi : float
+        Allowed range, in ``units``; ``lo_open``/``hi_open`` exclude the bound,
+        ``whole`` allows whole numbers only.
+    units : str
+        Units of the value (``"1"`` for a pure number).
+    source : str
+        Where the default comes from (documentation tables are drawn from it).
+    slot : str, optional
+        Name of the slot the system's time loop reads the value from
+        (``evtms.system.loop.P_<slot>``); the loop's packing is derived from it.
+    optional : bool
+        Whether ``None`` is allowed (only as the default: TOML has no null).
+
+    Returns
+    -------
+    dataclasses.Field
+        With ``metadata`` ``range`` (:class:`Range`), ``units``, ``source``,
+        ``slot`` and ``optional``.
+    """
     rng = Range(lo, hi, units, lo_open, hi_open, whole)
-    return field(default=default, metadata={"range": rng, "units": units})
+    return field(
+        default=default,
+        metadata={"range": rng, "units": units, "source": source, "slot": slot, "optional": optional},
+    )
+
+
+def choice(default: str, choices: tuple[str, ...], *, source: str = "", slot: str | None = None) -> Any:
+    """A dataclass field that is one of ``choices`` (a name, not a number).
+
+    Packed for the time loop (``slot``) as its index in ``choices``.
+    """
+    return field(
+        default=default,
+        metadata={"choices": tuple(choices), "units": "name", "source": source, "slot": slot, "optional": False},
+    )
 
 
 def length(default: float, hi: float = 10.0) -> Any:
@@ -173,6 +216,11 @@ class Relation:
     def holds(self, obj: Any) -> bool:
         a, b = getattr(obj, self.left), self.right(obj)
         return {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b}[self.op]
+
+
+def ordered(left: str, op: str, right: str) -> Relation:
+    """The relation ``left op right`` between two parameters of one table (``ordered("soc_min", "<", "soc_init")``)."""
+    return Relation(left, op, lambda obj: getattr(obj, right), right, (right,))
 
 
 @dataclass(frozen=True)
@@ -260,9 +308,16 @@ def _is_number(value: object) -> bool:
 
 
 def _convert(f: dataclasses.Field, value: Any, where: str) -> Any:
-    """``value`` of field ``f`` as the dataclass holds it, checked against the field's range."""
-    rng: Range = f.metadata["range"]
+    """``value`` of field ``f`` as the dataclass holds it, checked against the field's range or choices."""
     key = f.name
+    if value is None and f.metadata.get("optional"):
+        return None
+    choices = f.metadata.get("choices")
+    if choices is not None:
+        if not isinstance(value, str) or value not in choices:
+            raise EvtmsInputError(f"{where} {key} = {_show(value)} is not allowed; allowed: {', '.join(choices)}")
+        return value
+    rng: Range = f.metadata["range"]
     if isinstance(value, dict):
         raise EvtmsInputError(f"{where} {key} is a table, not a value; allowed: {rng.describe(key)}")
     if not _is_number(value):

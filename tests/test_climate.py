@@ -213,7 +213,7 @@ def test_v1_parameter_names_name_their_successors():
     for (table, name), msg in cases.items():
         with pytest.raises(EvtmsInputError, match=msg):
             system_params_from_dict({table: {name: 1.0}})
-    with pytest.raises(EvtmsInputError, match=r"heating = 'heat_pump' is not allowed; allowed: ptc_air, ptc_coolant"):
+    with pytest.raises(EvtmsInputError, match=r'heating = "heat_pump" is not allowed; allowed: ptc_air, ptc_coolant'):
         system_params_from_dict({"hvac": {"heating": "heat_pump"}})
 
 
@@ -268,9 +268,12 @@ def test_surrogates_refuse_coolant_heating(synthetic):  # noqa: F811
 def test_fan_stages_switch_once_per_crossing_of_their_bands():
     """Three relays on the discharge pressure (spec v2 5.4) at 30 degC: on at 1.1 / 1.7 / 2.2 MPa, off at 0.8 /
     1.3 / 1.8 MPa; a pressure between the two keeps each stage as it was."""
+    from types import SimpleNamespace
+
     from evtms.system.simulate import pack_parameters
 
-    par = pack_parameters(system_params_from_dict({}), 303.15, 0.4, 0.0, -1, 0.428)
+    maps = SimpleNamespace(coolant_mdot_max=0.428, fan_flow_max=0.88, blower_flow_max=0.3)
+    par = pack_parameters(system_params_from_dict({}), 303.15, 0.4, 0.0, -1, maps)
     up = np.linspace(0.5e6, 2.5e6, 401)
     pressures = np.concatenate([up, up[::-1]])
     stages = np.zeros((pressures.size, 3))

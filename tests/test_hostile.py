@@ -365,11 +365,14 @@ CASES: list[Case] = [
     Case(
         "simulate-trace-fifo", ["simulate", "--cycle", "t.csv", "--t-amb", "30", "-o", "o.nc"], "t.csv", [fifo("t.csv")]
     ),
-    bad_params("simulate-params-unknown-table", "[heatpump]\nx = 1\n", "table [heatpump] is unknown", tuple(SIM)),
+    bad_params("simulate-params-unknown-table", "[heatpump]\nx = 1\n", "unknown table or key 'heatpump'", tuple(SIM)),
+    bad_params(
+        "simulate-params-shared-with-a-bench", "[cabin]\nblower_flow_max = 0.4\n", "[evaporator] fan_flow_max", tuple(SIM)
+    ),
     bad_params("simulate-params-v1-name", "[controls]\nptc_max_power = 3000\n", "is [hvac] ptc_max_power", tuple(SIM)),
     bad_params("simulate-params-heating", "[hvac]\nheating = 'gas'\n", "allowed: ptc_air, ptc_coolant", tuple(SIM)),
     bad_params("simulate-params-frost-order", "[climate]\nT_frost_on = 274\n", "T_frost_off < T_frost_on", tuple(SIM)),
-    bad_params("simulate-params-string", "[cabin]\nvolume = 'big'\n", "[cabin] volume = 'big'", tuple(SIM)),
+    bad_params("simulate-params-string", "[cabin]\nvolume = 'big'\n", '[cabin] volume = "big"', tuple(SIM)),
     bad_params("simulate-params-order", "[battery]\nsoc_min = 0.95\n", "soc_min < soc_init", tuple(SIM)),
     bad_params("simulate-params-empty", b"", "is empty; give at least one [table]", tuple(SIM)),
     Case("simulate-dt-nan", [*SIM, "--dt", "nan", "-o", "o.nc"], "--dt"),

@@ -142,6 +142,11 @@ def _flatten(params: Parameters) -> dict[str, Any]:
     return out
 
 
+def parameters_from_dict(data: dict[str, Any]) -> Parameters:
+    """The defaults with ``fluid``, ``backend`` and the tables of ``data`` (parsed TOML or JSON) applied, checked."""
+    return apply_tables(data, Parameters(), SECTIONS)
+
+
 def load_parameters(path: str | Path | None = None) -> Parameters:
     """Default parameters, overridden by a TOML file if ``path`` is given.
 
@@ -161,12 +166,11 @@ def load_parameters(path: str | Path | None = None) -> Parameters:
         ``params file 'p.toml': [condenser] n_tubes = -3 is not allowed;
         allowed: 1 <= n_tubes <= 1000 (whole number)``.
     """
-    params = Parameters()
     if path is None:
-        return params
+        return Parameters()
     data = read_params_toml(path)
     try:
-        return apply_tables(data, params, SECTIONS)
+        return parameters_from_dict(data)
     except EvtmsInputError as exc:
         raise EvtmsInputError(f"params file {str(Path(path))!r}: {exc}") from None
 

@@ -28,9 +28,11 @@ Technologies 25(3), 495-505.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
+from evtms.params import Relation, ordered, param
 from evtms.system.tables import BatteryCellTables, battery_cell_tables, bilinear_clamped
 
 
@@ -70,23 +72,57 @@ class BatteryParams:
         Initial pack temperature [K]; None = the ambient.
     """
 
-    n_series: int = 96
-    n_parallel: int = 32
-    cell_capacity: float = 4.5
-    cell_voltage_min: float = 2.25
-    r2: float = 0.0
-    c2: float = 0.0
-    soc_min: float = 0.05
-    soc_max: float = 0.98
-    soc_init: float = 0.9
-    heat_capacity: float = 163.4e3
-    g_cells_plate: float = 1216.0
-    plate_channels: int = 12
-    plate_channel_diameter: float = 0.009
-    plate_channel_length: float = 1.3
-    g_coolant_fixed: float | None = None
-    g_ambient: float = 15.0
-    T_init: float | None = None
+    n_series: int = param(96, 1, 1000, whole=True, source="MW P `Battery.Ns`", slot="NS")
+    n_parallel: int = param(32, 1, 1000, whole=True, source="MW P `Battery.Np`")
+    cell_capacity: float = param(
+        4.5, 0.01, 1000.0, "Ah", source="MW P `AHCell` (pack 144 Ah, 50.8 kWh; 47.5 kWh between SOC 0.05 and 0.98)"
+    )
+    cell_voltage_min: float = param(2.25, 0.5, 5.0, "V", source="MW P `V_rangeCell`", slot="VMIN")
+    r2: float = param(0.0, 0.0, 10.0, "ohm", source="A (0: the RC branch is off; no source gives it)", slot="R2")
+    c2: float = param(0.0, 0.0, 1e7, "F", source="A (0: the RC branch is off; no source gives it)", slot="C2")
+    soc_min: float = param(0.05, 0.0, 1.0, source="FS `min_soc`", slot="SOC_MIN")
+    soc_max: float = param(0.98, 0.0, 1.0, source="FS `max_soc`", slot="SOC_MAX")
+    soc_init: float = param(0.9, 0.0, 1.0, source="MW P `SOC_start`")
+    heat_capacity: float = param(
+        163.4e3, 1.0, 1e8, "J/K", source="MW P 760 J/(kg K) x 0.07 kg x 3072 cells", slot="C_BAT"
+    )
+    g_cells_plate: float = param(
+        1216.0, 1.0, 1e6, "W/K", source="MW P `CoolantResistance` (cells to plate)", slot="G_CP"
+    )
+    plate_channels: int = param(12, 1, 1000, whole=True, source="MW P cooling plate")
+    plate_channel_diameter: float = param(0.009, 1e-4, 0.1, "m", source="MW P cooling plate")
+    plate_channel_length: float = param(1.3, 0.01, 100.0, "m", source="MW P cooling plate")
+    g_coolant_fixed: float | None = param(
+        None,
+        0.0,
+        1e5,
+        "W/K",
+        optional=True,
+        source=(
+            "unset: `g_cells_plate` in series with the channels' convection at the step's pump flow, Hausen's "
+            "developing laminar flow (Incropera eq. 8.57; Re 400-1330, Pr 33): 118 / 139 / 174 W/K at pump "
+            "0.3 / 0.5 / 1, 36 W/K with the pump off (Nu = 2, natural convection, A); set it for a constant "
+            "conductance"
+        ),
+    )
+    g_ambient: float = param(
+        15.0,
+        0.0,
+        1e5,
+        "W/K",
+        slot="G_BA",
+        source=(
+            "A: the pack's top and bottom (MW 1.343 x 1.274 m, 3.42 m2) at MW `battConv` 5 W/(m2 K) behind 5 mm "
+            "of foam at 0.035 W/(m K): 10 W/K parked to 19 W/K driving; with the coolant a time constant of "
+            "3.3 h. MW P `AmbientResistance` (45 K/W per cell, 68.3 W/K, 40 min) treats every cell as exposed"
+        ),
+    )
+    T_init: float | None = param(None, 173.15, 373.15, "K", optional=True, source="MW S (unset: the ambient)")
+
+    RELATIONS: ClassVar[tuple[Relation, ...]] = (
+        ordered("soc_min", "<", "soc_init"),
+        ordered("soc_init", "<=", "soc_max"),
+    )
 
     @property
     def capacity_As(self) -> float:

@@ -561,11 +561,12 @@ _RESULT_KEYS = ("p_A", "p_B", "mdot", "Q_evap", "Q_latent", "Q_chiller", "Q_cond
 _WORKER_LUTS: dict[tuple[str, str], dict] = {}
 
 
-def solve_nodes(luts: dict, topology: str, inputs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+def solve_nodes(luts: dict, topology: str, inputs: Mapping[str, np.ndarray], params=None) -> dict[str, np.ndarray]:
+    """The cycle at the map nodes ``inputs``: on ``luts``, or (``luts`` None) on the bench physics with ``params``."""
     from evtms.cycle.api import run_cycle
     from evtms.cycle.solver import OperatingPoints
 
-    res = run_cycle(OperatingPoints(**inputs), luts, circuit=topology)
+    res = run_cycle(OperatingPoints(**inputs), luts, circuit=topology, params=params)
     return {k: np.asarray(res[k]) for k in _RESULT_KEYS}
 
 

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from evtms.errors import EvtmsInputError
+from evtms.params import Relation, choice, ordered, override, param
 from evtms.system.battery import BatteryParams
 from evtms.system.vehicle import VehicleParams
 
@@ -34,39 +34,73 @@ class CabinParams:
     warming up and with no request (the climate control chooses among them,
     fog-limited outside cooling, or sets its own share in fresh-air economy);
     ``sun`` [W/m2] (None: the scenario's) and ``sun_shield`` [1] give
-    ``Q_sun = 3 sun sun_shield`` [W]; ``blower_flow_max`` [m3/s] and ``blower_power_max`` [W] (x u^3);
+    ``Q_sun = 3 sun sun_shield`` [W]; ``blower_power_max`` [W] (x u^3) at the
+    blower's full flow, which is the evaporator bench's ``fan_flow_max`` the
+    cycle LUTs were made with (the maps' ``blower`` axis is a share of it);
     ``T_set`` [K] the cabin setpoint; ``rh_cabin`` [1] the initial relative
     humidity; ``T_init`` [K] the initial temperature (None: the ambient).
     """
 
-    volume: float = 3.0
-    glass_area: float = 3.0
-    glass_thickness: float = 0.004
-    glass_conductivity: float = 0.96
-    glass_heat_capacity: float = 26.2e3
-    doors_area: float = 4.0
-    doors_thickness: float = 0.06
-    doors_conductivity: float = 0.08
-    doors_heat_capacity: float = 37.5e3
-    roof_area: float = 2.0
-    roof_thickness: float = 0.04
-    roof_conductivity: float = 0.08
-    roof_heat_capacity: float = 15.0e3
-    wall_htc: float = 40.0
-    interior_heat_capacity: float = 80.0e3
-    interior_conductance: float = 300.0
-    recirc_cool: float = 0.85
-    recirc_heat: float = 0.8
-    recirc_warmup: float = 0.8
-    recirc_vent: float = 0.5
-    n_occupants: int = 1
-    rh_cabin: float = 0.5
-    sun: float | None = None
-    sun_shield: float = 0.5
-    blower_flow_max: float = 0.3
-    blower_power_max: float = 250.0
-    T_set: float = 295.15
-    T_init: float | None = None
+    volume: float = param(3.0, 0.1, 100.0, "m3", source="MW M")
+    glass_area: float = param(3.0, 0.01, 100.0, "m2", source="MW M")
+    glass_thickness: float = param(0.004, 1e-4, 1.0, "m", source="MW M")
+    glass_conductivity: float = param(0.96, 1e-3, 500.0, "W/(m K)", source="MW P")
+    glass_heat_capacity: float = param(26.2e3, 1.0, 1e7, "J/K", source="MW P", slot="C_GLASS")
+    doors_area: float = param(4.0, 0.01, 100.0, "m2", source="MW M")
+    doors_thickness: float = param(0.06, 1e-4, 1.0, "m", source="MW M")
+    doors_conductivity: float = param(0.08, 1e-3, 500.0, "W/(m K)", source="MW P")
+    doors_heat_capacity: float = param(37.5e3, 1.0, 1e7, "J/K", source="MW P", slot="C_DOORS")
+    roof_area: float = param(2.0, 0.01, 100.0, "m2", source="MW M")
+    roof_thickness: float = param(0.04, 1e-4, 1.0, "m", source="MW M")
+    roof_conductivity: float = param(0.08, 1e-3, 500.0, "W/(m K)", source="MW P")
+    roof_heat_capacity: float = param(15.0e3, 1.0, 1e7, "J/K", source="MW P", slot="C_ROOF")
+    wall_htc: float = param(40.0, 0.1, 1000.0, "W/(m2 K)", source="MW M, both sides (UA to ambient 64.0 W/K)")
+    interior_heat_capacity: float = param(
+        80.0e3,
+        0.0,
+        1e8,
+        "J/K",
+        slot="C_INT",
+        source="A (FS whole cabin 80.1 kJ/K, lumped in one node); 0 turns the node off",
+    )
+    interior_conductance: float = param(
+        300.0,
+        0.0,
+        1e5,
+        "W/K",
+        slot="G_INT",
+        source="A: about 25 m2 of seats, dashboard and trim at 12 W/(m2 K) under vent flow",
+    )
+    recirc_cool: float = param(
+        0.85,
+        0.0,
+        1.0,
+        slot="RC_COOL",
+        source=(
+            "G13: CO2 below 2000 ppm with more than 85 % recirculation; A (window fogging: outside cooling the "
+            "share falls to 0 as the cabin RH rises from `rh_dehum` - 0.1 to `rh_dehum`)"
+        ),
+    )
+    recirc_heat: float = param(0.8, 0.0, 1.0, slot="RC_HEAT", source="G13; A, fog-limited as `recirc_cool`")
+    recirc_warmup: float = param(0.8, 0.0, 1.0, slot="RC_WARM", source="G13; A, fog-limited as `recirc_cool`")
+    recirc_vent: float = param(
+        0.5,
+        0.0,
+        1.0,
+        slot="RC_VENT",
+        source="A: with no request the fresh air holds a mild cabin (the spec's `recirc_heat`; fog-limited)",
+    )
+    n_occupants: int = param(1, 0, 100, whole=True, source="MW M (70 W and 1.4e-5 kg/s of water each)")
+    rh_cabin: float = param(0.5, 0.0, 1.0, source="MW S, initial cabin humidity")
+    sun: float | None = param(
+        None, 0.0, 1500.0, "W/m2", optional=True, source="MW M (600 in summer scenarios); unset: the scenario's"
+    )
+    sun_shield: float = param(0.5, 0.0, 1.0, source="MW P `radiationReflectionShields`; `Q_sun = 3 sun sun_shield`")
+    blower_power_max: float = param(
+        250.0, 0.0, 1e4, "W", slot="BLOWER_POWER", source="A, times the blower command cubed"
+    )
+    T_set: float = param(295.15, 283.15, 308.15, "K", slot="T_SET", source="FS `te_set_cab_kelvin` (22 degC)")
+    T_init: float | None = param(None, 173.15, 373.15, "K", optional=True, source="MW S (unset: the ambient)")
 
     def shell_conductance(self) -> float:
         """Air-to-ambient conductance [W/K] of the three walls in parallel, each film-half-half-film in series."""
@@ -94,16 +128,25 @@ class CoolantParams:
     the ambient).
     """
 
-    heat_capacity: float = 16.5e3
-    density: float = 1070.0
-    cp: float = 3300.0
-    viscosity: float = 3.8e-3
-    conductivity: float = 0.38
-    flow_max: float = 4.0e-4
-    pump_power_ref: float = 120.0
-    pump_speed_max: float = 1200.0
-    heater_max_power: float = 4000.0
-    T_init: float | None = None
+    heat_capacity: float = param(
+        16.5e3,
+        1.0,
+        1e8,
+        "J/K",
+        slot="C_COOL",
+        source="MW P/M battery loop: tank, heater, plate channels, plate, heater mass",
+    )
+    density: float = param(1070.0, 100.0, 3000.0, "kg/m3", source="A (50 % ethylene glycol at 20 degC)")
+    cp: float = param(3300.0, 100.0, 1e4, "J/(kg K)", slot="CP_H", source="A (50 % ethylene glycol at 20 degC)")
+    viscosity: float = param(3.8e-3, 1e-5, 1.0, "Pa s", source="A (50 % ethylene glycol at 20 degC)")
+    conductivity: float = param(0.38, 0.01, 10.0, "W/(m K)", source="A (50 % ethylene glycol at 20 degC)")
+    flow_max: float = param(4.0e-4, 1e-6, 0.1, "m3/s", source="MW P pump 0.02 l/rev x 1200 rpm")
+    pump_power_ref: float = param(
+        120.0, 0.0, 1e4, "W", slot="PUMP_REF", source="MW M, at 1000 rpm (affinity law, power ~ speed^3)"
+    )
+    pump_speed_max: float = param(1200.0, 1.0, 1e5, "rpm", slot="PUMP_NMAX", source="MW P")
+    heater_max_power: float = param(4000.0, 0.0, 1e5, "W", slot="HEATER_MAX", source="MW P")
+    T_init: float | None = param(None, 173.15, 373.15, "K", optional=True, source="MW S (unset: the ambient)")
 
 
 #: The condenser fan's stage-2 and stage-3 switch-off pressures [Pa] over the ambient temperature [K]
@@ -129,40 +172,89 @@ class ControlParams:
     ``p_2``, ``p_3`` from the ambient-temperature curves of
     :data:`FAN_STAGE_CURVES` with ``fan_band``), at least one stage while
     ram air gives less than ``ram_flow_floor`` [m3/s]. The fan command is
-    the share of stages on, its flow that times ``fan_flow_max`` [m3/s] (the
-    condenser bench's at fan 1), its power ``fan_power_nominal`` at
+    the share of stages on, its flow that times the condenser bench's
+    ``fan_flow_max`` [m3/s] the cycle LUTs were made with (the maps' ``fan``
+    axis is a share of it), its power ``fan_power_nominal`` at
     ``fan_flow_nominal`` [m3/s] scaled with the flow cubed. Ram air
     ``ram_area`` [m2] times the vehicle speed adds to the fan's flow in
     quadrature (one quadratic resistance), never below ``front_flow_min``
     [m3/s] (natural draft).
     """
 
-    chiller_kp: float = 1.0
-    chiller_ki: float = 0.2
-    chiller_p_suction: float = 0.3e6
-    compressor_min_speed: float = 0.1
-    fan_power_nominal: float = 533.0
-    fan_flow_nominal: float = 0.8
-    fan_flow_max: float = 0.88
-    fan_p1: float = 0.8e6
-    fan_p1_band: float = 0.3e6
-    fan_band: float = 0.4e6
-    ram_area: float = 0.0289
-    ram_flow_floor: float = 0.2
-    front_flow_min: float = 0.05
-    compressor_drive_efficiency: float = 1.0
-    tau_refrigerant: float = 10.0
-    bc_on: float = 308.15
-    bc_off: float = 303.15
-    bc_critical_on: float = 313.15
-    bc_critical_off: float = 308.15
-    bh_on: float = 278.15
-    bh_off: float = 288.15
-    bh_ambient_max: float = 278.15
-    pump_idle: float = 0.3
-    pump_bc: float = 0.5
-    pump_critical: float = 1.0
-    mode_hold: float = 60.0
+    chiller_kp: float = param(
+        1.0,
+        0.0,
+        1e3,
+        "1/MPa",
+        slot="CH_KP",
+        source="MW M (P 1): the compressor's suction PI when the chiller runs alone, or a critical battery's",
+    )
+    chiller_ki: float = param(0.2, 0.0, 1e3, "1/(MPa s)", slot="CH_KI", source="MW M (I 1/5)")
+    chiller_p_suction: float = param(0.3e6, 0.05e6, 1.0e6, "Pa", slot="CH_PS", source="MW M")
+    compressor_min_speed: float = param(0.1, 0.01, 1.0, slot="SPEED_MIN", source="evtms cycle envelope")
+    fan_power_nominal: float = param(
+        533.0, 0.0, 1e4, "W", slot="FAN_PNOM", source="MW M fan 400 Pa at efficiency 0.6; power ~ flow^3"
+    )
+    fan_flow_nominal: float = param(0.8, 0.01, 100.0, "m3/s", slot="FAN_VNOM", source="MW M")
+    fan_p1: float = param(
+        0.8e6,
+        0.1e6,
+        3.0e6,
+        "Pa",
+        slot="FAN_P1",
+        source="MWc `Condenser Requirement`: stage 1 off at 0.8 MPa, on at 1.1 MPa discharge",
+    )
+    fan_p1_band: float = param(0.3e6, 0.0, 2.0e6, "Pa", slot="FAN_D1", source="MWc (stage 1 on at 1.1 MPa)")
+    fan_band: float = param(
+        0.4e6, 0.0, 2.0e6, "Pa", slot="FAN_D23", source="MWc: stages 2 and 3 on 0.4 MPa above their switch-off"
+    )
+    ram_area: float = param(
+        0.0289,
+        0.0,
+        1.0,
+        "m2",
+        slot="RAM_AREA",
+        source="MW intake 500 Pa at 1 kg/s: ram flow = ram_area x speed, 1/sqrt(2 x 500 x 1.2)",
+    )
+    ram_flow_floor: float = param(
+        0.2,
+        0.0,
+        10.0,
+        "m3/s",
+        slot="RAM_FLOOR",
+        source="A: below this ram flow a running compressor keeps one fan stage (the maps' lowest air-flow node)",
+    )
+    front_flow_min: float = param(
+        0.05, 0.001, 1.0, "m3/s", slot="V_FRONT_MIN", source="A: natural draft through the front end"
+    )
+    compressor_drive_efficiency: float = param(1.0, 0.1, 1.0, slot="DRIVE_EFF", source="A")
+    tau_refrigerant: float = param(10.0, 0.1, 600.0, "s", slot="TAU", source="A")
+    bc_on: float = param(308.15, 173.15, 373.15, "K", slot="BC_ON", source="MW M chiller relay on T_battery")
+    bc_off: float = param(303.15, 173.15, 373.15, "K", slot="BC_OFF", source="MW M chiller relay on T_battery")
+    bc_critical_on: float = param(313.15, 173.15, 373.15, "K", slot="CRIT_ON", source="MW M pump relay")
+    bc_critical_off: float = param(308.15, 173.15, 373.15, "K", slot="CRIT_OFF", source="MW M pump relay")
+    bh_on: float = param(278.15, 173.15, 373.15, "K", slot="BH_ON", source="MW M heater relay on T_coolant")
+    bh_off: float = param(288.15, 173.15, 373.15, "K", slot="BH_OFF", source="MW M heater relay on T_coolant")
+    bh_ambient_max: float = param(
+        278.15, 173.15, 373.15, "K", slot="BH_AMB_MAX", source="MW M heater relay: only below this ambient"
+    )
+    pump_idle: float = param(0.3, 0.0, 1.0, slot="PUMP_IDLE", source="MW M pump logic")
+    pump_bc: float = param(0.5, 0.0, 1.0, slot="PUMP_BC", source="MW M pump logic")
+    pump_critical: float = param(1.0, 0.0, 1.0, slot="PUMP_CRIT", source="MW M pump logic")
+    mode_hold: float = param(
+        60.0,
+        0.0,
+        3600.0,
+        "s",
+        slot="HOLD",
+        source="A: a cabin request holds at least this long once set (v1 held the mode)",
+    )
+
+    RELATIONS: ClassVar[tuple[Relation, ...]] = (
+        ordered("bc_off", "<", "bc_on"),
+        ordered("bc_critical_off", "<", "bc_critical_on"),
+        ordered("bh_on", "<", "bh_off"),
+    )
 
 
 @dataclass(frozen=True)
@@ -176,33 +268,96 @@ class ClimateParams:
     ``blower_rate`` [1/s], ``rh_dehum`` [1].
     """
 
-    vent_kp: float = 2.0
-    vent_Ti: float = 300.0
-    T_vent_min: float = 276.15
-    T_vent_max: float = 333.15
-    blower_min: float = 0.4
-    blower_dT0: float = 2.0
-    blower_dT1: float = 15.0
-    blower_rate: float = 0.08
-    warmup_max: float = 150.0
-    cabin_band: float = 0.5
-    t_request_clear: float = 300.0
-    tau_request: float = 60.0
-    T_evap_min: float = 276.15
-    T_evap_max: float = 288.15
-    evap_kp: float = 0.1
-    evap_ki: float = 0.01
-    dT_cycle: float = 1.0
-    t_on_min: float = 30.0
-    t_off_min: float = 25.0
-    T_frost_off: float = 274.65
-    T_frost_on: float = 278.15
-    p_frost_off: float = 0.15e6
-    p_frost_on: float = 0.25e6
-    ac_T_amb_min: float = 277.15
-    rh_dehum: float = 0.6
-    blend_kp: float = 0.02
-    blend_ki: float = 0.002
+    vent_kp: float = param(2.0, 0.0, 100.0, "K/K", slot="VENT_KP", source="A")
+    vent_Ti: float = param(300.0, 1.0, 1e5, "s", slot="VENT_TI", source="A")
+    T_vent_min: float = param(
+        276.15, 173.15, 373.15, "K", slot="TV_MIN", source="SM-L lowest evaporator setting 3 degC"
+    )
+    T_vent_max: float = param(333.15, 173.15, 373.15, "K", slot="TV_MAX", source="A")
+    blower_min: float = param(0.4, 0.05, 1.0, slot="BLOWER_MIN", source="SM-S minimum 5.5 V of about 13.5 V")
+    blower_dT0: float = param(2.0, 0.0, 50.0, "K", slot="BL_DT0", source="A (speed from the vent-target gap)")
+    blower_dT1: float = param(15.0, 0.1, 100.0, "K", slot="BL_DT1", source="A (speed from the vent-target gap)")
+    blower_rate: float = param(0.08, 1e-3, 100.0, "1/s", slot="BL_RATE", source="SM-S about +1 V/s")
+    warmup_max: float = param(
+        150.0,
+        0.0,
+        3600.0,
+        "s",
+        slot="WARMUP_MAX",
+        source="A: the blower held at its minimum at most this long while the heater warms",
+    )
+    cabin_band: float = param(0.5, 0.0, 10.0, "K", slot="BAND", source="FS `te_deadband_cab_kelvin`")
+    t_request_clear: float = param(300.0, 0.0, 3600.0, "s", slot="T_CLEAR", source="A")
+    tau_request: float = param(60.0, 0.1, 3600.0, "s", slot="TAU_REQ", source="A")
+    T_evap_min: float = param(
+        276.15,
+        173.15,
+        373.15,
+        "K",
+        slot="TEV_MIN",
+        source="SM-L settings (on 4 / off 3 degC); thesis Table 12 SP_evap 5-15 degC",
+    )
+    T_evap_max: float = param(
+        288.15,
+        173.15,
+        373.15,
+        "K",
+        slot="TEV_MAX",
+        source="SM-L settings (on 11 / off 10 degC); thesis Table 12 SP_evap 5-15 degC",
+    )
+    evap_kp: float = param(0.1, 0.0, 100.0, "1/K", slot="EV_KP", source="A")
+    evap_ki: float = param(0.01, 0.0, 100.0, "1/(K s)", slot="EV_KI", source="A")
+    dT_cycle: float = param(1.0, 0.05, 20.0, "K", slot="DT_CYC", source="A (SM-L: 1 K between its on and off settings)")
+    t_on_min: float = param(30.0, 0.0, 3600.0, "s", slot="T_ON_MIN", source="A")
+    t_off_min: float = param(
+        25.0,
+        0.0,
+        3600.0,
+        "s",
+        slot="T_OFF_MIN",
+        source=(
+            "A: with 30 s the off phases at 25 degC lift the cabin's 60-s mean 1.1 K above its band (the "
+            "evaporator air, 10 s time constant, reaches the inlet within 20 s)"
+        ),
+    )
+    T_frost_off: float = param(
+        274.65,
+        263.15,
+        283.15,
+        "K",
+        slot="TFR_OFF",
+        source="SM-N (off at or below 1.5 degC); SM-F (no clutch below 1.5 degC)",
+    )
+    T_frost_on: float = param(278.15, 263.15, 293.15, "K", slot="TFR_ON", source="SM-N (on at or above 5.0 degC)")
+    p_frost_off: float = param(
+        0.15e6,
+        0.0,
+        1.0e6,
+        "Pa",
+        slot="PF_OFF",
+        source='MW M "Freezing Cutoff" low end, a relay on the suction pressure',
+    )
+    p_frost_on: float = param(
+        0.25e6,
+        0.0,
+        1.0e6,
+        "Pa",
+        slot="PF_ON",
+        source='MW M "Freezing Cutoff" high end, a relay on the suction pressure',
+    )
+    ac_T_amb_min: float = param(
+        277.15, 173.15, 373.15, "K", slot="AC_TAMB_MIN", source="SM-F (Focus 2012: no A/C below about 4 degC)"
+    )
+    rh_dehum: float = param(0.6, 0.1, 1.0, slot="RH_DEHUM", source="A (cleared below 0.55)")
+    blend_kp: float = param(0.02, 0.0, 100.0, "1/K", slot="BLEND_KP", source="A (air-mix door of the heater core)")
+    blend_ki: float = param(0.002, 0.0, 100.0, "1/(K s)", slot="BLEND_KI", source="A (air-mix door of the heater core)")
+
+    RELATIONS: ClassVar[tuple[Relation, ...]] = (
+        ordered("p_frost_off", "<", "p_frost_on"),
+        ordered("T_frost_off", "<", "T_frost_on"),
+        ordered("T_vent_min", "<", "T_vent_max"),
+        ordered("T_evap_min", "<", "T_evap_max"),
+    )
 
 
 #: Cabin heating options (``hvac.heating``); the heat pump is a later version's.
@@ -225,22 +380,79 @@ class HvacParams:
     above).
     """
 
-    heating: str = "ptc_air"
-    ptc_max_power: float = 6000.0
-    ptc_kp: float = 0.01
-    ptc_ki: float = 0.001
-    ptcw_max_power: float = 6000.0
-    ptcw_kp: float = 0.1
-    ptcw_ki: float = 0.002
-    T_H_max: float = 363.15
-    C_H: float = 6600.0
-    pump_h_flow: float = 3.33e-4
-    pump_h_power: float = 120.0
-    heater_core_ua: float = 250.0
-    heater_core_air_ref: float = 0.15
-    bh_T_coolant_max: float = 318.15
-    bh_T_battery_max: float = 298.15
-    bc_T_battery_min: float = 288.15
+    heating: str = choice(
+        "ptc_air",
+        HEATING,
+        slot="HEATING",
+        source=(
+            "MW (an air PTC after the evaporator); `ptc_coolant`: a coolant PTC in a heater-core loop "
+            "(EFFEREST, thesis 4.5)"
+        ),
+    )
+    ptc_max_power: float = param(
+        6000.0,
+        0.0,
+        1e5,
+        "W",
+        slot="PTC_MAX",
+        source=(
+            'HV PTC heaters "up to 7 kW", EVs need "5 kW or more"; Leaf 2011-12 about 5.5 kW peak (spec v2 PTC '
+            "sources; MW P 2500 W warms the cabin only to 18 degC in 30 min at -10 degC)"
+        ),
+    )
+    ptc_kp: float = param(
+        0.01, 0.0, 100.0, "1/K", slot="PTC_KP", source="A: a trim on the feed-forward, times `ptc_max_power`"
+    )
+    ptc_ki: float = param(
+        0.001, 0.0, 100.0, "1/(K s)", slot="PTC_KI", source="A: a trim on the feed-forward, times `ptc_max_power`"
+    )
+    ptcw_max_power: float = param(6000.0, 0.0, 1e5, "W", slot="PTCW_MAX", source="as `ptc_max_power`")
+    ptcw_kp: float = param(
+        0.1, 0.0, 100.0, "1/K", slot="PTCW_KP", source="A (`C_H / (kp P_max)` about 11 s), times `ptcw_max_power`"
+    )
+    ptcw_ki: float = param(0.002, 0.0, 100.0, "1/(K s)", slot="PTCW_KI", source="A, times `ptcw_max_power`")
+    T_H_max: float = param(
+        363.15, 313.15, 373.15, "K", slot="TH_MAX", source="A (combustion cars' heater cores run on about 90 degC)"
+    )
+    C_H: float = param(6600.0, 100.0, 1e7, "J/K", slot="C_H", source="A: 1.5 l of glycol plus 2 kg of core")
+    pump_h_flow: float = param(3.33e-4, 1e-6, 0.1, "m3/s", source="MW M pump as template (20 l/min)")
+    pump_h_power: float = param(120.0, 0.0, 1e4, "W", slot="PUMP_H_POWER", source="MW M pump as template")
+    heater_core_ua: float = param(
+        250.0,
+        1.0,
+        1e5,
+        "W/K",
+        slot="HC_UA",
+        source=(
+            "A: UA at the reference air flow, scaled with the air flow to the power 0.6 (air side dominant); "
+            "effectiveness 0.6-0.8 over the blower range"
+        ),
+    )
+    heater_core_air_ref: float = param(0.15, 1e-3, 10.0, "kg/s", slot="HC_AIR_REF", source="A")
+    bh_T_coolant_max: float = param(
+        318.15,
+        173.15,
+        373.15,
+        "K",
+        slot="BH_TC_MAX",
+        source="A (MWc battery zone 5-35 degC): the coolant heater is off above 45 degC coolant (on 5 K below)",
+    )
+    bh_T_battery_max: float = param(
+        298.15,
+        173.15,
+        373.15,
+        "K",
+        slot="BH_TB_MAX",
+        source="A: the coolant heater is off at a 25 degC battery (on 1 K below), in every mode",
+    )
+    bc_T_battery_min: float = param(
+        288.15,
+        173.15,
+        373.15,
+        "K",
+        slot="BC_TB_MIN",
+        source="A: battery cooling stops below a 15 degC battery (restarts 1 K above) or 5 degC coolant",
+    )
 
 
 @dataclass(frozen=True)
@@ -262,155 +474,6 @@ class SystemParams:
 
 SECTIONS = ("vehicle", "battery", "cabin", "coolant", "controls", "climate", "hvac")
 
-_T = (173.15, 373.15)  # any temperature parameter [K]
-#: Allowed range per parameter (both ends included; ``None`` for an optional temperature too).
-RANGES: dict[str, dict[str, tuple[float, float]]] = {
-    "vehicle": {
-        "mass": (100.0, 1e5),
-        "drag_coefficient": (0.0, 3.0),
-        "frontal_area": (0.1, 50.0),
-        "rolling_resistance": (0.0, 0.1),
-        "wheel_radius": (0.05, 2.0),
-        "wheel_inertia": (0.0, 100.0),
-        "gear_ratio": (0.1, 50.0),
-        "gear_efficiency": (0.1, 1.0),
-        "regen_fraction": (0.0, 1.0),
-        "loss_factor": (0.0, 10.0),
-        "aux_power": (0.0, 1e5),
-    },
-    "battery": {
-        "n_series": (1, 1000),
-        "n_parallel": (1, 1000),
-        "cell_capacity": (0.01, 1000.0),
-        "cell_voltage_min": (0.5, 5.0),
-        "r2": (0.0, 10.0),
-        "c2": (0.0, 1e7),
-        "soc_min": (0.0, 1.0),
-        "soc_max": (0.0, 1.0),
-        "soc_init": (0.0, 1.0),
-        "heat_capacity": (1.0, 1e8),
-        "g_cells_plate": (1.0, 1e6),
-        "plate_channels": (1, 1000),
-        "plate_channel_diameter": (1e-4, 0.1),
-        "plate_channel_length": (0.01, 100.0),
-        "g_coolant_fixed": (0.0, 1e5),
-        "g_ambient": (0.0, 1e5),
-        "T_init": _T,
-    },
-    "cabin": {
-        **{
-            f"{w}_{k}": r
-            for w in WALLS
-            for k, r in (
-                ("area", (0.01, 100.0)),
-                ("thickness", (1e-4, 1.0)),
-                ("conductivity", (1e-3, 500.0)),
-                ("heat_capacity", (1.0, 1e7)),
-            )
-        },
-        "volume": (0.1, 100.0),
-        "wall_htc": (0.1, 1000.0),
-        "interior_heat_capacity": (0.0, 1e8),
-        "interior_conductance": (0.0, 1e5),
-        "recirc_cool": (0.0, 1.0),
-        "recirc_heat": (0.0, 1.0),
-        "recirc_warmup": (0.0, 1.0),
-        "recirc_vent": (0.0, 1.0),
-        "n_occupants": (0, 100),
-        "rh_cabin": (0.0, 1.0),
-        "sun": (0.0, 1500.0),
-        "sun_shield": (0.0, 1.0),
-        "blower_flow_max": (0.001, 10.0),
-        "blower_power_max": (0.0, 1e4),
-        "T_set": (283.15, 308.15),
-        "T_init": _T,
-    },
-    "coolant": {
-        "heat_capacity": (1.0, 1e8),
-        "density": (100.0, 3000.0),
-        "cp": (100.0, 1e4),
-        "viscosity": (1e-5, 1.0),
-        "conductivity": (0.01, 10.0),
-        "flow_max": (1e-6, 0.1),
-        "pump_power_ref": (0.0, 1e4),
-        "pump_speed_max": (1.0, 1e5),
-        "heater_max_power": (0.0, 1e5),
-        "T_init": _T,
-    },
-    "controls": {
-        "chiller_kp": (0.0, 1e3),
-        "chiller_ki": (0.0, 1e3),
-        "chiller_p_suction": (0.05e6, 1.0e6),
-        "compressor_min_speed": (0.01, 1.0),
-        "fan_power_nominal": (0.0, 1e4),
-        "fan_flow_nominal": (0.01, 100.0),
-        "fan_flow_max": (0.01, 100.0),
-        "fan_p1": (0.1e6, 3.0e6),
-        "fan_p1_band": (0.0, 2.0e6),
-        "fan_band": (0.0, 2.0e6),
-        "ram_area": (0.0, 1.0),
-        "ram_flow_floor": (0.0, 10.0),
-        "front_flow_min": (0.001, 1.0),
-        "compressor_drive_efficiency": (0.1, 1.0),
-        "tau_refrigerant": (0.1, 600.0),
-        **{k: _T for k in ("bc_on", "bc_off", "bc_critical_on", "bc_critical_off", "bh_on", "bh_off")},
-        "bh_ambient_max": _T,
-        "pump_idle": (0.0, 1.0),
-        "pump_bc": (0.0, 1.0),
-        "pump_critical": (0.0, 1.0),
-        "mode_hold": (0.0, 3600.0),
-    },
-    "climate": {
-        "vent_kp": (0.0, 100.0),
-        "vent_Ti": (1.0, 1e5),
-        "T_vent_min": _T,
-        "T_vent_max": _T,
-        "blower_min": (0.05, 1.0),
-        "blower_dT0": (0.0, 50.0),
-        "blower_dT1": (0.1, 100.0),
-        "blower_rate": (1e-3, 100.0),
-        "warmup_max": (0.0, 3600.0),
-        "cabin_band": (0.0, 10.0),
-        "t_request_clear": (0.0, 3600.0),
-        "tau_request": (0.1, 3600.0),
-        "T_evap_min": _T,
-        "T_evap_max": _T,
-        "evap_kp": (0.0, 100.0),
-        "evap_ki": (0.0, 100.0),
-        "dT_cycle": (0.05, 20.0),
-        "t_on_min": (0.0, 3600.0),
-        "t_off_min": (0.0, 3600.0),
-        "T_frost_off": (263.15, 283.15),
-        "T_frost_on": (263.15, 293.15),
-        "p_frost_off": (0.0, 1.0e6),
-        "p_frost_on": (0.0, 1.0e6),
-        "ac_T_amb_min": _T,
-        "rh_dehum": (0.1, 1.0),
-        "blend_kp": (0.0, 100.0),
-        "blend_ki": (0.0, 100.0),
-    },
-    "hvac": {
-        "ptc_max_power": (0.0, 1e5),
-        "ptc_kp": (0.0, 100.0),
-        "ptc_ki": (0.0, 100.0),
-        "ptcw_max_power": (0.0, 1e5),
-        "ptcw_kp": (0.0, 100.0),
-        "ptcw_ki": (0.0, 100.0),
-        "T_H_max": (313.15, 373.15),
-        "C_H": (100.0, 1e7),
-        "pump_h_flow": (1e-6, 0.1),
-        "pump_h_power": (0.0, 1e4),
-        "heater_core_ua": (1.0, 1e5),
-        "heater_core_air_ref": (1e-3, 10.0),
-        "bh_T_coolant_max": _T,
-        "bh_T_battery_max": _T,
-        "bc_T_battery_min": _T,
-    },
-}
-
-#: Choices of the parameters that are names, not numbers.
-CHOICES: dict[str, dict[str, tuple[str, ...]]] = {"hvac": {"heating": HEATING}}
-
 #: v1 names that moved or went: (table, name) -> what to say instead of applying them.
 MIGRATED: dict[tuple[str, str], str] = {
     ("controls", "ptc_max_power"): "is [hvac] ptc_max_power in v2",
@@ -428,49 +491,29 @@ MIGRATED: dict[tuple[str, str], str] = {
     ("controls", "cabin_deadband"): "is [climate] cabin_band in v2",
     ("cabin", "recirculation"): "is [cabin] recirc_cool, recirc_heat and recirc_warmup in v2",
     ("battery", "g_coolant"): "is [battery] g_coolant_fixed in v2 (unset: the conductance follows the pump flow)",
+    ("cabin", "blower_flow_max"): (
+        "is the evaporator bench's [evaporator] fan_flow_max, read from the cycle LUTs the maps are built on "
+        "(the maps' blower axis is a share of it); build the LUTs with it"
+    ),
+    ("controls", "fan_flow_max"): (
+        "is the condenser bench's [condenser] fan_flow_max, read from the cycle LUTs the maps are built on "
+        "(the maps' fan axis is a share of it); build the LUTs with it"
+    ),
     ("controls", "condenser_fan"): (
         "was dropped in v2: the fan is staged on the discharge pressure ([controls] fan_p1, fan_p1_band, fan_band) "
         "and ram air adds to it ([controls] ram_area)"
     ),
 }
 
-#: Pairs that must hold: (table, smaller, larger, strictly).
-_ORDER = (
-    ("battery", "soc_min", "soc_init", True),
-    ("battery", "soc_init", "soc_max", False),
-    ("controls", "bc_off", "bc_on", True),
-    ("controls", "bc_critical_off", "bc_critical_on", True),
-    ("controls", "bh_on", "bh_off", True),
-    ("climate", "p_frost_off", "p_frost_on", True),
-    ("climate", "T_frost_off", "T_frost_on", True),
-    ("climate", "T_vent_min", "T_vent_max", True),
-    ("climate", "T_evap_min", "T_evap_max", True),
-)
-
-_INTEGERS = {"n_series", "n_parallel", "n_occupants", "plate_channels"}
-
-
-def _value(section: str, name: str, value: Any) -> float | int | str:
-    choices = CHOICES.get(section, {}).get(name)
-    if choices is not None:
-        if value not in choices:
-            raise EvtmsInputError(f"[{section}] {name} = {value!r} is not allowed; allowed: {', '.join(choices)}")
-        return value
-    lo, hi = RANGES[section][name]
-    allowed = f"allowed: {lo:g} <= {name} <= {hi:g}"
-    if name in _INTEGERS:
-        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-            raise EvtmsInputError(f"[{section}] {name} = {value!r} is not allowed; {allowed} (whole number)")
-        return int(value)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise EvtmsInputError(f"[{section}] {name} = {value!r} is not a finite number; {allowed}")
-    if not lo <= value <= hi:
-        raise EvtmsInputError(f"[{section}] {name} = {value!r} is not allowed; {allowed}")
-    return float(value)
-
 
 def system_params_from_dict(data: dict[str, Any], base: SystemParams | None = None) -> SystemParams:
-    """``base`` (default: the defaults) with the tables of ``data`` applied, every value checked."""
+    """``base`` (default: the defaults) with the tables of ``data`` applied, every value checked.
+
+    Each value is checked against its field's declaration (:func:`evtms.params.param`:
+    range, whole number, choices) and each table against its ``RELATIONS``
+    (:func:`evtms.params.override`); a name of the first version is refused
+    with its successor (:data:`MIGRATED`).
+    """
     params = base or SystemParams()
     tables = {}
     for section, values in data.items():
@@ -478,40 +521,97 @@ def system_params_from_dict(data: dict[str, Any], base: SystemParams | None = No
             raise EvtmsInputError(f"table [{section}] is unknown; allowed: {', '.join(f'[{s}]' for s in SECTIONS)}")
         if not isinstance(values, dict):
             raise EvtmsInputError(f"{section} must be a table [{section}], not a value")
-        names = {**RANGES[section], **CHOICES.get(section, {})}
         for name in values:
             if (section, name) in MIGRATED:
                 raise EvtmsInputError(f"[{section}] {name} {MIGRATED[section, name]}")
-            if name not in names:
-                raise EvtmsInputError(f"[{section}] {name} is unknown; allowed: {', '.join(sorted(names))}")
-        checked = {name: _value(section, name, v) for name, v in values.items()}
-        tables[section] = dataclasses.replace(getattr(params, section), **checked)
-    params = dataclasses.replace(params, **tables)
-    for section, small, large, strict in _ORDER:
-        a, b = getattr(getattr(params, section), small), getattr(getattr(params, section), large)
-        if a > b or (strict and a == b):
-            rel = "<" if strict else "<="
-            raise EvtmsInputError(f"[{section}] needs {small} {rel} {large}; got {small} = {a:g}, {large} = {b:g}")
-    return params
+        tables[section] = override(getattr(params, section), values, f"[{section}]")
+    return dataclasses.replace(params, **tables)
 
 
-def load_system_params(path: str | Path | None = None) -> SystemParams:
-    """Default parameters, overridden by a TOML file's tables if ``path`` is given.
+def parameter_fields(section: str) -> tuple[dataclasses.Field, ...]:
+    """The declared parameters of table ``section`` (:data:`SECTIONS`), in declaration order."""
+    return dataclasses.fields(SystemParams.__dataclass_fields__[section].default_factory)
+
+
+@dataclass(frozen=True)
+class ParameterTree:
+    """Every parameter of a study, from one TOML file: the components' and the system's.
+
+    Attributes
+    ----------
+    components : Parameters
+        The fluid, the air boundary and one table per component
+        (:class:`evtms.benches.parameters.Parameters`): what the benches and the
+        LUTs are made with.
+    system : SystemParams
+        The system simulator's tables.
+    given : frozenset of str
+        The top-level tables and keys the file gave (``condenser``, ``cabin``, ``fluid``, ...).
+    path : Path, optional
+        The file they were read from.
+    """
+
+    components: Any
+    system: SystemParams
+    given: frozenset[str] = frozenset()
+    path: Path | None = None
+
+    def given_components(self) -> tuple[str, ...]:
+        """The component-side names the file gave (``fluid``, ``backend``, ``environment`` or a component)."""
+        from evtms.benches.parameters import SECTIONS as COMPONENT_SECTIONS
+
+        names = ("fluid", "backend", *COMPONENT_SECTIONS)
+        return tuple(n for n in names if n in self.given)
+
+
+def parameter_tree_from_dict(data: dict[str, Any]) -> ParameterTree:
+    """The defaults with the tables of ``data`` (parsed TOML) applied, each by the side that declares it.
+
+    ``fluid``, ``backend``, ``[environment]`` and the component tables
+    (``[condenser]``, ...) go to :func:`evtms.params.apply_tables`; the system's
+    (:data:`SECTIONS`) to :func:`system_params_from_dict`; any other name is
+    refused with both lists.
+    """
+    from evtms.benches.parameters import SECTIONS as COMPONENT_SECTIONS
+    from evtms.benches.parameters import parameters_from_dict
+
+    component_keys = ("fluid", "backend", *COMPONENT_SECTIONS)
+    for key in data:
+        if key not in component_keys and key not in SECTIONS:
+            allowed = ", ".join(["fluid", "backend"] + [f"[{s}]" for s in (*COMPONENT_SECTIONS, *SECTIONS)])
+            raise EvtmsInputError(f"unknown table or key {key!r}; allowed: {allowed}")
+    components = parameters_from_dict({k: v for k, v in data.items() if k in component_keys})
+    system = system_params_from_dict({k: v for k, v in data.items() if k in SECTIONS})
+    return ParameterTree(components, system, frozenset(data))
+
+
+def load_parameter_tree(path: str | Path | None = None) -> ParameterTree:
+    """Default parameters, overridden by a TOML file's tables if ``path`` is given: the one parameter loader.
+
+    One file may hold the components' tables (what the benches and LUTs are
+    made with) and the system's; each command uses its side. The file is read
+    by :func:`evtms.params.read_params_toml` (bounded, UTF-8, valid TOML).
 
     Raises
     ------
     EvtmsInputError
         One line naming the file and the bad table, name or value and what
         is allowed, e.g. ``params file 'p.toml': [cabin] volume = -1 is not
-        allowed; allowed: 0.1 <= volume <= 100``.
+        allowed; allowed: 0.1 <= volume <= 100 m3``.
     """
     if path is None:
-        return SystemParams()
+        from evtms.benches.parameters import Parameters
+
+        return ParameterTree(Parameters(), SystemParams())
     from evtms.params import read_params_toml
 
-    name = repr(str(path))
     data = read_params_toml(path)
     try:
-        return system_params_from_dict(data)
+        return dataclasses.replace(parameter_tree_from_dict(data), path=Path(path))
     except EvtmsInputError as exc:
-        raise EvtmsInputError(f"params file {name}: {exc}") from None
+        raise EvtmsInputError(f"params file {str(path)!r}: {exc}") from None
+
+
+def load_system_params(path: str | Path | None = None) -> SystemParams:
+    """The system side of :func:`load_parameter_tree` (the file may hold component tables too)."""
+    return load_parameter_tree(path).system

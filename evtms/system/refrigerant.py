@@ -44,6 +44,13 @@ PHYSICS_TOLERANCE = {
 }
 
 
+def _bench_default(component: str, name: str) -> float:
+    """A component parameter's default, as its bench declares it."""
+    from evtms.benches.parameters import Parameters
+
+    return float(getattr(getattr(Parameters(), component), name))
+
+
 @dataclass(frozen=True)
 class Refrigerant:
     """What the loop needs of the refrigerant circuit: the three cycle maps and the saturation curve.
@@ -56,6 +63,15 @@ class Refrigerant:
         Saturation temperature [K] and pressure [Pa], both increasing.
     coolant_mdot_max : float
         Coolant mass flow at pump command 1 the maps were built for [kg/s].
+    settings : MapSettings
+        What besides the LUTs the maps depend on.
+    folder : Path, optional
+        The cycle LUTs' folder (the physics model solves on its LUTs).
+    fan_flow_max, blower_flow_max : float
+        Condenser air flow at fan 1 and evaporator air flow at blower 1
+        [m3/s]: the ``fan_flow_max`` of the condenser and evaporator LUTs the
+        maps were built on (the maps' ``fan`` and ``blower`` axes are shares of
+        them); default, the benches' defaults.
     """
 
     maps: dict[str, CycleMap]
@@ -64,6 +80,8 @@ class Refrigerant:
     coolant_mdot_max: float
     settings: MapSettings = field(default_factory=MapSettings)
     folder: Path | None = None
+    fan_flow_max: float = field(default_factory=lambda: _bench_default("condenser", "fan_flow_max"))
+    blower_flow_max: float = field(default_factory=lambda: _bench_default("evaporator", "fan_flow_max"))
     #: Direct-physics solves by map id, reused across runs: a list of (inputs, targets, fallback); and under
     #: ``"lut_parameters"`` the outcome of :meth:`check_physics` (the LUT headers are read once per object).
     memo: dict = field(default_factory=dict, compare=False, repr=False)
@@ -80,22 +98,23 @@ class Refrigerant:
         return tol
 
     def check_physics(self) -> None:
-        """Refuse the physics model where it would not describe the LUTs' components (made with other parameters)."""
-        from evtms.benches.parameters import Parameters
-        from evtms.cycle import load_cycle_luts
-        from evtms.cycle.api import parameter_conflicts
-
+        """Refuse the physics model where there are no LUTs to take its component parameters from."""
         if self.folder is None:
-            raise EvtmsInputError("--model physics needs the cycle LUTs' folder (--luts)")
+            raise EvtmsInputError("`model` physics needs the cycle LUTs' folder (`luts`)")
+        self.physics_parameters()
+
+    def physics_parameters(self):
+        """The component parameters the physics model solves with: the ones the cycle LUTs were made with.
+
+        Each component's table comes from its own LUT (:func:`lut_parameters`),
+        so the physics describes the same components as the maps; read once per
+        object.
+        """
         if "lut_parameters" not in self.memo:
-            luts = load_cycle_luts(self.folder, "cabin+chiller")
-            self.memo["lut_parameters"] = parameter_conflicts(luts, Parameters())
-        conflicts = self.memo["lut_parameters"]
-        if conflicts:
-            raise EvtmsInputError(
-                f"--model physics solves with the default component parameters, but the LUTs in {self.folder} "
-                f"were made with others ({', '.join(conflicts[:4])}); rebuild them with the defaults"
-            )
+            from evtms.cycle import load_cycle_luts
+
+            self.memo["lut_parameters"] = lut_parameters(load_cycle_luts(self.folder, "cabin+chiller"), self.folder)
+        return self.memo["lut_parameters"]
 
     def solve_direct(self, map_id: int, x: np.ndarray) -> tuple[np.ndarray, bool, bool]:
         """Steady targets (:data:`evtms.system.maps.MAP_OUTPUTS`) of the bench physics at the map inputs ``x``.
@@ -113,7 +132,7 @@ class Refrigerant:
             if np.all(np.abs(xs - x) <= tol):
                 return ys, fb, False
         inputs = operating_inputs(name, {a: np.array([v]) for a, v in zip(axes, x, strict=True)}, self.settings)
-        values, valid, _ = map_values(solve_nodes(None, MAPS[name].topology, inputs))
+        values, valid, _ = map_values(solve_nodes(None, MAPS[name].topology, inputs, params=self.physics_parameters()))
         y = values[0].copy()
         fallback = not bool(valid[0])
         if fallback:
@@ -121,6 +140,31 @@ class Refrigerant:
             map_interp(*self.maps[name].packed(), x, y)
         self.memo.setdefault(map_id, []).append((x.copy(), y, fallback))
         return y, fallback, True
+
+
+def lut_parameters(luts: dict, folder: Path):
+    """The component parameters a set of cycle LUTs was made with: each component's table from its own LUT.
+
+    Raises
+    ------
+    EvtmsInputError
+        The LUTs disagree on the fluid, the CoolProp backend or the air
+        boundary (they cannot describe one circuit).
+    """
+    import dataclasses
+
+    from evtms.cycle.tables import made_with
+
+    made = {c: made_with(lut) for c, lut in luts.items()}
+    first = next(iter(made.values()))
+    for c, p in made.items():
+        for shared in ("fluid", "backend", "environment"):
+            if getattr(p, shared) != getattr(first, shared):
+                raise EvtmsInputError(
+                    f"the cycle LUTs in {str(folder)!r} disagree on their {shared} ({c} and "
+                    f"{next(iter(made))}); build them with one parameter file"
+                )
+    return dataclasses.replace(first, **{c: getattr(p, c) for c, p in made.items()})
 
 
 def map_settings(params: SystemParams) -> MapSettings:
@@ -146,6 +190,7 @@ def load_refrigerant(
     """
     from evtms.cycle import load_cycle_luts
     from evtms.cycle.api import saturation_curve
+    from evtms.cycle.tables import made_with
 
     params = params or SystemParams()
     settings = settings or map_settings(params)
@@ -162,4 +207,6 @@ def load_refrigerant(
         coolant_mdot_max=settings.coolant_flow_max * settings.coolant_density,
         settings=settings,
         folder=folder,
+        fan_flow_max=made_with(luts["condenser"]).condenser.fan_flow_max,
+        blower_flow_max=made_with(luts["evaporator"]).evaporator.fan_flow_max,
     )

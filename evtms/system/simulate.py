@@ -12,6 +12,7 @@ output records (states at ``t_k = k dt_out``, powers the mean over
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -25,7 +26,7 @@ from evtms.system import loop as L  # noqa: N812 - the loop's index constants, r
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.inputs import INPUT_NAMES, InputValue, check_inputs, per_step
 from evtms.system.mode_model import MODE_CODES, ModeModels
-from evtms.system.params import FAN_STAGE_CURVES, WALLS, SystemParams
+from evtms.system.params import FAN_STAGE_CURVES, SECTIONS, WALLS, SystemParams
 from evtms.system.refrigerant import Refrigerant
 from evtms.system.tables import battery_cell_tables
 from evtms.system.vehicle import drive_segments
@@ -246,90 +247,76 @@ def _distance(cycle: DriveCycle, t: np.ndarray) -> np.ndarray:
     return at_nodes[k] + cycle.speed[k] * tau + 0.5 * a * tau**2
 
 
-def pack_parameters(
-    params: SystemParams, T_amb: float, RH_amb: float, sun: float, forced_mode: int, coolant_mdot_max: float
-) -> np.ndarray:
-    """The loop's parameter array (``evtms.system.loop.P_*`` indices), SI."""
-    v, b, c, k, ctl = params.vehicle, params.battery, params.cabin, params.coolant, params.controls
-    cl, hv = params.climate, params.hvac
-    par = np.zeros(L.N_P)
+def declared_slots(params: SystemParams) -> dict[str, float]:
+    """The loop's parameters read as declared (``slot`` of :func:`evtms.params.param`), by slot name.
+
+    A choice is packed as its index among the field's choices.
+    """
+    slots: dict[str, float] = {}
+    for section in SECTIONS:
+        table = getattr(params, section)
+        for f in dataclasses.fields(table):
+            slot = f.metadata.get("slot")
+            if slot is None:
+                continue
+            value = getattr(table, f.name)
+            choices = f.metadata.get("choices")
+            slots[slot] = float(choices.index(value) if choices else value)
+    return slots
+
+
+def derived_slots(
+    params: SystemParams, T_amb: float, RH_amb: float, sun: float, forced_mode: int, refrigerant: Refrigerant
+) -> dict[str, float]:
+    """The loop's parameters computed from several declared ones, the run and the maps' components, by slot name."""
+    b, c, k, hv = params.battery, params.cabin, params.coolant, params.hvac
     rho_amb = P_ATM / (L._R_AIR * T_amb)
-    par[L.P_T_AMB] = T_amb
-    par[L.P_W_AMB] = L.humidity_ratio(T_amb, RH_amb, P_ATM)
-    par[L.P_P_ATM] = P_ATM
-    par[L.P_FORCED_MODE] = forced_mode
-    par[L.P_AUX] = v.aux_power
-    par[L.P_NS] = b.n_series
-    par[L.P_R_SCALE] = b.n_series / b.n_parallel
-    par[L.P_R2], par[L.P_C2] = b.r2, b.c2
-    par[L.P_VMIN] = b.cell_voltage_min
-    par[L.P_CAP_AS] = b.capacity_As
-    par[L.P_SOC_MIN], par[L.P_SOC_MAX] = b.soc_min, b.soc_max
-    par[L.P_C_BAT], par[L.P_G_BA] = b.heat_capacity, b.g_ambient
-    par[L.P_G_BC_FIXED] = -1.0 if b.g_coolant_fixed is None else b.g_coolant_fixed
-    par[L.P_G_CP] = b.g_cells_plate
     # Plate channels: Reynolds number at pump command 1, Prandtl number, D/L and k/D times the wetted area.
     area = b.plate_channels * math.pi * b.plate_channel_diameter**2 / 4.0
     velocity = k.flow_max / area
-    par[L.P_PLATE_RE1] = k.density * velocity * b.plate_channel_diameter / k.viscosity
-    par[L.P_PLATE_PR] = k.cp * k.viscosity / k.conductivity
-    par[L.P_PLATE_DL] = b.plate_channel_diameter / b.plate_channel_length
-    par[L.P_PLATE_KA] = k.conductivity * b.plate_channels * math.pi * b.plate_channel_length
-    par[L.P_C_COOL] = k.heat_capacity
-    par[L.P_HEATER_MAX] = k.heater_max_power
-    par[L.P_PUMP_REF], par[L.P_PUMP_NMAX] = k.pump_power_ref, k.pump_speed_max
-    par[L.P_C_AIR] = rho_amb * c.volume * L._CP_AIR
-    par[L.P_M_AIR] = rho_amb * c.volume
-    par[L.P_C_INT], par[L.P_G_INT] = c.interior_heat_capacity, c.interior_conductance
-    par[L.P_RC_COOL], par[L.P_RC_HEAT], par[L.P_RC_WARM] = c.recirc_cool, c.recirc_heat, c.recirc_warmup
-    par[L.P_RC_VENT] = c.recirc_vent
-    par[L.P_Q_OCC] = 70.0 * c.n_occupants
-    par[L.P_MOIST] = 1.4e-5 * c.n_occupants
-    par[L.P_Q_SUN] = 3.0 * (sun if c.sun is None else c.sun) * c.sun_shield
-    par[L.P_UA_SHELL] = c.shell_conductance()
-    par[L.P_BLOWER_FLOW], par[L.P_BLOWER_POWER] = c.blower_flow_max, c.blower_power_max
-    par[L.P_T_SET] = c.T_set
-    par[L.P_CH_KP], par[L.P_CH_KI], par[L.P_CH_PS] = ctl.chiller_kp, ctl.chiller_ki, ctl.chiller_p_suction
-    par[L.P_SPEED_MIN] = ctl.compressor_min_speed
-    par[L.P_FAN_VMAX], par[L.P_FAN_VNOM] = ctl.fan_flow_max, ctl.fan_flow_nominal
-    par[L.P_FAN_PNOM] = ctl.fan_power_nominal
-    par[L.P_RAM_AREA], par[L.P_V_FRONT_MIN], par[L.P_RAM_FLOOR] = ctl.ram_area, ctl.front_flow_min, ctl.ram_flow_floor
-    par[L.P_FAN_P1], par[L.P_FAN_D1], par[L.P_FAN_D23] = ctl.fan_p1, ctl.fan_p1_band, ctl.fan_band
     curves = FAN_STAGE_CURVES
-    par[L.P_FAN_P2] = float(np.interp(T_amb, curves["T_amb"], curves["p_2"]))
-    par[L.P_FAN_P3] = float(np.interp(T_amb, curves["T_amb"], curves["p_3"]))
-    par[L.P_DRIVE_EFF] = ctl.compressor_drive_efficiency
-    par[L.P_TAU] = ctl.tau_refrigerant
-    par[L.P_BC_ON], par[L.P_BC_OFF] = ctl.bc_on, ctl.bc_off
-    par[L.P_CRIT_ON], par[L.P_CRIT_OFF] = ctl.bc_critical_on, ctl.bc_critical_off
-    par[L.P_BH_ON], par[L.P_BH_OFF], par[L.P_BH_AMB_MAX] = ctl.bh_on, ctl.bh_off, ctl.bh_ambient_max
-    par[L.P_PUMP_IDLE], par[L.P_PUMP_BC], par[L.P_PUMP_CRIT] = ctl.pump_idle, ctl.pump_bc, ctl.pump_critical
-    par[L.P_HOLD] = ctl.mode_hold
-    par[L.P_COOLANT_MDOT_MAX] = coolant_mdot_max
-    for i, w in enumerate(WALLS):
-        par[L.P_G_GLASS + i] = c.wall_conductance(w)
-        par[L.P_C_GLASS + i] = getattr(c, f"{w}_heat_capacity")
-    par[L.P_VENT_KP], par[L.P_VENT_TI] = cl.vent_kp, cl.vent_Ti
-    par[L.P_TV_MIN], par[L.P_TV_MAX] = cl.T_vent_min, cl.T_vent_max
-    par[L.P_BLOWER_MIN], par[L.P_BL_DT0], par[L.P_BL_DT1] = cl.blower_min, cl.blower_dT0, cl.blower_dT1
-    par[L.P_BL_RATE], par[L.P_WARMUP_MAX] = cl.blower_rate, cl.warmup_max
-    par[L.P_BAND], par[L.P_T_CLEAR], par[L.P_TAU_REQ] = cl.cabin_band, cl.t_request_clear, cl.tau_request
-    par[L.P_TEV_MIN], par[L.P_TEV_MAX] = cl.T_evap_min, cl.T_evap_max
-    par[L.P_EV_KP], par[L.P_EV_KI] = cl.evap_kp, cl.evap_ki
-    par[L.P_DT_CYC], par[L.P_T_ON_MIN], par[L.P_T_OFF_MIN] = cl.dT_cycle, cl.t_on_min, cl.t_off_min
-    par[L.P_TFR_OFF], par[L.P_TFR_ON] = cl.T_frost_off, cl.T_frost_on
-    par[L.P_PF_OFF], par[L.P_PF_ON] = cl.p_frost_off, cl.p_frost_on
-    par[L.P_AC_TAMB_MIN], par[L.P_RH_DEHUM] = cl.ac_T_amb_min, cl.rh_dehum
-    par[L.P_BLEND_KP], par[L.P_BLEND_KI] = cl.blend_kp, cl.blend_ki
-    par[L.P_HEATING] = {"ptc_air": L.HEATING_PTC_AIR, "ptc_coolant": L.HEATING_PTC_COOLANT}[hv.heating]
-    par[L.P_PTC_MAX], par[L.P_PTC_KP], par[L.P_PTC_KI] = hv.ptc_max_power, hv.ptc_kp, hv.ptc_ki
-    par[L.P_PTCW_MAX], par[L.P_PTCW_KP], par[L.P_PTCW_KI] = hv.ptcw_max_power, hv.ptcw_kp, hv.ptcw_ki
-    par[L.P_TH_MAX], par[L.P_C_H] = hv.T_H_max, hv.C_H
-    par[L.P_MDOT_H], par[L.P_CP_H] = hv.pump_h_flow * k.density, k.cp
-    par[L.P_PUMP_H_POWER] = hv.pump_h_power
-    par[L.P_HC_UA], par[L.P_HC_AIR_REF] = hv.heater_core_ua, hv.heater_core_air_ref
-    par[L.P_BH_TC_MAX], par[L.P_BH_TB_MAX] = hv.bh_T_coolant_max, hv.bh_T_battery_max
-    par[L.P_BC_TB_MIN] = hv.bc_T_battery_min
+    slots = {
+        "T_AMB": T_amb,
+        "W_AMB": L.humidity_ratio(T_amb, RH_amb, P_ATM),
+        "P_ATM": P_ATM,
+        "FORCED_MODE": forced_mode,
+        "R_SCALE": b.n_series / b.n_parallel,
+        "CAP_AS": b.capacity_As,
+        "G_BC_FIXED": -1.0 if b.g_coolant_fixed is None else b.g_coolant_fixed,
+        "PLATE_RE1": k.density * velocity * b.plate_channel_diameter / k.viscosity,
+        "PLATE_PR": k.cp * k.viscosity / k.conductivity,
+        "PLATE_DL": b.plate_channel_diameter / b.plate_channel_length,
+        "PLATE_KA": k.conductivity * b.plate_channels * math.pi * b.plate_channel_length,
+        "C_AIR": rho_amb * c.volume * L._CP_AIR,
+        "M_AIR": rho_amb * c.volume,
+        "Q_OCC": 70.0 * c.n_occupants,
+        "MOIST": 1.4e-5 * c.n_occupants,
+        "Q_SUN": 3.0 * (sun if c.sun is None else c.sun) * c.sun_shield,
+        "UA_SHELL": c.shell_conductance(),
+        "BLOWER_FLOW": refrigerant.blower_flow_max,
+        "FAN_VMAX": refrigerant.fan_flow_max,
+        "FAN_P2": float(np.interp(T_amb, curves["T_amb"], curves["p_2"])),
+        "FAN_P3": float(np.interp(T_amb, curves["T_amb"], curves["p_3"])),
+        "COOLANT_MDOT_MAX": refrigerant.coolant_mdot_max,
+        "MDOT_H": hv.pump_h_flow * k.density,
+    }
+    for w in WALLS:
+        slots[f"G_{w.upper()}"] = c.wall_conductance(w)
+    return slots
+
+
+def pack_parameters(
+    params: SystemParams, T_amb: float, RH_amb: float, sun: float, forced_mode: int, refrigerant: Refrigerant
+) -> np.ndarray:
+    """The loop's parameter array (``evtms.system.loop.P_*`` indices), SI.
+
+    Every slot is filled once: by a declared parameter (:func:`declared_slots`)
+    or by a value derived from several (:func:`derived_slots`).
+    """
+    par = np.zeros(L.N_P)
+    slots = declared_slots(params) | derived_slots(params, T_amb, RH_amb, sun, forced_mode, refrigerant)
+    for name, value in slots.items():
+        par[getattr(L, f"P_{name}")] = value
     return par
 
 
@@ -453,7 +440,7 @@ def simulate(
     )
     ext = per_step(inputs, edges - precondition)
     tables = battery_cell_tables()
-    par = pack_parameters(params, T_amb, RH_amb, sun, MODES[mode], refrigerant.coolant_mdot_max)
+    par = pack_parameters(params, T_amb, RH_amb, sun, MODES[mode], refrigerant)
     p_eq = float(np.interp(T_amb if T_init is None else T_init, refrigerant.sat_T, refrigerant.sat_p))
     n = dts.size
     states = np.full((n + 1, L.N_S), np.nan)
@@ -524,6 +511,12 @@ def simulate(
         "model": model,
         "termination": termination,
         "parameters": params.to_json(),
+        "lut_parameters": json.dumps(
+            {
+                "condenser.fan_flow_max": refrigerant.fan_flow_max,
+                "evaporator.fan_flow_max": refrigerant.blower_flow_max,
+            }
+        ),
         "ledgers": json.dumps(ledger),
     }
     records["time"] = t_rec - precondition

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from evtms.params import param
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.tables import bilinear_clamped, edrive_tables
 
@@ -83,17 +84,17 @@ class VehicleParams:
         Constant auxiliary electrical load [W] (FASTSim's 250).
     """
 
-    mass: float = 1611.0
-    drag_coefficient: float = 0.23
-    frontal_area: float = 2.130
-    rolling_resistance: float = 0.007
-    wheel_radius: float = 0.334
-    wheel_inertia: float = 2.0
-    gear_ratio: float = 9.0
-    gear_efficiency: float = 0.97
-    regen_fraction: float = 1.0
-    loss_factor: float = 1.1
-    aux_power: float = 250.0
+    mass: float = param(1611.0, 100.0, 1e5, "kg", source="MW P `vehMass`")
+    drag_coefficient: float = param(0.23, 0.0, 3.0, source="MW P `Veh.cD`")
+    frontal_area: float = param(2.130, 0.1, 50.0, "m2", source="MW P `Veh.AVeh`")
+    rolling_resistance: float = param(0.007, 0.0, 0.1, source="MW P `Veh.tirecR`")
+    wheel_radius: float = param(0.334, 0.05, 2.0, "m", source="MW P `Veh.tireR`")
+    wheel_inertia: float = param(2.0, 0.0, 100.0, "kg m2", source="MW P `tireInert`, per wheel")
+    gear_ratio: float = param(9.0, 0.1, 50.0, source="MW P `Edrive.transmissionRatio`")
+    gear_efficiency: float = param(0.97, 0.1, 1.0, source="MW P `Edrive.gearboxEff`")
+    regen_fraction: float = param(1.0, 0.0, 1.0, source="MW M series regeneration")
+    loss_factor: float = param(1.1, 0.0, 10.0, source="MW P factor on `Edrive.loss_maps`")
+    aux_power: float = param(250.0, 0.0, 1e5, "W", source="FS `pwr_aux_base_watts`", slot="AUX")
 
     @property
     def effective_mass(self) -> float:

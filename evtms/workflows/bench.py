@@ -183,16 +183,16 @@ def _plan(request: BenchRequest):
     """(storage, parameters, LUT file per bench, jobs): every check of the request, before any sweep."""
     from evtms.benches import BENCHES
     from evtms.benches.grid import build_grid, parse_axes
-    from evtms.benches.parameters import load_parameters
     from evtms.luts.io import LutStorage
     from evtms.params import check_backend
+    from evtms.system.params import load_parameter_tree
 
     max_points = _check(request)
     storage = LutStorage(float32=request.float32, significant_digits=request.significant_digits)
     if len(request.names) > 1 and request.axis:
         raise EvtmsInputError("`axis` applies to one bench; run the benches one by one for custom axes")
     targets = _targets(request, params_input(request.params))
-    parameters = load_parameters(request.params)
+    parameters = load_parameter_tree(request.params).components
     if request.backend is not None:
         parameters = dataclasses.replace(parameters, backend=check_backend(request.backend))
     jobs = []

@@ -34,3 +34,39 @@ def as_text(value: str | float | Sequence[float] | None) -> str | None:
 def params_input(params: str | Path | None, what: str = "params file") -> list[Path]:
     """``[params]`` once it is checked to be a readable file (``[]`` without one)."""
     return [input_file(params, what)] if params is not None else []
+
+
+def check_lut_components(tables: dict, tree, params: str | Path | None, folder: Path, hint: str = "") -> None:
+    """Refuse a parameter file whose component tables the LUTs in ``folder`` contradict.
+
+    The LUTs' physics is fixed by the parameters each file records; a table
+    the file gives (``[condenser]``, ``fluid``, ``[environment]``, ...) that
+    differs would be silently ignored. Tables the file does not give are not
+    compared: a file of system tables only fits any LUTs.
+
+    Parameters
+    ----------
+    tables : dict
+        The cycle LUTs by component (:func:`evtms.cycle.load_cycle_luts`).
+    tree : ParameterTree
+        The parameters read from ``params`` (:func:`evtms.system.params.load_parameter_tree`).
+    params : str or Path, optional
+        The parameter file (named in the message).
+    folder : Path
+        The LUTs' folder (named in the message).
+    hint : str
+        What else the caller can do, appended to the message (``" or use `direct`"``).
+    """
+    from evtms.cycle.api import parameter_conflicts
+    from evtms.errors import EvtmsInputError
+
+    given = set(tree.given_components())
+    if not given:
+        return
+    conflicts = [c for c in parameter_conflicts(tables, tree.components) if c.split(".")[0] in given]
+    if conflicts:
+        shown = ", ".join(conflicts[:6]) + (f" and {len(conflicts) - 6} more" if len(conflicts) > 6 else "")
+        raise EvtmsInputError(
+            f"`params` {str(params)!r} differs from the parameters the LUTs in {str(folder)!r} were made with "
+            f"({shown}); rebuild the LUTs with these parameters{hint}"
+        )

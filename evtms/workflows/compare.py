@@ -898,7 +898,7 @@ def _cycles_plan(r: CompareRequest) -> dict:
     """The arguments of :func:`run_compare` and the files read, from a request of cycles x ambients."""
     from evtms.cycle.topology import parse_values
     from evtms.system.drive_cycles import drive_cycle
-    from evtms.system.params import load_system_params
+    from evtms.system.params import load_parameter_tree
     from evtms.workflows.common import as_text
     from evtms.workflows.simulate import check_soak, surrogate_models
 
@@ -922,7 +922,7 @@ def _cycles_plan(r: CompareRequest) -> dict:
     inputs = [Path(c.source) for c in cycles if Path(c.source).is_file()]
     if r.params is not None:
         inputs.append(input_file(r.params, "params file"))
-    system = load_system_params(r.params)
+    tree = load_parameter_tree(r.params)
     reference = None
     if r.measured is not None:
         reference = read_measured(input_file(r.measured, "measured file"))
@@ -936,7 +936,8 @@ def _cycles_plan(r: CompareRequest) -> dict:
         "inputs": inputs,
         "cycles": cycles,
         "t_ambs_K": ambients,
-        "params": system,
+        "tree": tree,
+        "params": tree.system,
         "approaches": tuple(chosen),
         "mode_models": mode_models,
         "dts": tuple(step_list),
@@ -954,7 +955,7 @@ def _compare_cycles(r: CompareRequest, notify, progress, on_run) -> Comparison:
     inputs = plan.pop("inputs")
     lut_folder, lut_files = cycle_luts(r.luts)
     output_folder(r.output, inputs + lut_files)
-    refrigerant = system_refrigerant(r.luts, lut_folder, plan["params"], notify, progress)
+    refrigerant = system_refrigerant(r.luts, lut_folder, plan.pop("tree"), notify, progress)
     result = run_compare(
         plan.pop("cycles"),
         plan.pop("t_ambs_K"),
@@ -971,8 +972,8 @@ def _compare_cycles(r: CompareRequest, notify, progress, on_run) -> Comparison:
 
 
 def _scenarios_plan(r: CompareRequest):
-    """(scenarios, their setups, system parameters, files read) of a request of named scenarios."""
-    from evtms.system.params import load_system_params
+    """(scenarios, their setups, parameter tree, files read) of a request of named scenarios."""
+    from evtms.system.params import load_parameter_tree
     from evtms.system.scenarios import SCENARIOS, read_scenario_file, select_scenarios
     from evtms.workflows.simulate import trace_files
 
@@ -986,15 +987,15 @@ def _scenarios_plan(r: CompareRequest):
     chosen = select_scenarios(r.scenarios, available) if r.scenarios is not None else list(from_file.values())
     if r.params is not None:
         inputs.append(input_file(r.params, "params file"))
-    system = load_system_params(r.params)
-    setups = [sc.setup(system) for sc in chosen]
+    tree = load_parameter_tree(r.params)
+    setups = [sc.setup(tree.system) for sc in chosen]
     for st in setups:
         if st.T_amb is None:
             raise EvtmsInputError(f"scenario {st.scenario.name!r} has no ambient of its own; give scenarios with T_amb")
         if Path(st.cycle.source).is_file():
             inputs.append(Path(st.cycle.source))
         inputs += trace_files(st.inputs)
-    return chosen, setups, system, inputs
+    return chosen, setups, tree, inputs
 
 
 def _available(asked: list[str] | None, skipped: dict[str, str], setups, mode_models, refrigerant) -> list[str]:
@@ -1025,7 +1026,8 @@ def _compare_scenarios(r: CompareRequest, notify, progress, on_run) -> Compariso
     from evtms.system.table12 import run_table12
     from evtms.workflows.simulate import cycle_luts, surrogate_models, system_refrigerant
 
-    chosen, setups, system, inputs = _scenarios_plan(r)
+    chosen, setups, tree, inputs = _scenarios_plan(r)
+    system = tree.system
     asked = None if r.approaches is None else _names(r.approaches)
     for a in asked or ():
         if a not in TABLE12_APPROACHES:
@@ -1045,7 +1047,7 @@ def _compare_scenarios(r: CompareRequest, notify, progress, on_run) -> Compariso
     lut_folder, lut_files = cycle_luts(r.luts)
     if r.output is not None:
         output_folder(r.output, inputs + lut_files)
-    refrigerant = system_refrigerant(r.luts, lut_folder, system, notify, progress)
+    refrigerant = system_refrigerant(r.luts, lut_folder, tree, notify, progress)
     approaches = _available(asked, skipped, setups, mode_models, refrigerant)
     result = run_table12(
         chosen, refrigerant, params=system, approaches=approaches, mode_models=mode_models, dt=r.dt,

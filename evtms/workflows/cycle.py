@@ -134,27 +134,20 @@ def _cycle_inputs(request: CycleRequest, max_points: int = DEFAULT_MAX_CYCLE_POI
 
 def _cycle_models(luts: Path | None, direct: bool, params: Path | None, circuit):
     """(LUT tables or None, parameters); ``params`` that the LUTs contradict are refused."""
-    from evtms.benches.parameters import load_parameters
     from evtms.cycle import load_cycle_luts
-    from evtms.cycle.api import parameter_conflicts
+    from evtms.system.params import load_parameter_tree
+    from evtms.workflows.common import check_lut_components
 
     if direct and luts is not None:
         raise EvtmsInputError("give `direct` (bench physics) or `luts` (LUT folder), not both")
     params_input(params)
-    parameters = load_parameters(params)
+    tree = load_parameter_tree(params)
     if direct:
-        return None, parameters
+        return None, tree.components
     folder = luts or Path("luts")
     tables = load_cycle_luts(folder, circuit)
-    if params is not None:
-        conflicts = parameter_conflicts(tables, parameters)
-        if conflicts:
-            shown = ", ".join(conflicts[:6]) + (f" and {len(conflicts) - 6} more" if len(conflicts) > 6 else "")
-            raise EvtmsInputError(
-                f"`params` {str(params)!r} differs from the parameters the LUTs in {str(folder)!r} were made with "
-                f"({shown}); rebuild the LUTs with these parameters or use `direct`"
-            )
-    return tables, parameters
+    check_lut_components(tables, tree, params, folder, " or use `direct`")
+    return tables, tree.components
 
 
 def _lut_folder(tables: dict) -> Path:

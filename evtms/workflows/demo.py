@@ -225,9 +225,9 @@ def run_demo(
         ``workers`` below 1, a parameter file that is missing or not valid, or
         an output folder that cannot be written (checked before any work).
     """
-    from evtms.benches.parameters import load_parameters
     from evtms.errors import EvtmsInputError
     from evtms.paths import creating_parents, output_folder
+    from evtms.system.params import load_parameter_tree
     from evtms.workflows.common import params_input
 
     if workers < 1:
@@ -235,7 +235,7 @@ def run_demo(
     inputs = []
     if not isinstance(params, Parameters):
         inputs = params_input(params)
-        params = load_parameters(params)
+        params = load_parameter_tree(params).components
     out = output_folder(out, inputs)
     notify = notify or (lambda message: None)
     result = DemoResult(index=out / "index.html")

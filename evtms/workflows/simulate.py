@@ -20,7 +20,7 @@ from typing import Any
 
 from evtms.errors import EvtmsInputError
 from evtms.paths import creating_parents, input_file, output_file
-from evtms.workflows.common import Notify, Progress, as_text, params_input, quiet
+from evtms.workflows.common import Notify, Progress, as_text, check_lut_components, params_input, quiet
 
 __all__ = ["SimulationRequest", "SimulationRun", "run_simulation"]
 
@@ -166,15 +166,18 @@ def surrogate_models(path: Path):
 
 
 def system_refrigerant(
-    luts: Path, folder: Path | None, system, notify: Notify | None = None, progress: Progress | None = None
+    luts: Path, folder: Path | None, tree, notify: Notify | None = None, progress: Progress | None = None
 ):
     """The cycle maps of the cycle LUTs in ``folder`` (from :func:`cycle_luts`) for the simulator.
 
-    With ``folder`` None (``luts`` missing or holding no LUTs) the cycle LUTs are built in ``luts``
-    first; maps are built where missing, each announced by ``notify`` and reported to ``progress``
-    under its name.
+    ``tree`` is the run's :class:`~evtms.system.params.ParameterTree`. With
+    ``folder`` None (``luts`` missing or holding no LUTs) the cycle LUTs are
+    built in ``luts`` first, with the tree's component parameters; LUTs found
+    are refused if a component table the parameter file gives contradicts
+    them. Maps are built where missing, each announced by ``notify`` and
+    reported to ``progress`` under its name.
     """
-    from evtms.benches.parameters import Parameters
+    from evtms.cycle import load_cycle_luts
     from evtms.system.refrigerant import load_refrigerant
     from evtms.workflows.demo import ensure_luts
 
@@ -183,8 +186,10 @@ def system_refrigerant(
     if folder is None:
         notify(f"no cycle LUTs in {luts}/; building them (evtms bench all --grid cycle, 1-2 min)")
         with creating_parents(luts, folder=True):
-            ensure_luts(luts, "cycle", Parameters(), notify=lambda m: notify(f"  {m}"))
+            ensure_luts(luts, "cycle", tree.components, notify=lambda m: notify(f"  {m}"))
         folder = luts
+    elif tree.given_components():
+        check_lut_components(load_cycle_luts(folder, "cabin+chiller"), tree, tree.path, folder)
     announced = set()
 
     def maps(done: int, total: int, name: str) -> None:
@@ -194,7 +199,7 @@ def system_refrigerant(
         if progress is not None:
             progress(done, total, name)
 
-    return load_refrigerant(folder, system, maps)
+    return load_refrigerant(folder, tree.system, maps)
 
 
 def _option_inputs(values: Mapping[str, str | float | None]) -> dict:
@@ -261,7 +266,7 @@ def _check_choice(request: SimulationRequest) -> tuple[bool, bool]:
 def _plan(request: SimulationRequest, depletion: bool, named: bool):
     """(scenario, its setup, system parameters, ambients [K], files read): checked before any map work."""
     from evtms.cycle.topology import parse_values
-    from evtms.system.params import load_system_params
+    from evtms.system.params import load_parameter_tree
     from evtms.system.scenarios import Scenario
     from evtms.system.simulate import check_run_options
 
@@ -273,8 +278,8 @@ def _plan(request: SimulationRequest, depletion: bool, named: bool):
     inputs = params_input(r.params)
     if r.scenario_file is not None:
         inputs.append(r.scenario_file)
-    system = load_system_params(r.params)
-    setup = sc.setup(system, mode=r.mode, inputs=_option_inputs(r.inputs))
+    tree = load_parameter_tree(r.params)
+    setup = sc.setup(tree.system, mode=r.mode, inputs=_option_inputs(r.inputs))
     if depletion:
         from evtms.system.range_test import ccp_sequence, mct_sequence
 
@@ -284,7 +289,7 @@ def _plan(request: SimulationRequest, depletion: bool, named: bool):
     check_run_options(trace, r.dt, setup.mode, r.output_every, r.precondition)
     if not depletion and Path(trace.source).is_file():
         inputs.append(Path(trace.source))
-    return sc, setup, system, ambients, inputs + trace_files(setup.inputs)
+    return sc, setup, tree, ambients, inputs + trace_files(setup.inputs)
 
 
 def run_simulation(
@@ -319,7 +324,7 @@ def run_simulation(
 
     notify = notify or quiet
     depletion, named = _check_choice(request)
-    sc, setup, system, ambients, inputs = _plan(request, depletion, named)
+    sc, setup, tree, ambients, inputs = _plan(request, depletion, named)
     lut_folder, lut_files = cycle_luts(request.luts)
     inputs += lut_files
     mode_models = None
@@ -328,7 +333,7 @@ def run_simulation(
         inputs.append(surrogate_file)
     if request.output is not None:
         output_file(request.output, inputs, (".nc",))
-    refrigerant = system_refrigerant(request.luts, lut_folder, system, notify, progress)
+    refrigerant = system_refrigerant(request.luts, lut_folder, tree, notify, progress)
     check_model(request.model, setup.mode, mode_models, refrigerant)
     options = dict(
         dt=request.dt,

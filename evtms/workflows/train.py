@@ -75,7 +75,7 @@ def train_mode_models(request: TrainRequest, *, notify: Notify | None = None, pr
         A limit out of range, an unknown mode, a bad parameter file, LUT folder or output folder.
     """
     from evtms.surrogates.train import check_modes, train_surrogates
-    from evtms.system.params import load_system_params
+    from evtms.system.params import load_parameter_tree
     from evtms.workflows.simulate import cycle_luts, system_refrigerant
 
     r = request
@@ -87,12 +87,12 @@ def train_mode_models(request: TrainRequest, *, notify: Notify | None = None, pr
     modes = [m.strip() for m in parts if m.strip()]
     check_modes(modes)  # before any LUT or map work
     inputs = params_input(r.params)
-    system = load_system_params(r.params)
+    tree = load_parameter_tree(r.params)
     lut_folder, lut_files = cycle_luts(r.luts)
     output_folder(r.output, inputs + lut_files)
-    refrigerant = system_refrigerant(r.luts, lut_folder, system, notify, progress)
+    refrigerant = system_refrigerant(r.luts, lut_folder, tree, notify, progress)
     training = None if progress is None else (lambda done, total, message: progress(done, total, "training"))
     return train_surrogates(
-        refrigerant, modes, r.output, params=system, progress=training, seed=r.seed, quick=r.quick,
+        refrigerant, modes, r.output, params=tree.system, progress=training, seed=r.seed, quick=r.quick,
         runs_per_mode=r.runs_per_mode,
     )  # fmt: skip
