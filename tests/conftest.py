@@ -141,7 +141,9 @@ _NEEDS = {"cycle_luts": False, "demo": False}
 
 #: The background job: the cycle LUTs (``evtms.workflows.demo.ensure_luts``, as 'evtms bench all --grid cycle'
 #: writes them), a marker when they are complete, then (if asked) 'evtms demo' into a fresh folder
-#: holding a copy of them, with its result as JSON.
+#: holding a copy of them, with its result as JSON. With ``EVTMS_TEST_CYCLE_LUTS=DIR`` (development
+#: loops only; CI leaves it unset and builds them) the LUTs of DIR are copied first, and only the
+#: ones that are stale for the current parameters are built.
 _BACKGROUND = """
 import json
 import os
@@ -154,6 +156,10 @@ from evtms.benches.parameters import Parameters
 
 os.nice(10)  # the tests run first: timing checks (e.g. 'evtms --help' under 1 s) keep their CPU
 luts, done, demo = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
+seed = os.environ.get("EVTMS_TEST_CYCLE_LUTS")
+if seed:  # a development loop's copy of LUTs built before; ensure_luts rebuilds any that is stale or missing
+    for f in sorted(Path(seed).glob("*.nc")):
+        shutil.copy2(f, luts / f.name)
 ensure_luts(luts, "cycle", Parameters(), workers=2)
 if demo:
     out = Path(demo)

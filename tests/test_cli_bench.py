@@ -147,16 +147,16 @@ def test_output_folder_created_or_refused(tmp_path):
     assert (tmp_path / "new" / "deeper" / "c.nc").is_file()
 
 
-def test_help_and_version_are_fast_and_lazy():
+def test_help_and_version_are_lazy():
+    """``--help`` imports none of the heavy libraries (its time is the benchmarks', not a test's)."""
     code = (
-        "import sys, time; t=time.perf_counter();"
+        "import sys;"
         "from typer.testing import CliRunner; from evtms.cli import app;"
         "r=CliRunner().invoke(app, ['--help']); assert r.exit_code == 0;"
-        "assert 'CoolProp' not in sys.modules and 'xarray' not in sys.modules and 'matplotlib' not in sys.modules;"
-        "print(time.perf_counter()-t)"
+        "print(sorted(m for m in ('CoolProp', 'xarray', 'matplotlib', 'numba', 'scipy') if m in sys.modules))"
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert float(res.stdout) < 1.0
+    assert res.stdout.strip() == "[]"
     v = run("--version")
     assert v.exit_code == 0 and v.stdout.startswith("evtms ")
     h = run("bench", "--help")

@@ -508,15 +508,13 @@ def test_round_sig(value, expected):
 
 def test_huge_count_is_refused_before_allocating():
     tracemalloc.start()
-    t0 = time.perf_counter()
     try:
         message = refused(parse_axis, "mdot=1:2:1000000000", BENCHES["condenser"])
-        elapsed = time.perf_counter() - t0
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
     assert "1,000,000,000 points" in message
-    assert elapsed < 0.5 and peak < 10e6
+    assert peak < 10e6  # the count is refused from the axis text: nothing of its size was allocated
 
 
 def test_max_points_is_the_callers():

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import time
 
 import numpy as np
 import pytest
@@ -236,9 +235,8 @@ def test_cache_is_read_back_and_rebuilt_when_a_lut_or_the_settings_change(cycle_
     path = folder / "maps" / "chiller.nc"
     assert path.is_file() and not list((folder / "maps").glob(".*"))  # no temporary file left
     calls.clear()
-    t0 = time.perf_counter()
     again = load_maps(folder, small, names=("chiller",), progress=progress)["chiller"]
-    assert time.perf_counter() - t0 < 2.0 and not calls  # read from disk
+    assert not calls  # read from disk, nothing solved
     assert np.array_equal(again.values, first.values) and again.filled == first.filled
     assert all(np.array_equal(a, b) for a, b in zip(again.nodes, first.nodes, strict=True))
     assert again.attrs["created"] == first.attrs["created"]
