@@ -23,8 +23,9 @@ from evtms.cli.common import cli_message, option_of
 ROOT = Path(__file__).resolve().parents[1]
 LIBRARY = ROOT / "evtms"
 
-#: A command-line option: two dashes and a lower-case name (not ``---`` rules nor ``a--b``).
-OPTION = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
+#: A command-line option: two dashes and a lower-case name (not ``---`` rules nor ``a--b``), or a short
+#: option (``-o DIR``: a dash, a lower-case letter and a space).
+OPTION = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*|(?<![\w-])-[a-z](?= )")
 #: A whole command quoted in a message (``'evtms bench all --grid cycle'``, or as ``<code>`` in a page): a
 #: remedy to copy into a shell, as true from Python as on the command line; its options stay.
 QUOTED_COMMAND = re.compile(r"'evtms [^']*'|<code>evtms [^<]*</code>")
@@ -32,6 +33,11 @@ QUOTED_COMMAND = re.compile(r"'evtms [^']*'|<code>evtms [^<]*</code>")
 ALLOWED = {
     # The CF ``history`` attribute of a LUT records the command line that writes the file.
     ("evtms/benches/sweep.py", "evtms bench {} --grid {}"),
+    # The pip command that installs scikit-learn: python's option, not one of evtms.
+    (
+        "evtms/surrogates/train.py",
+        "surrogate training needs scikit-learn; install it with: python3 -m pip install scikit-learn",
+    ),
 }
 
 
@@ -85,11 +91,16 @@ def test_the_scan_sees_raise_warn_and_fstring_texts():
         "def f(x):\n"
         '    """Docstrings may say --anything."""\n'
         "    warn('use --old')\n"
+        "    notify(f'-o {x}: exists; 1-D, -5 K')\n"
         "    raise ValueError(f'--model {x!r} is unknown; run ' \"'evtms bench all --grid cycle'\")\n"
     )
     texts = [t for _, t in _texts(ast.parse(source))]
-    assert texts == ["use --old", "--model {} is unknown; run 'evtms bench all --grid cycle'"]
-    assert [OPTION.findall(QUOTED_COMMAND.sub("", t)) for t in texts] == [["--old"], ["--model"]]
+    assert texts == [
+        "use --old",
+        "-o {}: exists; 1-D, -5 K",
+        "--model {} is unknown; run 'evtms bench all --grid cycle'",
+    ]
+    assert [OPTION.findall(QUOTED_COMMAND.sub("", t)) for t in texts] == [["--old"], ["-o"], ["--model"]]
 
 
 def _options(*path: str) -> set[str]:
