@@ -367,7 +367,10 @@ CASES: list[Case] = [
     ),
     bad_params("simulate-params-unknown-table", "[heatpump]\nx = 1\n", "unknown table or key 'heatpump'", tuple(SIM)),
     bad_params(
-        "simulate-params-shared-with-a-bench", "[cabin]\nblower_flow_max = 0.4\n", "[evaporator] fan_flow_max", tuple(SIM)
+        "simulate-params-shared-with-a-bench",
+        "[cabin]\nblower_flow_max = 0.4\n",
+        "[evaporator] fan_flow_max",
+        tuple(SIM),
     ),
     bad_params("simulate-params-v1-name", "[controls]\nptc_max_power = 3000\n", "is [hvac] ptc_max_power", tuple(SIM)),
     bad_params("simulate-params-heating", "[hvac]\nheating = 'gas'\n", "allowed: ptc_air, ptc_coolant", tuple(SIM)),
