@@ -20,7 +20,7 @@ from conftest import one_error_line
 from evtms.errors import EvtmsInputError
 from evtms.system import inputs as inputs_module
 from evtms.system.drive_cycles import drive_cycle
-from evtms.system.inputs import Trace, check_inputs, per_step, read_trace
+from evtms.system.inputs import FIELD_LABELS, Trace, check_inputs, per_step, read_trace
 from evtms.system.params import SystemParams
 from evtms.system.scenarios import (
     SCENARIOS,
@@ -278,8 +278,8 @@ def test_check_inputs_numbers_units_and_refusals():
     assert list(got) == ["Q_battery_ext", "SP_evap", "blower"]  # the loop's column order
     assert "input 'Qloss' is unknown" in refused(check_inputs, {"Qloss": 1.0})
     assert "input blower = [1] is not a number" in refused(check_inputs, {"blower": [1]})
-    msg = refused(check_inputs, {"SP_CoHX": 100.0}, celsius=True, labels={"SP_CoHX": "--sp-cohx"})
-    assert msg == "--sp-cohx 100 degC is not allowed; allowed: 15 to 90 degC"
+    msg = refused(check_inputs, {"SP_CoHX": 100.0}, celsius=True, labels=FIELD_LABELS)
+    assert msg == "`SP_CoHX` 100 degC is not allowed; allowed: 15 to 90 degC"
     assert "inf is not allowed" in refused(check_inputs, {"Q_battery_ext": math.inf})
     bad = Trace(np.array([0.0, 1.0]), np.array([0.5, 1.5]), "x.csv:u")
     assert "1.5 at 1 s is not allowed" in refused(check_inputs, {"blower": bad})
@@ -334,7 +334,7 @@ def test_setup_overrides_and_the_heating_option():
     sc = SCENARIOS["t12-cc-1"]
     setup = sc.setup(mode="cc", inputs={"SP_evap": 280.0})
     assert setup.inputs["SP_evap"] == 280.0 and setup.inputs["hvac_inlet_T"] == K(40)
-    assert "--blower 0 is not allowed with mode cc" in refused(sc.setup, inputs={"blower": 0.0})
+    assert "`blower` 0 is not allowed with mode cc" in refused(sc.setup, inputs={"blower": 0.0})
     assert "scenario 't12-cc-1': input blower = 0" in refused(dataclasses.replace(sc, inputs={"blower": 0.0}).setup)
     assert sc.setup(mode="bc", inputs={"blower": 0.0}).mode == "bc"
     ch = SCENARIOS["t12-ch-1"].setup()

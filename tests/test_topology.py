@@ -44,8 +44,8 @@ def test_parse_inputs_defaults_units_and_ranges():
 @pytest.mark.parametrize(
     ("texts", "circuit", "message"),
     [
-        ({"T_coolant_in": "30"}, "cabin", "--t-coolant: not an input of the cabin topology"),
-        ({"blower": "0.5"}, "chiller", "--blower: not an input of the chiller topology"),
+        ({"T_coolant_in": "30"}, "cabin", "`T_coolant_in`: not an input of the cabin topology"),
+        ({"blower": "0.5"}, "chiller", "`blower`: not an input of the chiller topology"),
         ({"mdot_coolant": "0"}, "chiller", "mdot_coolant = 0 is not allowed; allowed: 0 < mdot_coolant <= 2 kg s-1"),
         ({"T_coolant_in": "70"}, "chiller", "T_coolant_in = 70 degC is not allowed; allowed: -20 to 60 degC"),
         ({"speed": "0.5,0.4"}, "cabin", "speed values must be strictly increasing"),

@@ -143,7 +143,7 @@ def check_grid_size(
         More than ``max_points`` points, or an estimated working set above
         80 % of the available memory, e.g. ``grid of 1,000,000,000 points
         (mdot 1000000000 x fan 4) is above the limit of 200,000,000 points;
-        raise it with --max-points or use a coarser grid``.
+        raise it with `max_points` or use a coarser grid``.
     """
     sizes = dict(shape) if isinstance(shape, Mapping) else {f"axis {i}": int(n) for i, n in enumerate(shape)}
     points = math.prod(int(n) for n in sizes.values())

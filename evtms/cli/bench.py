@@ -9,7 +9,7 @@ from typing import Annotated
 
 import typer
 
-from evtms.cli.common import _ARGV, JsonOut, _error, _ProgressBar, print_json
+from evtms.cli.common import _ARGV, JsonOut, _error, _ProgressBar, note, print_json
 from evtms.workflows.bench import BenchInfo, bench_catalogue
 
 bench_app = typer.Typer(
@@ -131,8 +131,8 @@ def _run_benches(*, quiet: bool, json_out: bool, **options) -> None:
     request = BenchRequest(**{**options, "axis": options["axis"] or ()})
 
     def done(name, s) -> None:
-        for note in getattr(s, "notes", ()):
-            typer.echo(f"note: {note}", err=True)
+        for message in getattr(s, "notes", ()):
+            note(message)  # as every workflow's note: a field it names shown as its option
         if not json_out:
             chunks = f"{s.chunks} chunks ({s.computed} computed, {s.reused} reused), " if s.chunks > 1 else ""
             timing = f"{s.seconds:.2f} s ({s.runner})"

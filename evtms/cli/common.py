@@ -78,14 +78,26 @@ def _error(message: str, code: int = 2) -> int:
     return code
 
 
-#: Request fields whose option is not ``--`` and the field's name with dashes.
-_OPTION_OF = {"fmt": "--format", "range_test": "--range"}
+#: Request fields (and the cycle's and the simulator's inputs, the keys of a request's ``inputs``)
+#: whose option is not ``--`` and the name in lower case with dashes (``T_amb``: ``--t-amb``).
+_OPTION_OF = {
+    "fmt": "--format",
+    "range_test": "--range",
+    "mdot_coolant": "--coolant-flow",
+    "T_coolant_in": "--t-coolant",
+    "Q_battery_ext": "--q-battery",
+}
 _FIELD = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)`")
+
+
+def option_of(field: str) -> str:
+    """The option of a request field or input (``max_points``: ``--max-points``, ``T_amb``: ``--t-amb``)."""
+    return _OPTION_OF.get(field, "--" + field.lower().replace("_", "-"))
 
 
 def cli_message(message: str) -> str:
     """A library message with the request fields it names (```max_points```) as options (``--max-points``)."""
-    return _FIELD.sub(lambda m: _OPTION_OF.get(m[1], "--" + m[1].replace("_", "-")), message)
+    return _FIELD.sub(lambda m: option_of(m[1]), message)
 
 
 def note(message: str) -> None:

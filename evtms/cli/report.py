@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from evtms.cli.common import JsonOut, _ProgressBar, note, print_json
+from evtms.cli.common import JsonOut, _ProgressBar, cli_message, note, print_json
 from evtms.cli.simulate import SoakCabin, SystemToml
 
 report_app = typer.Typer(
@@ -246,6 +246,6 @@ def report_compare(
     elif not c.table12:
         typer.echo(f"wrote {len(files)} files and {output / 'index.html'}")
     else:
-        typer.echo(table12_text(c.result))
+        typer.echo(cli_message(table12_text(c.result)))  # a skip reason's `field` as its option
         if files:
             typer.echo(f"wrote {', '.join(files)}")

@@ -404,7 +404,7 @@ class LutModels:
                 if axis not in dims:
                     raise EvtmsInputError(
                         f"the {component} LUT has axes {', '.join(dims)}; cycle work needs {axis!r} as an axis "
-                        "(write it with --grid cycle)"
+                        f"(write it with 'evtms bench {component} --grid cycle')"
                     )
             self.luts[component] = _LutComponent(component, lut, CURVED.get(component, ()), compiled, vapour)
         self.valve_lut = cycle_lut(luts["expansion_valve"], "expansion_valve")

@@ -61,11 +61,6 @@ class CycleInput:
     celsius: bool = False
     positive: bool = False
 
-    @property
-    def option(self) -> str:
-        """The command-line option, e.g. ``--t-amb``."""
-        return "--" + _OPTIONS.get(self.name, self.name.replace("_", "-").lower())
-
     def allowed(self) -> str:
         """The allowed range in command-line units."""
         lo, hi = (self.lower - 273.15, self.upper - 273.15) if self.celsius else (self.lower, self.upper)
@@ -74,8 +69,6 @@ class CycleInput:
             return f"0 < {self.name} <= {hi:g}{unit}"
         return f"{lo:g} to {hi:g}{unit}"
 
-
-_OPTIONS = {"mdot_coolant": "coolant-flow", "T_coolant_in": "t-coolant"}
 
 #: Every operating input of the cycle, in the order of a sweep's dimensions.
 INPUTS: dict[str, CycleInput] = {
@@ -174,26 +167,28 @@ def topology(name: str | Topology) -> Topology:
     return TOPOLOGIES[name]
 
 
-def parse_values(name: str, text: str, max_points: int) -> list[float]:
+def parse_values(name: str, text: str, max_points: int, label: str | None = None) -> list[float]:
     """One input's values from command-line text: ``v``, ``v1,v2,...`` or ``start:stop:count``.
 
     degC inputs become K; values are rounded to 12 significant digits (-40
     degC is 233.15 K exactly, 0.3 is 0.3), checked against the input's
-    range and must increase strictly.
+    range and must increase strictly. ``label`` names the text in messages
+    (default: the input's name as a request field, ```name```).
     """
     spec = INPUTS[name]
+    label = label or f"`{name}`"
     try:
         parts = [float(v) for v in text.split(":" if ":" in text else ",")]
     except ValueError:
-        raise EvtmsInputError(f"{spec.option} {text!r} is not a number, v1,v2,... or start:stop:count") from None
+        raise EvtmsInputError(f"{label} {text!r} is not a number, v1,v2,... or start:stop:count") from None
     if ":" in text:
         if len(parts) != 3:
-            raise EvtmsInputError(f"{spec.option} {text!r} is not start:stop:count")
+            raise EvtmsInputError(f"{label} {text!r} is not start:stop:count")
         start, stop, count = parts
         if not count.is_integer() or count < 1:
-            raise EvtmsInputError(f"{spec.option} {text!r}: the count {count:g} must be a whole number >= 1")
+            raise EvtmsInputError(f"{label} {text!r}: the count {count:g} must be a whole number >= 1")
         if count > max_points:
-            raise EvtmsInputError(f"{spec.option} {text!r}: {count:,.0f} values is above the limit of {max_points:,}")
+            raise EvtmsInputError(f"{label} {text!r}: {count:,.0f} values is above the limit of {max_points:,}")
         values = np.linspace(start, stop, int(count))
     else:
         values = np.array(parts)
@@ -218,11 +213,11 @@ def parse_inputs(texts: dict[str, str | None], circuit: Topology, max_points: in
         A value out of range or malformed, an input the circuit does not use
         given explicitly, or more points than ``max_points``.
     """
-    unused = [INPUTS[k].option for k, v in texts.items() if v is not None and k not in circuit.inputs]
+    unused = [f"`{k}`" for k, v in texts.items() if v is not None and k not in circuit.inputs]
     if unused:
         raise EvtmsInputError(
             f"{', '.join(unused)}: not an input of the {circuit.name} topology; its inputs: "
-            + ", ".join(INPUTS[k].option for k in circuit.inputs)
+            + ", ".join(f"`{k}`" for k in circuit.inputs)
         )
     grid = {}
     for name in circuit.inputs:
@@ -237,6 +232,6 @@ def parse_inputs(texts: dict[str, str | None], circuit: Topology, max_points: in
         sizes = " x ".join(f"{k} {len(v)}" for k, v in grid.items() if len(v) > 1)
         raise EvtmsInputError(
             f"the sweep has {points:,} operating points ({sizes}), above the limit of {max_points:,}; "
-            "raise it with --max-points or sweep fewer values"
+            "raise it with `max_points` or sweep fewer values"
         )
     return grid

@@ -593,7 +593,9 @@ def depletion_data(ds: xr.Dataset) -> dict:
         raise EvtmsInputError("not an evtms simulation output (no 'time' dimension; write one with evtms simulate)")
     test = range_test(ds)
     if test not in ("mct", "ccp"):
-        raise EvtmsInputError(f"range test {test!r} is not mct or ccp; write the file with evtms simulate --range")
+        raise EvtmsInputError(
+            f"range test {test!r} is not mct or ccp; write the file with 'evtms simulate --range mct' (or ccp)"
+        )
     runs = _range_runs(ds)
     temps = np.round(ambients(ds) - 273.15, 9)  # K to degC without the subtraction's round-off
     heating = _heating(ds, len(runs))

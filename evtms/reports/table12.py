@@ -116,7 +116,7 @@ def table12_text(result: Table12Result) -> str:
         notes.append(f"capacity n/a: {note}")
     traces = sorted({r.scenario for r in result.rows for c in _cells(r) if c == "trace"})
     if traces:
-        notes.append(f"trace inputs in {', '.join(traces)}: see --json for their files")
+        notes.append(f"trace inputs in {', '.join(traces)}: the JSON summary (table12.json) names their files")
     for approach, why in result.skipped.items():
         notes.append(f"{approach} not run: {why}")
     return "\n".join(lines + [""] + [f"note: {n}" for n in notes])

@@ -538,7 +538,7 @@ def train_surrogates(
     if importlib.util.find_spec("sklearn") is None:
         raise EvtmsInputError(SKLEARN_MISSING)
     if Path(out_dir).exists() and not Path(out_dir).is_dir():
-        raise EvtmsInputError(f"-o {out_dir}: exists and is not a folder")
+        raise EvtmsInputError(f"`output` {out_dir}: exists and is not a folder")
     path = Path(out_dir) / FILE_NAME
     existing = load_mode_models(path) if path.exists() else None
     refrigerant = luts if isinstance(luts, Refrigerant) else load_refrigerant(luts, params)

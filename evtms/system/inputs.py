@@ -115,15 +115,8 @@ def per_step(inputs: Mapping[str, InputValue] | None, edges: np.ndarray) -> np.n
 
 #: Inputs given in K (shown in degC on the command line, as ``--t-amb``).
 KELVIN_INPUTS = ("hvac_inlet_T", "SP_evap", "SP_CoHX")
-#: The ``evtms simulate`` option of each input.
-CLI_OPTIONS = {
-    "Q_battery_ext": "--q-battery",
-    "hvac_inlet_T": "--hvac-inlet-t",
-    "hvac_inlet_rh": "--hvac-inlet-rh",
-    "SP_evap": "--sp-evap",
-    "SP_CoHX": "--sp-cohx",
-    "blower": "--blower",
-}
+#: Each input named as a request's field (```blower```), as messages name the inputs a request gives.
+FIELD_LABELS = {name: f"`{name}`" for name in INPUT_NAMES}
 #: Modes that can run the cabin coil or a heater: a fixed blower of 0 is refused with them (spec 2.3).
 BLOWER_MODES = ("auto", "cc", "ch", "ch+bh", "ch+bc", "cc+bc", "ch-hp")
 #: Largest trace file read [bytes] and most samples (a week at 1 Hz), as drive cycles.
@@ -148,8 +141,8 @@ def _shown(name: str, value: float, celsius: bool) -> str:
 
 
 def _named(label: str, shown: str) -> str:
-    """``--blower 0`` for an option, ``input blower = 0`` otherwise."""
-    return f"{label} {shown}" if label.startswith("--") else f"{label} = {shown}"
+    """```blower` 0`` for a request's field, ``input blower = 0`` otherwise."""
+    return f"{label} {shown}" if label.startswith("`") else f"{label} = {shown}"
 
 
 def split_trace_spec(text: str) -> tuple[str, str] | None:

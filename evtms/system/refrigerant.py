@@ -100,7 +100,7 @@ class Refrigerant:
     def check_physics(self) -> None:
         """Refuse the physics model where there are no LUTs to take its component parameters from."""
         if self.folder is None:
-            raise EvtmsInputError("`model` physics needs the cycle LUTs' folder (`luts`)")
+            raise EvtmsInputError("the physics model needs the cycle LUTs' folder (`luts`)")
         self.physics_parameters()
 
     def physics_parameters(self):

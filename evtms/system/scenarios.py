@@ -41,7 +41,7 @@ from typing import Any
 
 from evtms.errors import EvtmsInputError
 from evtms.system.drive_cycles import BUILTIN, drive_cycle
-from evtms.system.inputs import CLI_OPTIONS, INPUT_NAMES, InputValue, Trace, check_blower, check_inputs
+from evtms.system.inputs import FIELD_LABELS, INPUT_NAMES, InputValue, Trace, check_blower, check_inputs
 from evtms.system.mode_model import MODE_CODES
 from evtms.system.params import SystemParams, system_params_from_dict
 
@@ -170,7 +170,7 @@ class Scenario:
         inputs : mapping of str to float or Trace, optional
             Checked inputs (SI) that replace the scenario's of the same name (command-line options).
         labels : mapping of str to str, optional
-            How ``inputs`` are named in messages (default: their command-line options).
+            How ``inputs`` are named in messages (default: as a request's fields, ```blower```).
 
         Raises
         ------
@@ -192,7 +192,7 @@ class Scenario:
         extra = dict(inputs or {})
         merged = {n: extra[n] if n in extra else given[n] for n in INPUT_NAMES if n in extra or n in given}
         names = {n: f"{where}: input {n}" for n in given}
-        names.update({n: (labels or CLI_OPTIONS).get(n, n) for n in extra})
+        names.update({n: (labels or FIELD_LABELS).get(n, n) for n in extra})
         check_blower(merged, mode, names)
         return ScenarioSetup(
             scenario=self,
@@ -397,7 +397,7 @@ def scenario_from_dict(name: str, table: Any, *, base: str | Path | None = None,
     params = table.get("params", {})
     if not isinstance(params, dict):
         raise EvtmsInputError(
-            f"{at} params must be a table of --params tables, e.g. {{ cabin = {{ T_set = 295.15 }} }}"
+            f"{at} params must be a table of system-parameter tables, e.g. {{ cabin = {{ T_set = 295.15 }} }}"
         )
     try:
         checked = system_params_from_dict(params)

@@ -418,8 +418,8 @@ def simulate(
     every = check_run_options(cycle, dt, mode, output_every, precondition)
     if model == "surrogate" and params.hvac.heating != "ptc_air":
         raise EvtmsInputError(
-            f"--model surrogate: the mode models know the air PTC only, not hvac.heating = {params.hvac.heating!r}; "
-            "use --model lut or physics"
+            f"`model` surrogate: the mode models know the air PTC only, not hvac.heating = {params.hvac.heating!r}; "
+            "use `model` lut or physics"
         )
     check_model(model, mode, mode_models, refrigerant)
     inputs = check_inputs(inputs, mode=mode)
@@ -603,19 +603,19 @@ def _run_loop(args: tuple, model: str, refrigerant: Refrigerant, mode_models: Mo
 def check_model(model: str, mode: str, mode_models: ModeModels | None, refrigerant: Refrigerant) -> None:
     """Refuse a model that cannot run this simulation (one line, before any work)."""
     if model not in MODELS:
-        raise EvtmsInputError(f"--model {model!r} is unknown; allowed: {', '.join(MODELS)}")
+        raise EvtmsInputError(f"`model` {model!r} is unknown; allowed: {', '.join(MODELS)}")
     if model == "physics":
         refrigerant.check_physics()
     if model == "surrogate":
         if mode_models is None:
             raise EvtmsInputError(
-                "--model surrogate needs mode models (--surrogates FILE, from 'evtms surrogate train')"
+                "the surrogate model needs mode models (`surrogates` FILE, from 'evtms surrogate train')"
             )
         needed = sorted(set(MODES.values()) - {-1}) if mode == "auto" else [MODES[mode]]
         missing = [L.MODE_NAMES[c] for c in needed if c not in mode_models.codes()]
         if missing:
             raise EvtmsInputError(
-                f"--model surrogate: the mode models lack mode(s) {', '.join(missing)} that --mode {mode} can use; "
+                f"the surrogate model's mode models lack mode(s) {', '.join(missing)} that mode {mode} can use; "
                 "train them with 'evtms surrogate train --mode all'"
             )
 

@@ -912,7 +912,7 @@ def _cycles_plan(r: CompareRequest) -> dict:
     if not (math.isfinite(r.sun) and 0.0 <= r.sun <= 1500.0):
         raise EvtmsInputError(f"`sun` {r.sun:g} is not allowed; allowed: 0 to 1500 W/m2")
     check_soak(r.soak_cabin)
-    ambients = parse_values("T_amb", as_text(r.t_amb), 20)
+    ambients = parse_values("T_amb", as_text(r.t_amb), 20, "`t_amb`")
     step_list = _float_list("dts", r.dts)
     physics_steps = _float_list("physics_dts", r.physics_dts) if r.physics_dts is not None else None
     names = _names(r.cycle)

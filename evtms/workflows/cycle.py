@@ -176,10 +176,9 @@ def run_cycle(request: CycleRequest) -> CyclePoint:
     """
     from evtms.cycle.api import solve_grid
     from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
-    from evtms.cycle.topology import INPUTS
 
     circuit, grid = _cycle_inputs(request)
-    several = [f"{INPUTS[k].option} ({len(v)} values)" for k, v in grid.items() if len(v) != 1]
+    several = [f"`{k}` ({len(v)} values)" for k, v in grid.items() if len(v) != 1]
     if several:
         raise EvtmsInputError(
             f"{', '.join(several)}: cycle run takes one value per input; use 'evtms cycle sweep' for several"

@@ -184,7 +184,7 @@ def system_refrigerant(
     notify = notify or quiet
     luts = Path(luts)
     if folder is None:
-        notify(f"no cycle LUTs in {luts}/; building them (evtms bench all --grid cycle, 1-2 min)")
+        notify(f"no cycle LUTs in {luts}/; building them as 'evtms bench all --grid cycle' does (1-2 min)")
         with creating_parents(luts, folder=True):
             ensure_luts(luts, "cycle", tree.components, notify=lambda m: notify(f"  {m}"))
         folder = luts
@@ -204,7 +204,7 @@ def system_refrigerant(
 
 def _option_inputs(values: Mapping[str, str | float | None]) -> dict:
     """The inputs given (numbers in degC for temperatures, or FILE.csv:column), checked, SI."""
-    from evtms.system.inputs import CLI_OPTIONS, check_inputs
+    from evtms.system.inputs import FIELD_LABELS, check_inputs
 
     raw: dict[str, object] = {}
     for name, value in values.items():
@@ -214,7 +214,7 @@ def _option_inputs(values: Mapping[str, str | float | None]) -> dict:
             raw[name] = float(value)
         except ValueError:
             raw[name] = value
-    return check_inputs(raw, celsius=True, labels=CLI_OPTIONS)
+    return check_inputs(raw, celsius=True, labels=FIELD_LABELS)
 
 
 def _scenario_choice(name: str | None, file: Path | None):
@@ -274,7 +274,7 @@ def _plan(request: SimulationRequest, depletion: bool, named: bool):
     sc = _scenario_choice(r.scenario, r.scenario_file) if named else Scenario(name="", cycle=r.cycle or "wltc3b")
     if r.t_amb is None and sc.T_amb is None:
         raise EvtmsInputError("give `t_amb` DEGC (this cycle or scenario has no ambient of its own)")
-    ambients = parse_values("T_amb", as_text(r.t_amb), 1000) if r.t_amb is not None else [sc.T_amb]
+    ambients = parse_values("T_amb", as_text(r.t_amb), 1000, "`t_amb`") if r.t_amb is not None else [sc.T_amb]
     inputs = params_input(r.params)
     if r.scenario_file is not None:
         inputs.append(r.scenario_file)
