@@ -92,10 +92,28 @@ devices (thermostatic expansion valves: capacity, superheat, feed limits).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
+from evtms.cycle.state import (  # noqa: F401  (INPUTS, OperatingPoints stay importable from here)
+    BOTH_HOLD,
+    CLAMP_FIRST_LEAST,
+    CLAMP_OTHER,
+    CLAMP_SECOND_LEAST,
+    CP_SCALE,
+    DP_PASSES,
+    DP_TOL,
+    FIRST_CLOSED,
+    FIRST_FLOATS,
+    INNER_FTOL,
+    INPUTS,
+    MIX_TOL,
+    OUTER_FTOL,
+    SECOND_CLOSED,
+    SECOND_FLOATS,
+    XTOL,
+    OperatingPoints,
+)
 from evtms.cycle.status import (  # noqa: F401  (the status names stay importable from here)
     CYCLE_FLAGS,
     FROST_RISK_FLAGS,
@@ -114,22 +132,15 @@ from evtms.cycle.status import (  # noqa: F401  (the status names stay importabl
     VALVE_SATURATED_FLAGS,
     CycleStatus,
 )
-from evtms.cycle.topology import INPUTS as CYCLE_INPUTS
 from evtms.cycle.topology import Topology, topology
 from evtms.fluid import SaturationCurve
 
 #: Figures every valid point has finite (a closed branch's are 0; its superheat and opening may be NaN).
 _MUST_BE_FINITE = ("p_A", "p_B", "mdot", "Q_evap", "Q_latent", "Q_chiller", "Q_cond", "W", "COP")
 
-#: Parallel branches (``ops["branch_mode"]``): both valves hold the setpoint; the first (second)
-#: branch's valve at its maximum opening, its superheat floating; the first (second) branch's valve closed.
-_BOTH_HOLD, _FIRST_FLOATS, _SECOND_FLOATS, _FIRST_CLOSED, _SECOND_CLOSED = 0, 1, 2, 3, 4
-#: Why a parallel split found no root: the first (second) branch would need less than its model's least
-#: flow, or another bound (a branch would need more than its model's largest flow).
-_CLAMP_FIRST_LEAST, _CLAMP_SECOND_LEAST, _CLAMP_OTHER = 1, 2, 3
-
-#: Largest difference [J/kg] between the suction state and the branches' mixture at a solved parallel point.
-_MIX_TOL = 1.0
+#: Largest difference [J/kg] between the suction state and the branches' mixture at a solved parallel
+#: point (evtms.cycle.state.MIX_TOL, under the name the tests know).
+_MIX_TOL = MIX_TOL
 #: Outlet excess [J/kg, about 2 K] over its setpoint of a closed branch at its least flow beyond
 #: which its valve would open: the closing is not a state of the circuit.
 _STARVED_EXCESS = 2000.0
@@ -139,20 +150,6 @@ _STARVED_EXCESS = 2000.0
 _SUCTION_LOW_BELOW = 45.0
 _SUCTION_LOW_FLOOR = 243.15
 
-#: Scale [J/(kg K)] that turns the suction enthalpy residual into about kelvin of superheat.
-_CP_SCALE = 1000.0
-#: Relative step in saturation temperature [1] below which a pressure root counts as found.
-_XTOL = 1e-8
-#: Residual tolerances: condenser closure [1] and suction superheat [K].
-_INNER_FTOL = 1e-6
-_OUTER_FTOL = 1e-4
-#: Fixed-point passes for an evaporating branch's inlet pressure per suction iterate (warm-started
-#: from the previous iterate's drop), until the drop moves less than _DP_TOL [Pa]. The residual must
-#: be a function of the suction pressure alone: a drop left from a far iterate (the chiller's is
-#: 10-40 kPa and moves kilopascals between iterates) shifted the outlet enthalpy by up to 0.3 K of
-#: superheat and made a false bracket. One pass suffices at most cabin-evaporator points.
-_DP_PASSES = 6
-_DP_TOL = 2.0
 #: Typical slopes of the closures in saturation temperature [1/K]: condenser, suction superheat.
 _INNER_SLOPE = -0.075
 _OUTER_SLOPE = -4.0
@@ -182,58 +179,6 @@ _SH_MAX_STEP = 25.0
 _SH_BRACKET_STEPS = 4
 _SH_XTOL = 1e-4
 _SH_FTOL = 1e-4
-
-#: Every operating input, in the order of a sweep's dimensions (declared in :mod:`evtms.cycle.topology`).
-INPUTS = tuple(CYCLE_INPUTS)
-
-
-@dataclass
-class OperatingPoints:
-    """Operating points of the circuit, as equally long arrays (scalars broadcast).
-
-    Attributes
-    ----------
-    speed : array_like
-        Compressor speed, fraction of maximum [1].
-    fan, blower : array_like
-        Condenser fan and evaporator blower fractions [1].
-    T_amb, RH_amb : array_like
-        Ambient air at the condenser [K], [1].
-    T_cabin, RH_cabin : array_like
-        Air entering the evaporator [K], [1].
-    mdot_coolant, T_coolant_in : array_like
-        Coolant entering the chiller [kg/s], [K].
-
-    Inputs not given take the defaults of :data:`evtms.cycle.topology.INPUTS`;
-    a circuit ignores the inputs of branches it does not have.
-    superheat : array_like
-        Thermostatic-valve superheat setpoint at each evaporating branch's outlet [K].
-    subcooling : array_like
-        Condenser-outlet subcooling [K]; 0 = saturated liquid (receiver).
-    """
-
-    speed: np.ndarray
-    fan: np.ndarray = field(default=0.5)
-    blower: np.ndarray = field(default=0.4)
-    T_amb: np.ndarray = field(default=303.15)
-    RH_amb: np.ndarray = field(default=0.4)
-    T_cabin: np.ndarray = field(default=300.15)
-    RH_cabin: np.ndarray = field(default=0.5)
-    mdot_coolant: np.ndarray = field(default=0.15)
-    T_coolant_in: np.ndarray = field(default=303.15)
-    superheat: np.ndarray = field(default=10.0)
-    subcooling: np.ndarray = field(default=0.0)
-
-    def __post_init__(self) -> None:
-        arrays = np.broadcast_arrays(*[np.atleast_1d(np.asarray(getattr(self, k), float)) for k in INPUTS])
-        for k, a in zip(INPUTS, arrays, strict=True):
-            setattr(self, k, np.ascontiguousarray(a).reshape(-1))
-
-    def __len__(self) -> int:
-        return self.speed.size
-
-    def subset(self, idx: np.ndarray) -> dict[str, np.ndarray]:
-        return {k: getattr(self, k)[idx] for k in INPUTS}
 
 
 def _no_heat_flow(result: dict) -> np.ndarray:
@@ -459,17 +404,17 @@ class CycleSolver:
 
     def _converged_drop(self, component: str, ops: dict, mdot, p_out, h_in, drop: np.ndarray) -> np.ndarray:
         """A branch's pressure drop [Pa] at outlet pressure ``p_out``: the fixed point of
-        ``drop = p_in - p_out(p_in)`` from ``drop``, to :data:`_DP_TOL` in at most
-        :data:`_DP_PASSES` passes (each on the points still moving; where the model
+        ``drop = p_in - p_out(p_in)`` from ``drop``, to :data:`DP_TOL` in at most
+        :data:`DP_PASSES` passes (each on the points still moving; where the model
         returns NaN the drop is kept)."""
         drop = np.asarray(drop, float).copy()
         todo = np.arange(drop.size)
-        for _ in range(_DP_PASSES):
+        for _ in range(DP_PASSES):
             p_in = p_out[todo] + drop[todo]
             sub = {k: v[todo] for k, v in ops.items()}
             out = self._branch(component, sub, mdot[todo], p_in, h_in[todo])["p_out"]
             new = np.where(np.isfinite(out), p_in - out, drop[todo])
-            moving = np.abs(new - drop[todo]) > _DP_TOL
+            moving = np.abs(new - drop[todo]) > DP_TOL
             drop[todo] = new
             todo = todo[moving]
             if todo.size == 0:
@@ -482,7 +427,7 @@ class CycleSolver:
         coldest = np.minimum.reduce(temps)
         if self.circuit.parallel and "branch_mode" in ops:
             mode = ops["branch_mode"]
-            coldest = np.where(mode == _FIRST_CLOSED, temps[1], np.where(mode == _SECOND_CLOSED, temps[0], coldest))
+            coldest = np.where(mode == FIRST_CLOSED, temps[1], np.where(mode == SECOND_CLOSED, temps[0], coldest))
         return coldest
 
     def _run_branch(self, component: str, ops: dict, mdot, p_in, h_in, open_: np.ndarray) -> dict:
@@ -567,8 +512,8 @@ class CycleSolver:
             # Which bound binds: the second (first) branch at the least flow its model covers.
             second_least = lo2 / mdot >= 1.0 - hi1 / mdot
             first_least = 1.0 - lo1 / mdot <= hi2 / mdot
-        split_mode = mode <= _SECOND_FLOATS
-        first_closed, second_closed = mode == _FIRST_CLOSED, mode == _SECOND_CLOSED
+        split_mode = mode <= SECOND_FLOATS
+        first_closed, second_closed = mode == FIRST_CLOSED, mode == SECOND_CLOSED
         with np.errstate(invalid="ignore"):
             fits = np.where(
                 split_mode,
@@ -595,9 +540,9 @@ class CycleSolver:
             h1, h2 = r1["h_out_continued"], r2["h_out_continued"]
             md = mode[i]
             # Both hold the setpoint: equal outlets; one valve saturated: the other one at the setpoint.
-            f = np.where(md == _FIRST_FLOATS, h2 - h_set[i], np.where(md == _SECOND_FLOATS, h_set[i] - h1, h2 - h1))
+            f = np.where(md == FIRST_FLOATS, h2 - h_set[i], np.where(md == SECOND_FLOATS, h_set[i] - h1, h2 - h1))
             why = np.where(r1["reason"] != "", r1["reason"], r2["reason"])
-            return f / _CP_SCALE, why
+            return f / CP_SCALE, why
 
         share = np.where(ok, self._split[idx], np.nan)
         share[ok & first_closed] = 1.0
@@ -639,15 +584,15 @@ class CycleSolver:
             high = no_root & finite & (f_hi > 0)
             share[todo[low]], share[todo[high]] = lo[low], hi[high]
             kind = np.zeros(todo.size, np.int8)
-            kind[low] = np.where(second_least[todo[low]], _CLAMP_SECOND_LEAST, _CLAMP_OTHER)
-            kind[high] = np.where(first_least[todo[high]], _CLAMP_FIRST_LEAST, _CLAMP_OTHER)
+            kind[low] = np.where(second_least[todo[low]], CLAMP_SECOND_LEAST, CLAMP_OTHER)
+            kind[high] = np.where(first_least[todo[high]], CLAMP_FIRST_LEAST, CLAMP_OTHER)
             clamped[todo] = kind
             nan = no_root & ~low & ~high
             reason[todo[nan]] = np.where(~np.isfinite(f_lo[nan]), w_lo[nan], w_hi[nan])
             go = np.nonzero(~no_root)[0]
             if go.size:
                 x, state, why = bracketed_root(
-                    residual, lo[go], hi[go], f_lo[go], f_hi[go], todo[go], _XTOL, _INNER_FTOL, why_lo=w_lo[go]
+                    residual, lo[go], hi[go], f_lo[go], f_hi[go], todo[go], XTOL, INNER_FTOL, why_lo=w_lo[go]
                 )
                 fine = state == 1
                 share[todo[go[fine]]] = x[fine]
@@ -656,9 +601,9 @@ class CycleSolver:
 
         if not final:
             # The split at the present drops, then each branch's drop at that split, until the
-            # drops stop moving (see _DP_TOL): the outlets then meet at p_A.
+            # drops stop moving (see DP_TOL): the outlets then meet at p_A.
             todo = np.nonzero(ok)[0]
-            for _ in range(_DP_PASSES):
+            for _ in range(DP_PASSES):
                 split = todo[split_mode[todo]]
                 if split.size:
                     solve_split(split)
@@ -670,7 +615,7 @@ class CycleSolver:
                 for c, r in zip(names, (r1, r2), strict=True):
                     p_in = inlets[c][todo]
                     new = np.where(np.isfinite(r["p_out"]), p_in - r["p_out"], p_in - p_A[todo])
-                    moving |= np.abs(new - (p_in - p_A[todo])) > _DP_TOL
+                    moving |= np.abs(new - (p_in - p_A[todo])) > DP_TOL
                     inlets[c][todo] = p_A[todo] + new
                 todo = todo[moving]
                 if todo.size == 0:
@@ -685,7 +630,7 @@ class CycleSolver:
             # With a saturated valve the mixture depends on the split itself (not only on both outlets
             # being equal): the split of the last suction iterate, which may be the root's neighbour,
             # is solved again at the root (at the stored drops), so that the mixture closes there.
-            again = np.nonzero(ok & (clamped == 0) & ((mode == _FIRST_FLOATS) | (mode == _SECOND_FLOATS)))[0]
+            again = np.nonzero(ok & (clamped == 0) & ((mode == FIRST_FLOATS) | (mode == SECOND_FLOATS)))[0]
             if again.size:
                 kept, why = share[again].copy(), reason[again].copy()
                 solve_split(again)
@@ -699,13 +644,13 @@ class CycleSolver:
             h_mix = (flows[names[0]] * r1["h_out_continued"] + flows[names[1]] * r2["h_out_continued"]) / mdot
         if final:
             h_mix[clamped > 0] = np.nan
-            lows = {_CLAMP_FIRST_LEAST: (labels[0], lo1), _CLAMP_SECOND_LEAST: (labels[1], lo2)}
+            lows = {CLAMP_FIRST_LEAST: (labels[0], lo1), CLAMP_SECOND_LEAST: (labels[1], lo2)}
             for kind, (label, least) in lows.items():
                 reason[clamped == kind] = (
                     "no split of the flow brings both branch outlets to the setpoint within the flows "
                     f"their models cover (the {label} would need less than {least * 1e3:.3g} g/s)"
                 )
-            reason[clamped == _CLAMP_OTHER] = (
+            reason[clamped == CLAMP_OTHER] = (
                 "no split of the flow brings both branch outlets to the setpoint within the flows "
                 "their models cover (one branch would need more)"
             )
@@ -729,7 +674,7 @@ class CycleSolver:
         mode = ops.get("branch_mode")
         if mode is None:
             return None
-        k = np.nonzero((mode == _FIRST_FLOATS) | (mode == _SECOND_FLOATS))[0]
+        k = np.nonzero((mode == FIRST_FLOATS) | (mode == SECOND_FLOATS))[0]
         if k.size == 0:
             return None
         out = np.full(p_A.size, np.nan)
@@ -778,7 +723,7 @@ class CycleSolver:
             br["f_lo"][idx],
             br["f_hi"][idx],
             idx,
-            _XTOL,
+            XTOL,
             ftol,
             why_lo=br["why_lo"][idx],
             why_hi=br["why_hi"][idx],
@@ -906,7 +851,7 @@ class CycleSolver:
         p_B = np.full(n, np.nan)
         todo = np.nonzero(status == STATUS_CONVERGED)[0]
         if todo.size:
-            p_B[todo] = self._pressure_root(residual, br, todo, _INNER_FTOL, status, reason, "discharge-pressure")
+            p_B[todo] = self._pressure_root(residual, br, todo, INNER_FTOL, status, reason, "discharge-pressure")
         failed = status != STATUS_CONVERGED
         p_B[failed] = np.nan
         if last.data is None:  # nothing evaluated (no valid suction pressure)
@@ -956,9 +901,9 @@ class CycleSolver:
         # interpolated outlet enthalpy stays smooth where the LUT's outlet temperature
         # has its kink (outlet turning two-phase), and matching it keeps the cycle's
         # energy balance.
-        sh = (evap["h_out_continued"] - comp["h_in"]) / _CP_SCALE
+        sh = (evap["h_out_continued"] - comp["h_in"]) / CP_SCALE
         # An inlet not colder than the air evaporates nothing: the outlet stays at h_D.
-        sh = np.where(_no_heat_flow(evap) & np.isfinite(h_D), (h_D - comp["h_in"]) / _CP_SCALE, sh)
+        sh = np.where(_no_heat_flow(evap) & np.isfinite(h_D), (h_D - comp["h_in"]) / CP_SCALE, sh)
         status = dis["status"].copy()
         reason = dis["reason"].copy()
         bad = (status == STATUS_CONVERGED) & ~np.isfinite(sh)
@@ -1089,16 +1034,16 @@ class CycleSolver:
         # suction iterate; where the suction search did not converge with the split at that
         # bound, it went back and forth across the flow at which that branch would close).
         kind = self._clamped.copy()
-        least = np.isin(kind, (_CLAMP_FIRST_LEAST, _CLAMP_SECOND_LEAST))
+        least = np.isin(kind, (CLAMP_FIRST_LEAST, CLAMP_SECOND_LEAST))
         idx = np.nonzero(np.isin(res["status"], (STATUS_OUTSIDE_ENVELOPE, STATUS_NOT_CONVERGED)) & least)[0]
         if idx.size:
-            self._solve_again(ops, res, idx, np.where(kind[idx] == _CLAMP_FIRST_LEAST, _FIRST_CLOSED, _SECOND_CLOSED))
+            self._solve_again(ops, res, idx, np.where(kind[idx] == CLAMP_FIRST_LEAST, FIRST_CLOSED, SECOND_CLOSED))
         # The colder stream's branch at the top of the search: every open branch must evaporate below
         # its secondary inlet, so the coldest one caps the suction pressure. Where both outlets are
         # still above the setpoint there, the suction would rise past that cap: the branch on the
         # colder stream can no longer evaporate, its bulb sees no superheat and its valve closes,
         # and the other branch alone sets the suction (up to its own stream).
-        capped = np.nonzero(above_top & (mode == _BOTH_HOLD))[0]
+        capped = np.nonzero(above_top & (mode == BOTH_HOLD))[0]
         if capped.size:
             temps = [np.asarray(ops[b.secondary_temperature], float)[capped] for b in self.circuit.branches]
             colder = np.where(temps[0] <= temps[1], 0, 1)
@@ -1107,7 +1052,7 @@ class CycleSolver:
                     f"with both open, the suction would rise past the {labels[b]}'s secondary inlet "
                     f"({t - 273.15:.3g} degC), where that branch cannot evaporate"
                 )
-            self._solve_again(ops, res, capped, np.where(colder == 0, _FIRST_CLOSED, _SECOND_CLOSED))
+            self._solve_again(ops, res, capped, np.where(colder == 0, FIRST_CLOSED, SECOND_CLOSED))
         # Saturated valves: one floats, the other holds its setpoint.
         ok = res["status"] == STATUS_CONVERGED
         over = [ok & (res[key] > self.max_opening) for key in ("valve_opening", "valve_opening_chiller")]
@@ -1125,7 +1070,7 @@ class CycleSolver:
         saturated = np.zeros(mode.size, bool)
         for b, key in enumerate(("valve_opening", "valve_opening_chiller")):
             floating = over[b] & ~both
-            mode[floating & (mode == _BOTH_HOLD)] = _FIRST_FLOATS if b == 0 else _SECOND_FLOATS
+            mode[floating & (mode == BOTH_HOLD)] = FIRST_FLOATS if b == 0 else SECOND_FLOATS
             idx = np.nonzero(floating)[0]
             if idx.size:
                 flow = res["mdot_evap" if b == 0 else "mdot_chiller"][idx]
@@ -1135,14 +1080,14 @@ class CycleSolver:
         # may then need less than its model's least flow (or the total flow no longer splits within
         # the models' flows): that valve closes, and the saturated branch runs alone.
         why = res["reason"].astype(str)
-        retry = (res["status"] == STATUS_OUTSIDE_ENVELOPE) & ((mode == _FIRST_FLOATS) | (mode == _SECOND_FLOATS))
+        retry = (res["status"] == STATUS_OUTSIDE_ENVELOPE) & ((mode == FIRST_FLOATS) | (mode == SECOND_FLOATS))
         retry &= np.char.find(why, "split") >= 0
         idx = np.nonzero(retry)[0]
         if idx.size:
-            self._solve_again(ops, res, idx, np.where(mode[idx] == _FIRST_FLOATS, _SECOND_CLOSED, _FIRST_CLOSED))
+            self._solve_again(ops, res, idx, np.where(mode[idx] == FIRST_FLOATS, SECOND_CLOSED, FIRST_CLOSED))
             saturated[idx] = False
             for b, key in enumerate(("valve_opening", "valve_opening_chiller")):
-                alone = (_SECOND_CLOSED, _FIRST_CLOSED)[b]
+                alone = (SECOND_CLOSED, FIRST_CLOSED)[b]
                 k = idx[(res["status"][idx] == STATUS_CONVERGED) & (mode[idx] == alone)]
                 k = k[res[key][k] > self.max_opening]
                 if k.size:
@@ -1150,7 +1095,7 @@ class CycleSolver:
                     saturated[k] = True
         # The holding valve may then need more than its maximum in turn.
         for b, key in enumerate(("valve_opening_chiller", "valve_opening")):
-            held = (res["status"] == STATUS_CONVERGED) & (mode == (_FIRST_FLOATS, _SECOND_FLOATS)[b])
+            held = (res["status"] == STATUS_CONVERGED) & (mode == (FIRST_FLOATS, SECOND_FLOATS)[b])
             held &= res[key] > self.max_opening
             self._mark_invalid(
                 res,
@@ -1168,9 +1113,9 @@ class CycleSolver:
         # between 0 and that least flow (the valve modulating near its seat) and its duty, below the
         # least flow's, is left out; the note says so, with that bound.
         self._closed_notes = np.full(mode.size, "", dtype=object)
-        idx = np.nonzero((res["status"] == STATUS_CONVERGED) & ((mode == _FIRST_CLOSED) | (mode == _SECOND_CLOSED)))[0]
+        idx = np.nonzero((res["status"] == STATUS_CONVERGED) & ((mode == FIRST_CLOSED) | (mode == SECOND_CLOSED)))[0]
         if idx.size:
-            excess, duty = self._closed_branch_at_least_flow(ops, res, idx, mode[idx] == _FIRST_CLOSED)
+            excess, duty = self._closed_branch_at_least_flow(ops, res, idx, mode[idx] == FIRST_CLOSED)
             # A closed branch whose outlet at its least flow lies kelvins above its setpoint needs
             # more flow, so its valve would open: the search starved it (e.g. the other valve, at
             # its maximum, taking the compressor's flow at a low suction iterate), its bulb did not
@@ -1181,13 +1126,13 @@ class CycleSolver:
                 idx[starved],
                 STATUS_NOT_CONVERGED,
                 [
-                    f"the search closed the {labels[int(mode[i] != _FIRST_CLOSED)]} valve, but at the least flow "
-                    f"its model covers that branch leaves {x / _CP_SCALE:.3g} K above its setpoint: its valve "
+                    f"the search closed the {labels[int(mode[i] != FIRST_CLOSED)]} valve, but at the least flow "
+                    f"its model covers that branch leaves {x / CP_SCALE:.3g} K above its setpoint: its valve "
                     "would open (not converged)"
                     for i, x in zip(idx[starved], excess[starved], strict=True)
                 ],
             )
-            opens = (excess > _OUTER_FTOL * _CP_SCALE) & ~starved
+            opens = (excess > OUTER_FTOL * CP_SCALE) & ~starved
             for i, d in zip(idx[opens], duty[opens], strict=True):
                 self._closed_notes[i] = (
                     f"; nearly closed: its flow lies between 0 and that least flow, its duty below "
@@ -1217,7 +1162,7 @@ class CycleSolver:
         inlet pressure: up to kilojoules per kilogram off, balances 6 % off before this check).
         """
         with np.errstate(invalid="ignore"):
-            off = (res["status"] == STATUS_CONVERGED) & (np.abs(res["h_A_evap"] - res["h_A"]) > _MIX_TOL)
+            off = (res["status"] == STATUS_CONVERGED) & (np.abs(res["h_A_evap"] - res["h_A"]) > MIX_TOL)
         what = "the branches' mixture" if self.circuit.parallel else "the evaporating branch's outlet"
         self._mark_invalid(
             res,
@@ -1378,7 +1323,7 @@ class CycleSolver:
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
             p_A[idx] = self._pressure_root(
-                residual, br, idx, _OUTER_FTOL, status, reason, "suction-pressure", failure_status
+                residual, br, idx, OUTER_FTOL, status, reason, "suction-pressure", failure_status
             )
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
@@ -1388,13 +1333,13 @@ class CycleSolver:
         bound the suction (a hot cabin alone may evaporate above the chiller LUT's last pressure)."""
         n = ops["speed"].size
         mode = np.asarray(ops.get("branch_mode", np.zeros(n)), int)
-        if not self.circuit.parallel or not np.isin(mode, (_FIRST_CLOSED, _SECOND_CLOSED)).any():
+        if not self.circuit.parallel or not np.isin(mode, (FIRST_CLOSED, SECOND_CLOSED)).any():
             return [(np.ones(n, bool), limits)]
         names = [b.component for b in self.circuit.branches]
         return [
-            (~np.isin(mode, (_FIRST_CLOSED, _SECOND_CLOSED)), limits),
-            (mode == _FIRST_CLOSED, self.models.limits(exclude=(names[0],))),
-            (mode == _SECOND_CLOSED, self.models.limits(exclude=(names[1],))),
+            (~np.isin(mode, (FIRST_CLOSED, SECOND_CLOSED)), limits),
+            (mode == FIRST_CLOSED, self.models.limits(exclude=(names[0],))),
+            (mode == SECOND_CLOSED, self.models.limits(exclude=(names[1],))),
         ]
 
     def _float_superheat(
@@ -1614,7 +1559,7 @@ class CycleSolver:
         sat = ok & saturated
         frost = ok & (np.nan_to_num(res["frost_risk"]) >= 0.5)
         mode = ops.get("branch_mode", np.zeros(status.size, np.int8))
-        closed = ok & ((mode == _FIRST_CLOSED) | (mode == _SECOND_CLOSED))
+        closed = ok & ((mode == FIRST_CLOSED) | (mode == SECOND_CLOSED))
         status[closed] = STATUS_BRANCH_CLOSED
         status[sat] = STATUS_VALVE_SATURATED
         status[frost] = STATUS_FROST_RISK
@@ -1623,7 +1568,7 @@ class CycleSolver:
         for i in np.nonzero(sat | frost | closed)[0]:
             notes = []
             if closed[i]:
-                b = 0 if mode[i] == _FIRST_CLOSED else 1
+                b = 0 if mode[i] == FIRST_CLOSED else 1
                 least = self.models.flow_range(self.circuit.branches[b].component)[0]
                 cause = self._closed_cause[i] or (
                     f"that branch would need less than the least flow its model covers ({least * 1e3:.3g} g/s) "
@@ -1631,7 +1576,7 @@ class CycleSolver:
                 )
                 notes.append(f"the {labels[b]} valve is closed (no flow, no heat): {cause}" + self._closed_notes[i])
             if sat[i] and self.circuit.parallel:
-                b = 0 if mode[i] in (_FIRST_FLOATS, _SECOND_CLOSED) else 1
+                b = 0 if mode[i] in (FIRST_FLOATS, SECOND_CLOSED) else 1
                 key = "superheat_actual" if b == 0 else "superheat_chiller"
                 notes.append(
                     f"the {labels[b]} valve is at its maximum opening ({self.max_opening:.3g} x nominal): its "
@@ -1755,7 +1700,7 @@ class CycleSolver:
             return {names[0]: ops["superheat"].copy()}
         mode, suction, setpoint = ops["branch_mode"], ops["superheat"], ops["setpoint"]
         out = {c: setpoint.copy() for c in names}
-        for b, (closed, floats) in enumerate(((_FIRST_CLOSED, _FIRST_FLOATS), (_SECOND_CLOSED, _SECOND_FLOATS))):
+        for b, (closed, floats) in enumerate(((FIRST_CLOSED, FIRST_FLOATS), (SECOND_CLOSED, SECOND_FLOATS))):
             other = names[1 - b]
             out[names[b]][mode == closed] = np.nan
             out[other][mode == closed] = suction[mode == closed]
@@ -1773,7 +1718,7 @@ class CycleSolver:
             x1, y1 = suction[k].copy(), comp["h_in"][k]
             near = np.abs(x1 - x0) < 1e-6
             if near.any():  # one point only: about 1 kJ/(kg K)
-                x1 = np.where(near, x0 + (target - y0) / _CP_SCALE, x1)
+                x1 = np.where(near, x0 + (target - y0) / CP_SCALE, x1)
                 y1 = np.where(near, h(x1), y1)
             with np.errstate(invalid="ignore", divide="ignore"):
                 for _ in range(4):
