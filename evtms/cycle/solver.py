@@ -91,10 +91,15 @@ devices (thermostatic expansion valves: capacity, superheat, feed limits).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
+from evtms.cycle.roots import (  # noqa: F401  (bracketed_root stays importable from here)
+    bracket,
+    bracketed_root,
+    pressure_root,
+    range_status,
+    tightest_bound,
+)
 from evtms.cycle.state import (  # noqa: F401  (INPUTS, OperatingPoints stay importable from here)
     BOTH_HOLD,
     CLAMP_FIRST_LEAST,
@@ -185,137 +190,6 @@ def _no_heat_flow(result: dict) -> np.ndarray:
     """Points where a heat exchanger's refrigerant inlet is not on the side of the secondary
     stream that lets heat flow the required way (its bench status; LUTs hold NaN there)."""
     return np.asarray(result.get("no_heat_flow", False), bool)
-
-
-def _bound(candidates: list[tuple[np.ndarray | float, str | None]], upper: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The tightest of several bounds per point, and the LUT axis it is (None: a physical bound)."""
-    values = np.stack(np.broadcast_arrays(*[np.asarray(v, float) for v, _ in candidates]))
-    which = np.argmin(values, axis=0) if upper else np.argmax(values, axis=0)
-    names = np.array([name for _, name in candidates], dtype=object)[which]
-    return np.take_along_axis(values, which[None, :], axis=0)[0], names
-
-
-def _range_status(br: dict, lo, lo_axis, hi, hi_axis, code: int, below: tuple, above: tuple):
-    """Status and reason per point of a bracket ``br`` of :meth:`CycleSolver._bracket`.
-
-    A residual of one sign up to an end of the range [``lo``, ``hi``] (Pa)
-    means no root in it. Where that end is a LUT axis (``lo_axis``,
-    ``hi_axis``; None for a physical bound) the point is outside the envelope
-    (status 1, the axis named, text ``below[1]`` / ``above[1]`` and the
-    pressure); elsewhere it gets ``code`` and ``below[0]`` / ``above[0]``.
-    """
-    status = np.full(lo.size, STATUS_CONVERGED, np.int8)
-    reason = np.full(lo.size, "", dtype=object)
-    f_lo, f_hi = br["f_lo"], br["f_hi"]
-    low = br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0)
-    high = br["hi_is_end"] & ~low & np.isfinite(f_hi) & (f_hi >= 0)
-    for where, axes, bound, (physical, beyond) in ((low, lo_axis, lo, below), (high, hi_axis, hi, above)):
-        lut = where & np.array([a is not None for a in axes], dtype=bool)
-        status[where] = code
-        status[lut] = STATUS_OUTSIDE_ENVELOPE
-        reason[where & ~lut] = physical
-        reason[lut] = [f"{beyond} {b:.4g} Pa, the end of the {a}" for b, a in zip(bound[lut], axes[lut], strict=True)]
-    return status, reason
-
-
-def bracketed_root(
-    fun: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
-    lo: np.ndarray,
-    hi: np.ndarray,
-    f_lo: np.ndarray,
-    f_hi: np.ndarray,
-    idx: np.ndarray,
-    xtol: float,
-    ftol: float,
-    maxiter: int = 80,
-    why_lo: np.ndarray | None = None,
-    why_hi: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Vectorised root of a decreasing residual on [lo, hi], modified regula falsi.
-
-    ``fun(x, idx)`` returns the residuals of points ``idx`` at ``x`` and a
-    reason string per point (non-empty where the residual is NaN). The
-    residual is positive at ``lo`` and negative at ``hi``; an end may be NaN
-    (its model left its envelope there), in which case that end's sign is
-    taken as known and the step is a bisection until both ends are finite. A
-    NaN inside the bracket joins the end that is NaN; with both ends finite,
-    it ends the point's search with its reason. A bracket that shrinks onto
-    a NaN end with the residual still away from zero has no root inside the
-    models' envelope: the point fails with that end's reason (``why_lo``,
-    ``why_hi``: the reasons of NaN ends given, else the NaN met inside).
-
-    Returns
-    -------
-    x : numpy.ndarray
-        The roots.
-    state : numpy.ndarray
-        1 converged (relative step < ``xtol`` or |residual| < ``ftol``),
-        2 failed on a NaN (see ``reason``), 3 not converged in ``maxiter``.
-    reason : numpy.ndarray
-        Why a point failed.
-    """
-    lo, hi, f_lo, f_hi = lo.copy(), hi.copy(), f_lo.copy(), f_hi.copy()
-    n = lo.size
-    x = 0.5 * (lo + hi)
-    state = np.zeros(n, np.int8)
-    reason = np.full(n, "", dtype=object)
-    kept = np.zeros(n, np.int8)  # end kept by the last update: -1 lo, +1 hi
-    end_why = {
-        k: np.full(n, "", dtype=object) if w is None else np.asarray(w, dtype=object).copy()
-        for k, w in (("lo", why_lo), ("hi", why_hi))
-    }
-    for _ in range(maxiter):
-        act = np.nonzero(state == 0)[0]
-        if act.size == 0:
-            break
-        a, b, fa, fb = lo[act], hi[act], f_lo[act], f_hi[act]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            xs = b - fb * (b - a) / (fb - fa)
-        secant = np.isfinite(xs) & (xs > np.minimum(a, b)) & (xs < np.maximum(a, b))
-        xn = np.where(secant, xs, 0.5 * (a + b))
-        f, why = fun(xn, idx[act])
-        x[act] = xn
-        nan = ~np.isfinite(f)
-        small = np.abs(b - a) < xtol * np.abs(xn)
-        finite_ends = np.isfinite(fa) & np.isfinite(fb)
-        conv = ~nan & ((np.abs(f) < ftol) | (small & finite_ends))
-        state[act[conv]] = 1
-        to_hi = nan & ~np.isfinite(fb)
-        to_lo = nan & ~to_hi & ~np.isfinite(fa)
-        dead = nan & ((~to_hi & ~to_lo) | small)
-        state[act[dead]] = 2
-        reason[act[nan]] = why[nan]
-        hi[act[to_hi & ~dead]] = xn[to_hi & ~dead]
-        lo[act[to_lo & ~dead]] = xn[to_lo & ~dead]
-        end_why["hi"][act[to_hi]] = why[to_hi]
-        end_why["lo"][act[to_lo]] = why[to_lo]
-        # Shrunk onto a NaN end with the residual away from zero: the root lies beyond it.
-        edge = ~nan & ~conv & small
-        state[act[edge]] = 2
-        at_hi = ~np.isfinite(fb)
-        reason[act[edge]] = np.where(at_hi, end_why["hi"][act], end_why["lo"][act])[edge]
-        reason[act[edge & (reason[act] == "")]] = "the root lies where the models return NaN"
-        # Finite residual: it replaces the end of its sign; an end kept twice in a
-        # row has its residual scaled down so that the next step moves it.
-        upd = ~nan & ~conv & ~edge
-        pos, neg = upd & (f > 0), upd & (f <= 0)
-        i_pos, i_neg = act[pos], act[neg]
-        # Anderson-Bjorck scaling of the kept end: 1 - f_new/f_replaced, or the
-        # Illinois 1/2 where that is not positive (or the replaced end was NaN).
-        with np.errstate(invalid="ignore", divide="ignore"):
-            m_pos = 1.0 - f[pos] / f_lo[i_pos]
-            m_neg = 1.0 - f[neg] / f_hi[i_neg]
-        m_pos = np.where(m_pos > 0, m_pos, 0.5)
-        m_neg = np.where(m_neg > 0, m_neg, 0.5)
-        lo[i_pos], f_lo[i_pos] = xn[pos], f[pos]
-        f_hi[i_pos] = np.where(kept[i_pos] == 1, m_pos * f_hi[i_pos], f_hi[i_pos])
-        kept[i_pos] = 1
-        hi[i_neg], f_hi[i_neg] = xn[neg], f[neg]
-        f_lo[i_neg] = np.where(kept[i_neg] == -1, m_neg * f_lo[i_neg], f_lo[i_neg])
-        kept[i_neg] = -1
-    state[state == 0] = 3
-    reason[state == 1] = ""
-    return x, state, reason
 
 
 class _Scattered:
@@ -703,100 +577,6 @@ class CycleSolver:
         reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
         return {"T_A": T_A, "comp": comp, "cond": cond, "residual": residual, "reason": reason}
 
-    def _pressure_root(self, residual, br, idx, ftol, status, reason, what, codes=None) -> np.ndarray:
-        """Root in pressure of ``residual(p, idx)`` for the points ``idx`` of a bracket.
-
-        Iterates on the saturation temperature, in which both closures are close
-        to linear, from the bracket ``br`` of :meth:`_bracket`. Marks
-        points whose model left its envelope (with its reason; status 1, or the
-        status ``codes`` gives for that reason) or that did not converge in
-        ``status`` and ``reason``.
-        """
-
-        def fun(t_sat, i):
-            return residual(self.sat.pressure(t_sat), i)
-
-        root, state, why = bracketed_root(
-            fun,
-            br["lo"][idx],
-            br["hi"][idx],
-            br["f_lo"][idx],
-            br["f_hi"][idx],
-            idx,
-            XTOL,
-            ftol,
-            why_lo=br["why_lo"][idx],
-            why_hi=br["why_hi"][idx],
-        )
-        codes = codes or {}
-        status[idx[state == 2]] = [codes.get(w, STATUS_OUTSIDE_ENVELOPE) for w in why[state == 2]]
-        status[idx[state == 3]] = STATUS_NOT_CONVERGED
-        reason[idx] = np.where(state == 3, f"{what} iteration did not converge", why)
-        return self.sat.pressure(root)
-
-    def _bracket(self, residual, t_lo, t_hi, t_guess, slope, max_step) -> dict:
-        """Bracket the root of a residual that falls with the saturation temperature.
-
-        ``residual(p, i)`` gives the residuals and reasons of the points ``i``
-        at pressures ``p``. Where ``t_guess`` [K] lies inside ``(t_lo, t_hi)``
-        the residual is evaluated there and after one secant step with the
-        estimated ``slope`` [1/K] (< 0), overshot 1.5 times and by 0.01 K and
-        at most ``max_step`` [K], so that it usually changes sign between the
-        two: that pair is the bracket. Elsewhere, and where it does not change
-        sign, the bracket is ``[t_lo, t_hi]`` narrowed by what the evaluated
-        points showed, and its remaining ends are evaluated.
-
-        Returns
-        -------
-        dict
-            ``lo, hi`` [K], ``f_lo, f_hi``, ``why_lo, why_hi`` (reasons of NaN
-            residuals) per point, ``slope`` (secant slope of the two guess
-            points, NaN where not evaluated) and ``lo_is_end``, ``hi_is_end``:
-            True where that end is the range's own end (an end from a guess
-            point always has the sign of its side, so a residual of the wrong
-            sign there means that the range holds no root).
-        """
-        n = t_lo.size
-        everyone = np.arange(n)
-        a, b = t_lo.copy(), t_hi.copy()
-        fa, fb = np.full(n, np.nan), np.full(n, np.nan)
-        wa, wb = np.full(n, "", dtype=object), np.full(n, "", dtype=object)
-        need_a, need_b = np.ones(n, bool), np.ones(n, bool)
-        new_slope = np.full(n, np.nan)
-        g = np.nonzero(np.isfinite(t_guess) & (t_guess > t_lo) & (t_guess < t_hi))[0]
-        if g.size:
-            t_g = t_guess[g]
-            f_g, w_g = residual(self.sat.pressure(t_g), g)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                step = -1.5 * f_g / slope[g] + np.sign(f_g) * 0.01
-            t_2 = np.clip(t_g + np.clip(np.nan_to_num(step), -max_step, max_step), t_lo[g], t_hi[g])
-            f_2, w_2 = residual(self.sat.pressure(t_2), g)
-            for t, f, w in ((t_g, f_g, w_g), (t_2, f_2, w_2)):
-                above = np.isfinite(f) & (f > 0) & (t > a[g])  # the root lies above t
-                k = g[above]
-                a[k], fa[k], wa[k], need_a[k] = t[above], f[above], w[above], False
-                below = np.isfinite(f) & (f <= 0) & (t < b[g])
-                k = g[below]
-                b[k], fb[k], wb[k], need_b[k] = t[below], f[below], w[below], False
-            with np.errstate(invalid="ignore", divide="ignore"):
-                new_slope[g] = (f_2 - f_g) / (t_2 - t_g)
-        lo_is_end, hi_is_end = need_a.copy(), need_b.copy()
-        for t, f, w, need in ((a, fa, wa, need_a), (b, fb, wb, need_b)):
-            k = everyone[need]
-            if k.size:
-                f[k], w[k] = residual(self.sat.pressure(t[k]), k)
-        return {
-            "lo": a,
-            "hi": b,
-            "f_lo": fa,
-            "f_hi": fb,
-            "why_lo": wa,
-            "why_hi": wb,
-            "slope": new_slope,
-            "lo_is_end": lo_is_end,
-            "hi_is_end": hi_is_end,
-        }
-
     def _solve_discharge(self, ops: dict, p_A: np.ndarray, idx: np.ndarray) -> dict:
         """Discharge pressure p_B for each suction pressure: the condenser-outlet condition.
 
@@ -809,7 +589,7 @@ class CycleSolver:
         """
         n = p_A.size
         (pr_lo, pr_hi), axes = self._pr, self._axes
-        lo, lo_axis = _bound(
+        lo, lo_axis = tightest_bound(
             [
                 (self.sat.pressure(ops["T_amb"] + 0.5), None),
                 (pr_lo * p_A, axes["pr"][0]),
@@ -817,7 +597,9 @@ class CycleSolver:
             ],
             upper=False,
         )
-        hi, hi_axis = _bound([(self._p_discharge[1], axes["p_discharge"][1]), (pr_hi * p_A, axes["pr"][1])], upper=True)
+        hi, hi_axis = tightest_bound(
+            [(self._p_discharge[1], axes["p_discharge"][1]), (pr_hi * p_A, axes["pr"][1])], upper=True
+        )
         last = _Scattered(n)
 
         def residual(pb, i):
@@ -828,9 +610,9 @@ class CycleSolver:
         known = np.isfinite(self._guess[idx])
         t_guess = np.where(known, self.sat.temperature(self._guess[idx]), ops["T_amb"] + 13.0)
         slope = np.where(known & (self._slope[idx] < 0), self._slope[idx], _INNER_SLOPE)
-        br = self._bracket(residual, self.sat.temperature(lo), self.sat.temperature(hi), t_guess, slope, 10.0)
-        self._slope[idx] = np.where(br["slope"] < 0, br["slope"], self._slope[idx])
-        status, reason = _range_status(
+        br = bracket(self.sat, residual, self.sat.temperature(lo), self.sat.temperature(hi), t_guess, slope, 10.0)
+        self._slope[idx] = np.where(br.slope < 0, br.slope, self._slope[idx])
+        status, reason = range_status(
             br,
             lo,
             lo_axis,
@@ -851,7 +633,7 @@ class CycleSolver:
         p_B = np.full(n, np.nan)
         todo = np.nonzero(status == STATUS_CONVERGED)[0]
         if todo.size:
-            p_B[todo] = self._pressure_root(residual, br, todo, INNER_FTOL, status, reason, "discharge-pressure")
+            p_B[todo] = pressure_root(self.sat, residual, br, todo, INNER_FTOL, status, reason, "discharge-pressure")
         failed = status != STATUS_CONVERGED
         p_B[failed] = np.nan
         if last.data is None:  # nothing evaluated (no valid suction pressure)
@@ -1257,8 +1039,8 @@ class CycleSolver:
             (p_lo_lim, p_hi_lim), (lo_name, hi_name) = lim["p_suction"], lim["axes"]["p_suction"]
             lows.append((np.where(where, p_lo_lim * (1 + 1e-9), -np.inf), lo_name))
             highs.append((np.where(where, p_hi_lim * (1 - 1e-9), np.inf), hi_name))
-        lo, lo_axis = _bound(lows, upper=False)
-        hi, hi_axis = _bound(highs, upper=True)
+        lo, lo_axis = tightest_bound(lows, upper=False)
+        hi, hi_axis = tightest_bound(highs, upper=True)
         t_lo, t_hi = self.sat.temperature(lo), self.sat.temperature(hi)
         self._guess = np.full(n, np.nan) if p_B_guess is None else np.asarray(p_B_guess, float).copy()
         self._dp_guess = np.zeros(n) if dp_guess is None else np.nan_to_num(np.asarray(dp_guess, float))
@@ -1283,8 +1065,10 @@ class CycleSolver:
         if t_guess is None:
             t_guess = T_sec - 23.0
         t_guess = np.where(np.isfinite(t_guess), t_guess, T_sec - 23.0)
-        br = self._bracket(residual, t_lo, t_hi, t_guess, np.broadcast_to(np.asarray(outer_slope, float), (n,)), 15.0)
-        status, reason = _range_status(
+        br = bracket(
+            self.sat, residual, t_lo, t_hi, t_guess, np.broadcast_to(np.asarray(outer_slope, float), (n,)), 15.0
+        )
+        status, reason = range_status(
             br,
             lo,
             lo_axis,
@@ -1300,13 +1084,13 @@ class CycleSolver:
                 "the superheat setpoint lies above the suction pressure",
             ),
         )
-        f_lo, f_hi = br["f_lo"], br["f_hi"]
+        f_lo, f_hi = br.f_lo, br.f_hi
         # Superheat above its setpoint up to the physical top (saturation 0.5 K below the coldest
         # secondary inlet): with branches in parallel, the one on that stream caps the search.
-        self._above_top = (status == STATUS_EVAPORATOR_NO_ROOT) & br["hi_is_end"] & np.isfinite(f_hi) & (f_hi >= 0)
+        self._above_top = (status == STATUS_EVAPORATOR_NO_ROOT) & br.hi_is_end & np.isfinite(f_hi) & (f_hi >= 0)
         # Superheat below its setpoint down to the physical low end (evaporating 45 K below
         # the secondary, or at -30 degC): where the outlet is still two-phase there, it floods.
-        low = np.nonzero((status == STATUS_EVAPORATOR_NO_ROOT) & br["lo_is_end"] & np.isfinite(f_lo) & (f_lo <= 0))[0]
+        low = np.nonzero((status == STATUS_EVAPORATOR_NO_ROOT) & br.lo_is_end & np.isfinite(f_lo) & (f_lo <= 0))[0]
         if low.size:
             wet = self._suction_side({k: v[low] for k, v in ops.items()}, lo[low], low)["outlet_wet"]
             status[low[wet]] = STATUS_EVAPORATOR_WET
@@ -1317,13 +1101,13 @@ class CycleSolver:
             )
         # Both ends outside a model's envelope: nothing to go on.
         both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
-        reason[both] = np.where(br["why_lo"][both] != "", br["why_lo"][both], br["why_hi"][both])
+        reason[both] = np.where(br.why_lo[both] != "", br.why_lo[both], br.why_hi[both])
         status[both] = [failure_status.get(x, STATUS_OUTSIDE_ENVELOPE) for x in reason[both]]
         p_A = np.full(n, np.nan)
         idx = np.nonzero(status == STATUS_CONVERGED)[0]
         if idx.size:
-            p_A[idx] = self._pressure_root(
-                residual, br, idx, OUTER_FTOL, status, reason, "suction-pressure", failure_status
+            p_A[idx] = pressure_root(
+                self.sat, residual, br, idx, OUTER_FTOL, status, reason, "suction-pressure", failure_status
             )
         p_A[status != STATUS_CONVERGED] = np.nan
         return self._final_states(ops, p_A, status, reason)
