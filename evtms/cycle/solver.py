@@ -5,7 +5,7 @@ condenser inlet, C condenser outlet = valve inlet, D valve outlet =
 evaporator inlet. The evaporating side is one branch (the cabin evaporator or
 the battery chiller) or both in parallel (:mod:`evtms.cycle.topology`; with two
 branches, A is the mixed suction state and D the first branch's valve outlet,
-the flow split is solved at each suction iterate, :meth:`CycleSolver._parallel`;
+the flow split is solved at each suction iterate, :mod:`evtms.cycle.split`;
 a valve at its maximum opening or closed, :meth:`CycleSolver._parallel_limits`).
 "Cabin air" below stands for the branch's secondary inlet (the coldest of the
 two with parallel branches). The circuit has a receiver after the condenser, so the
@@ -93,13 +93,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from evtms.cycle.roots import (  # noqa: F401  (bracketed_root stays importable from here)
-    bracket,
-    bracketed_root,
-    pressure_root,
-    range_status,
-    tightest_bound,
-)
+from evtms.cycle.branches import branch, converged_drop
+from evtms.cycle.closure import solve_at
+from evtms.cycle.roots import bracketed_root  # noqa: F401  (stays importable from here)
 from evtms.cycle.state import (  # noqa: F401  (INPUTS, OperatingPoints stay importable from here)
     BOTH_HOLD,
     CLAMP_FIRST_LEAST,
@@ -118,6 +114,8 @@ from evtms.cycle.state import (  # noqa: F401  (INPUTS, OperatingPoints stay imp
     SECOND_FLOATS,
     XTOL,
     OperatingPoints,
+    SolveContext,
+    SolveState,
 )
 from evtms.cycle.status import (  # noqa: F401  (the status names stay importable from here)
     CYCLE_FLAGS,
@@ -140,9 +138,6 @@ from evtms.cycle.status import (  # noqa: F401  (the status names stay importabl
 from evtms.cycle.topology import Topology, topology
 from evtms.fluid import SaturationCurve
 
-#: Figures every valid point has finite (a closed branch's are 0; its superheat and opening may be NaN).
-_MUST_BE_FINITE = ("p_A", "p_B", "mdot", "Q_evap", "Q_latent", "Q_chiller", "Q_cond", "W", "COP")
-
 #: Largest difference [J/kg] between the suction state and the branches' mixture at a solved parallel
 #: point (evtms.cycle.state.MIX_TOL, under the name the tests know).
 _MIX_TOL = MIX_TOL
@@ -150,14 +145,6 @@ _MIX_TOL = MIX_TOL
 #: which its valve would open: the closing is not a state of the circuit.
 _STARVED_EXCESS = 2000.0
 
-#: The suction search's low end: evaporating this far [K] below the coldest open branch's
-#: secondary inlet, or at _SUCTION_LOW_FLOOR [K] where that is lower.
-_SUCTION_LOW_BELOW = 45.0
-_SUCTION_LOW_FLOOR = 243.15
-
-#: Typical slopes of the closures in saturation temperature [1/K]: condenser, suction superheat.
-_INNER_SLOPE = -0.075
-_OUTER_SLOPE = -4.0
 #: Superheat search with the valve at its maximum opening (see CycleSolver._float_superheat). Its first
 #: step's estimates are linear in g0 = ln(opening needed at the setpoint over the maximum) [1], fitted on the
 #: 271 saturated points of benchmarks/bench_cycle.py (within 5 % for half of them, 22 % for all): the secant
@@ -175,7 +162,7 @@ _SH_FIRST_DP = (-0.0140, -0.0066)
 _SH_FIRST_SHARE = 0.9
 _SH_OVERSHOOT = 1.3
 #: Typical slope of the suction superheat closure [1/K] at a floating superheat (the superheat falls less
-#: per kelvin of suction saturation than at the setpoint, _OUTER_SLOPE, so that its bracket holds the root).
+#: per kelvin of suction saturation than at the setpoint, closure.OUTER_SLOPE, so that its bracket holds the root).
 _SH_OUTER_SLOPE = -1.5
 #: Inverse-quadratic steps once bracketed, before the regula falsi; largest bracketing step [K] and number
 #: of steps, tolerances in superheat (relative) [1] and in ln(opening) [1].
@@ -184,63 +171,6 @@ _SH_MAX_STEP = 25.0
 _SH_BRACKET_STEPS = 4
 _SH_XTOL = 1e-4
 _SH_FTOL = 1e-4
-
-
-def _no_heat_flow(result: dict) -> np.ndarray:
-    """Points where a heat exchanger's refrigerant inlet is not on the side of the secondary
-    stream that lets heat flow the required way (its bench status; LUTs hold NaN there)."""
-    return np.asarray(result.get("no_heat_flow", False), bool)
-
-
-class _Scattered:
-    """The latest evaluation of every point, gathered from evaluations of subsets.
-
-    Holds a (nested) dict of per-point arrays as returned by
-    ``CycleSolver._discharge_side``; ``put(i, r)`` writes the results of the
-    points ``i``.
-    """
-
-    def __init__(self, n: int) -> None:
-        self.n = n
-        self.data: dict | None = None
-
-    def _empty(self, r: dict) -> dict:
-        out = {}
-        for k, v in r.items():
-            if isinstance(v, dict):
-                out[k] = self._empty(v)
-            elif v.dtype == object:
-                out[k] = np.full(self.n, "", dtype=object)
-            else:
-                out[k] = np.full(self.n, np.nan)
-        return out
-
-    def _put(self, dst: dict, i: np.ndarray, r: dict) -> None:
-        for k, v in r.items():
-            if isinstance(v, dict):
-                self._put(dst[k], i, v)
-            else:
-                dst[k][i] = v
-
-    def put(self, i: np.ndarray, r: dict) -> None:
-        if self.data is None:
-            self.data = self._empty(r)
-        self._put(self.data, i, r)
-
-    def result(self, failed: np.ndarray, reason: np.ndarray) -> dict:
-        """The gathered dict; points that ``failed`` get NaN and their ``reason``."""
-
-        def blank(d: dict) -> None:
-            for k, v in d.items():
-                if isinstance(v, dict):
-                    blank(v)
-                elif k == "reason":
-                    v[failed] = reason[failed]
-                else:
-                    v[failed] = np.nan
-
-        blank(self.data)
-        return self.data
 
 
 class CycleSolver:
@@ -261,443 +191,9 @@ class CycleSolver:
         self.sat = saturation
         self.circuit = topology(circuit)
 
-    # -- the evaporating side ------------------------------------------------
-    def _branch(self, component: str, ops: dict, mdot, p_in, h_in) -> dict:
-        """One evaporating branch's model at refrigerant flow ``mdot``, inlet ``(p_in, h_in)``."""
-        if component == "evaporator":
-            r = self.models.evaporator(mdot, ops["blower"], p_in, h_in, ops["T_cabin"], ops["RH_cabin"])
-        else:
-            r = self.models.chiller(mdot, p_in, h_in, ops["mdot_coolant"], ops["T_coolant_in"])
-        if self.circuit.parallel and "no_heat_flow" in r:
-            # A branch whose inlet is not colder than its stream takes no heat: its outlet is its inlet.
-            none = r["no_heat_flow"] & np.isfinite(np.asarray(h_in, float))
-            r["h_out_continued"] = np.where(none, h_in, r["h_out_continued"])
-            r["p_out"] = np.where(none, p_in, r["p_out"])
-            r["reason"] = np.where(none, "", r["reason"])
-        return r
-
-    def _converged_drop(self, component: str, ops: dict, mdot, p_out, h_in, drop: np.ndarray) -> np.ndarray:
-        """A branch's pressure drop [Pa] at outlet pressure ``p_out``: the fixed point of
-        ``drop = p_in - p_out(p_in)`` from ``drop``, to :data:`DP_TOL` in at most
-        :data:`DP_PASSES` passes (each on the points still moving; where the model
-        returns NaN the drop is kept)."""
-        drop = np.asarray(drop, float).copy()
-        todo = np.arange(drop.size)
-        for _ in range(DP_PASSES):
-            p_in = p_out[todo] + drop[todo]
-            sub = {k: v[todo] for k, v in ops.items()}
-            out = self._branch(component, sub, mdot[todo], p_in, h_in[todo])["p_out"]
-            new = np.where(np.isfinite(out), p_in - out, drop[todo])
-            moving = np.abs(new - drop[todo]) > DP_TOL
-            drop[todo] = new
-            todo = todo[moving]
-            if todo.size == 0:
-                break
-        return drop
-
-    def _secondary_temperature(self, ops: dict) -> np.ndarray:
-        """The coldest secondary inlet of the open branches: every open branch must evaporate below it [K]."""
-        temps = [np.asarray(ops[b.secondary_temperature], float) for b in self.circuit.branches]
-        coldest = np.minimum.reduce(temps)
-        if self.circuit.parallel and "branch_mode" in ops:
-            mode = ops["branch_mode"]
-            coldest = np.where(mode == FIRST_CLOSED, temps[1], np.where(mode == SECOND_CLOSED, temps[0], coldest))
-        return coldest
-
-    def _run_branch(self, component: str, ops: dict, mdot, p_in, h_in, open_: np.ndarray) -> dict:
-        """:meth:`_branch` where ``open_``; a closed branch (no flow) leaves its inlet state, no heat."""
-        if open_.all():
-            return self._branch(component, ops, mdot, p_in, h_in)
-        n = open_.size
-        out = {
-            "h_out_continued": np.array(h_in, float, copy=True),
-            "p_out": np.array(p_in, float, copy=True),
-            "reason": np.full(n, "", dtype=object),
-            "Q_latent": np.zeros(n),
-            "frost_risk": np.zeros(n),
-            "no_heat_flow": np.zeros(n, bool),
-        }
-        k = np.nonzero(open_)[0]
-        if k.size:
-            r = self._branch(component, {c: v[k] for c, v in ops.items()}, mdot[k], p_in[k], h_in[k])
-            for key, v in r.items():
-                v = np.asarray(v)
-                if key not in out:
-                    out[key] = np.full(n, "", dtype=object) if v.dtype == object else np.full(n, np.nan)
-                out[key][k] = v
-        return out
-
-    def _parallel(
-        self,
-        ops: dict,
-        mdot: np.ndarray,
-        p_A: np.ndarray,
-        h_D: np.ndarray,
-        idx: np.ndarray,
-        final: bool,
-        h_set: np.ndarray | None = None,
-    ):
-        r"""Two evaporating branches in parallel from the valves to the suction, at total flow ``mdot``.
-
-        Both valves see the condenser's liquid (enthalpy ``h_D``) and both
-        branches end at the suction pressure ``p_A``, each after its own
-        pressure drop (a fixed point per branch, one pass per suction iterate,
-        as the single branch's). Each valve holds its branch's outlet at the
-        setpoint superheat; at a suction iterate the flow splits so that both
-        outlets leave at the same enthalpy,
-
-        .. math:: h_{out,1}((1 - s)\,\dot m) = h_{out,2}(s\,\dot m)
-
-        (``h_out_continued`` of each branch [J/kg], ``s`` the share of the
-        flow through the second branch [1]). More flow through a branch
-        lowers its outlet enthalpy, so the difference rises monotonically
-        with ``s``: regula falsi (:func:`bracketed_root`) on ``s`` within the
-        flows the branch models cover, warm-started from the previous suction
-        iterate's split. At the suction root both outlets are at the setpoint,
-        and the outlets mix at that state. ``idx`` are the points' indices in
-        the whole batch; with ``final``, the stored split and drops are used
-        as they are (the last iterate's).
-
-        ``ops["branch_mode"]`` (absent: all 0) changes a point's split
-        (:meth:`solve` sets it): 1 (2), the first (second) branch's valve at
-        its maximum opening: the other branch alone holds the setpoint, its
-        outlet at ``h_set`` (the enthalpy at the setpoint superheat at
-        ``p_A`` [J/kg]), and the suction superheat (``ops["superheat"]``) is
-        the mixture's, found by :meth:`_float_superheat`; 3 (4), the first
-        (second) branch's valve closed: all the flow goes through the other
-        branch, and the closed one leaves its inlet state with no flow and no
-        heat.
-
-        Returns the mixed outlet (``h_out_continued``, ``p_out`` = ``p_A``),
-        ``reason``, ``p_D`` (the first branch's inlet), ``h_set``, and per
-        branch ``branches`` (model results), ``flows`` [kg/s] and ``inlets`` [Pa].
-        """
-        names = [b.component for b in self.circuit.branches]
-        labels = [b.label for b in self.circuit.branches]
-        n = p_A.size
-        mode = np.asarray(ops.get("branch_mode", np.zeros(n)), int)
-        if h_set is None:
-            h_set = np.full(n, np.nan)
-        inlets = {c: p_A + self._dp_branch[c][idx] for c in names}
-        (lo1, hi1), (lo2, hi2) = (self.models.flow_range(c) for c in names)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            s_lo = np.maximum(lo2 / mdot, 1.0 - hi1 / mdot) * (1 + 1e-9)
-            s_hi = np.minimum(1.0 - lo1 / mdot, hi2 / mdot) * (1 - 1e-9)
-            # Which bound binds: the second (first) branch at the least flow its model covers.
-            second_least = lo2 / mdot >= 1.0 - hi1 / mdot
-            first_least = 1.0 - lo1 / mdot <= hi2 / mdot
-        split_mode = mode <= SECOND_FLOATS
-        first_closed, second_closed = mode == FIRST_CLOSED, mode == SECOND_CLOSED
-        with np.errstate(invalid="ignore"):
-            fits = np.where(
-                split_mode,
-                s_lo < s_hi,
-                np.where(first_closed, (mdot >= lo2) & (mdot <= hi2), (mdot >= lo1) & (mdot <= hi1)),
-            )
-        ok = np.isfinite(mdot) & np.isfinite(p_A) & np.isfinite(h_D) & fits
-        reason = np.full(n, "", dtype=object)
-        bad = ~ok & np.isfinite(mdot)
-        reason[bad & split_mode] = "the flow cannot be split between the branches within their models' flows"
-        reason[bad & ~split_mode] = "with one valve closed, the other branch's model does not cover the whole flow"
-        open1, open2 = ~first_closed, ~second_closed
-
-        # ``i``: the points' positions in this call's arrays (``idx[i]`` in the whole batch).
-        def evaluate(share: np.ndarray, i: np.ndarray) -> tuple[dict, dict]:
-            o = {k: v[i] for k, v in ops.items()}
-            m = mdot[i]
-            r1 = self._run_branch(names[0], o, m * (1.0 - share), inlets[names[0]][i], h_D[i], open1[i])
-            r2 = self._run_branch(names[1], o, m * share, inlets[names[1]][i], h_D[i], open2[i])
-            return r1, r2
-
-        def residual(share: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            r1, r2 = evaluate(share, i)
-            h1, h2 = r1["h_out_continued"], r2["h_out_continued"]
-            md = mode[i]
-            # Both hold the setpoint: equal outlets; one valve saturated: the other one at the setpoint.
-            f = np.where(md == FIRST_FLOATS, h2 - h_set[i], np.where(md == SECOND_FLOATS, h_set[i] - h1, h2 - h1))
-            why = np.where(r1["reason"] != "", r1["reason"], r2["reason"])
-            return f / CP_SCALE, why
-
-        share = np.where(ok, self._split[idx], np.nan)
-        share[ok & first_closed] = 1.0
-        share[ok & second_closed] = 0.0
-        clamped = np.zeros(n, np.int8)
-
-        def solve_split(todo: np.ndarray) -> None:
-            """The split of the points ``todo`` at the present branch inlets, into ``share``."""
-            lo, hi = s_lo[todo].copy(), s_hi[todo].copy()
-            f_lo, f_hi = np.full(todo.size, np.nan), np.full(todo.size, np.nan)
-            w_lo, w_hi = np.full(todo.size, "", dtype=object), np.full(todo.size, "", dtype=object)
-            # Warm start: a narrow bracket around the previous split, where it holds the root.
-            prev = share[todo]
-            warm = np.isfinite(prev)
-            if warm.any():
-                k = np.nonzero(warm)[0]
-                a = np.maximum(prev[k] - 0.03, lo[k])
-                b = np.minimum(prev[k] + 0.03, hi[k])
-                fa, _ = residual(a, todo[k])
-                fb, _ = residual(b, todo[k])
-                good = np.isfinite(fa) & np.isfinite(fb) & (fa > 0) & (fb <= 0)
-                g = k[good]
-                lo[g], hi[g], f_lo[g], f_hi[g] = a[good], b[good], fa[good], fb[good]
-                warm[k[~good]] = False
-            cold = np.nonzero(~warm)[0]
-            if cold.size:
-                f_lo[cold], w_lo[cold] = residual(lo[cold], todo[cold])
-                f_hi[cold], w_hi[cold] = residual(hi[cold], todo[cold])
-            no_root = ~((f_lo > 0) | ~np.isfinite(f_lo)) | ~((f_hi <= 0) | ~np.isfinite(f_hi))
-            no_root |= ~np.isfinite(f_lo) & ~np.isfinite(f_hi)
-            share[todo] = np.nan
-            # One sign over the whole range of flows the models cover: one branch takes the least
-            # flow its model covers (its valve nearly closed). The outlets then differ, and the
-            # mixture still tells the suction closure which way to go; a root found so is not a
-            # state with both valves holding their setpoint and fails in the final evaluation
-            # (solve then closes that valve, where it is a branch at its least flow).
-            finite = np.isfinite(f_lo) & np.isfinite(f_hi)
-            low = no_root & finite & (f_lo <= 0)
-            high = no_root & finite & (f_hi > 0)
-            share[todo[low]], share[todo[high]] = lo[low], hi[high]
-            kind = np.zeros(todo.size, np.int8)
-            kind[low] = np.where(second_least[todo[low]], CLAMP_SECOND_LEAST, CLAMP_OTHER)
-            kind[high] = np.where(first_least[todo[high]], CLAMP_FIRST_LEAST, CLAMP_OTHER)
-            clamped[todo] = kind
-            nan = no_root & ~low & ~high
-            reason[todo[nan]] = np.where(~np.isfinite(f_lo[nan]), w_lo[nan], w_hi[nan])
-            go = np.nonzero(~no_root)[0]
-            if go.size:
-                x, state, why = bracketed_root(
-                    residual, lo[go], hi[go], f_lo[go], f_hi[go], todo[go], XTOL, INNER_FTOL, why_lo=w_lo[go]
-                )
-                fine = state == 1
-                share[todo[go[fine]]] = x[fine]
-                failed = np.where(state[~fine] == 3, "flow-split iteration did not converge", why[~fine])
-                reason[todo[go[~fine]]] = failed
-
-        if not final:
-            # The split at the present drops, then each branch's drop at that split, until the
-            # drops stop moving (see DP_TOL): the outlets then meet at p_A.
-            todo = np.nonzero(ok)[0]
-            for _ in range(DP_PASSES):
-                split = todo[split_mode[todo]]
-                if split.size:
-                    solve_split(split)
-                todo = todo[np.isfinite(share[todo])]
-                if todo.size == 0:
-                    break
-                r1, r2 = evaluate(share[todo], todo)
-                moving = np.zeros(todo.size, bool)
-                for c, r in zip(names, (r1, r2), strict=True):
-                    p_in = inlets[c][todo]
-                    new = np.where(np.isfinite(r["p_out"]), p_in - r["p_out"], p_in - p_A[todo])
-                    moving |= np.abs(new - (p_in - p_A[todo])) > DP_TOL
-                    inlets[c][todo] = p_A[todo] + new
-                todo = todo[moving]
-                if todo.size == 0:
-                    break
-            for c in names:
-                drop = inlets[c] - p_A
-                self._dp_branch[c][idx] = np.where(np.isfinite(drop), drop, self._dp_branch[c][idx])
-            self._split[idx] = np.where(np.isfinite(share), share, self._split[idx])
-            self._clamped[idx] = clamped
-        else:
-            clamped = self._clamped[idx]
-            # With a saturated valve the mixture depends on the split itself (not only on both outlets
-            # being equal): the split of the last suction iterate, which may be the root's neighbour,
-            # is solved again at the root (at the stored drops), so that the mixture closes there.
-            again = np.nonzero(ok & (clamped == 0) & ((mode == FIRST_FLOATS) | (mode == SECOND_FLOATS)))[0]
-            if again.size:
-                kept, why = share[again].copy(), reason[again].copy()
-                solve_split(again)
-                lost = ~np.isfinite(share[again])
-                share[again[lost]], reason[again[lost]] = kept[lost], why[lost]
-        everyone = np.arange(n)
-        r1, r2 = evaluate(share, everyone)
-        flows = {names[0]: mdot * (1.0 - share), names[1]: mdot * share}
-        branches = {names[0]: r1, names[1]: r2}
-        with np.errstate(invalid="ignore"):
-            h_mix = (flows[names[0]] * r1["h_out_continued"] + flows[names[1]] * r2["h_out_continued"]) / mdot
-        if final:
-            h_mix[clamped > 0] = np.nan
-            lows = {CLAMP_FIRST_LEAST: (labels[0], lo1), CLAMP_SECOND_LEAST: (labels[1], lo2)}
-            for kind, (label, least) in lows.items():
-                reason[clamped == kind] = (
-                    "no split of the flow brings both branch outlets to the setpoint within the flows "
-                    f"their models cover (the {label} would need less than {least * 1e3:.3g} g/s)"
-                )
-            reason[clamped == CLAMP_OTHER] = (
-                "no split of the flow brings both branch outlets to the setpoint within the flows "
-                "their models cover (one branch would need more)"
-            )
-        for r in (r1, r2):
-            reason = np.where(reason != "", reason, r["reason"])
-        return {
-            "h_out_continued": h_mix,
-            "p_out": p_A.copy(),
-            "reason": reason,
-            "p_D": inlets[names[0]],
-            "h_set": h_set,
-            "branches": branches,
-            "flows": flows,
-            "inlets": inlets,
-        }
-
-    def _setpoint_enthalpy(self, ops: dict, p_A: np.ndarray, p_B: np.ndarray) -> np.ndarray | None:
-        """Suction-side enthalpy at the setpoint superheat [J/kg] where one parallel valve is saturated
-        (the other branch's outlet holds it; NaN elsewhere), from the compressor's inlet state; None
-        where no point has a saturated parallel valve."""
-        mode = ops.get("branch_mode")
-        if mode is None:
-            return None
-        k = np.nonzero((mode == FIRST_FLOATS) | (mode == SECOND_FLOATS))[0]
-        if k.size == 0:
-            return None
-        out = np.full(p_A.size, np.nan)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            T = self.sat.temperature(p_A[k]) + ops["setpoint"][k]
-            out[k] = self.models.compressor(ops["speed"][k], T, p_A[k], p_B[k] / p_A[k])["h_in"]
-        return out
-
-    # -- the two residuals ---------------------------------------------------
-    def _discharge_side(self, ops: dict, p_A: np.ndarray, p_B: np.ndarray) -> dict:
-        T_A = self.sat.temperature(p_A) + ops["superheat"]
-        comp = self.models.compressor(ops["speed"], T_A, p_A, p_B / p_A)
-        cond = self.models.condenser(comp["mdot"], ops["fan"], p_B, comp["h_out"], ops["T_amb"], ops["RH_amb"])
-        # Target quality of a liquid subcooled by `subcooling` below saturation.
-        p_C = cond["p_out"]
-        h_l, h_v = self.sat.liquid_enthalpy(p_C), self.sat.vapour_enthalpy(p_C)
-        x_target = -self.sat.liquid_cp(p_C) * ops["subcooling"] / (h_v - h_l)
-        # Saturated-liquid outlet: the capacity ratio (coil over the coil needed to
-        # condense fully) is smooth where x_out has its kink, exactly at this target.
-        residual = 1.0 - cond["capacity_ratio"]
-        if "h_out_continued" in cond:  # present whenever some point targets a subcooled outlet
-            x_out = (cond["h_out_continued"] - h_l) / (h_v - h_l)
-            residual = np.where(ops["subcooling"] > 0, x_out - x_target, residual)
-        # Refrigerant not warmer than the air condenses nothing: far above the target.
-        residual = np.where(_no_heat_flow(cond) & np.isfinite(comp["mdot"]), 1.0, residual)
-        reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
-        return {"T_A": T_A, "comp": comp, "cond": cond, "residual": residual, "reason": reason}
-
-    def _solve_discharge(self, ops: dict, p_A: np.ndarray, idx: np.ndarray) -> dict:
-        """Discharge pressure p_B for each suction pressure: the condenser-outlet condition.
-
-        ``idx`` are the points' indices in the whole batch. The first guess is
-        the root at the previous suction iterate, with the slope found there;
-        without one, condensing 13 K above the ambient air (the middle of the
-        default circuit's envelope). Returns ``p_B``, ``status``, ``reason``
-        and ``side``: the discharge side at the root (the solver's last
-        evaluation, not a new one).
-        """
-        n = p_A.size
-        (pr_lo, pr_hi), axes = self._pr, self._axes
-        lo, lo_axis = tightest_bound(
-            [
-                (self.sat.pressure(ops["T_amb"] + 0.5), None),
-                (pr_lo * p_A, axes["pr"][0]),
-                (self._p_discharge[0], axes["p_discharge"][0]),
-            ],
-            upper=False,
-        )
-        hi, hi_axis = tightest_bound(
-            [(self._p_discharge[1], axes["p_discharge"][1]), (pr_hi * p_A, axes["pr"][1])], upper=True
-        )
-        last = _Scattered(n)
-
-        def residual(pb, i):
-            r = self._discharge_side({k: v[i] for k, v in ops.items()}, p_A[i], pb)
-            last.put(i, r)
-            return r["residual"], r["reason"]
-
-        known = np.isfinite(self._guess[idx])
-        t_guess = np.where(known, self.sat.temperature(self._guess[idx]), ops["T_amb"] + 13.0)
-        slope = np.where(known & (self._slope[idx] < 0), self._slope[idx], _INNER_SLOPE)
-        br = bracket(self.sat, residual, self.sat.temperature(lo), self.sat.temperature(hi), t_guess, slope, 10.0)
-        self._slope[idx] = np.where(br.slope < 0, br.slope, self._slope[idx])
-        status, reason = range_status(
-            br,
-            lo,
-            lo_axis,
-            hi,
-            hi_axis,
-            STATUS_CONDENSER_NO_ROOT,
-            (
-                "the condenser outlet is below its target even at the lowest discharge pressure searched",
-                "the condenser outlet condition lies below the discharge pressure",
-            ),
-            (
-                "the condenser cannot reach its outlet condition up to the highest discharge pressure searched",
-                "the condenser outlet condition lies above the discharge pressure",
-            ),
-        )
-        bad_pa = ~np.isfinite(p_A)
-        status[bad_pa] = STATUS_OUTSIDE_ENVELOPE
-        p_B = np.full(n, np.nan)
-        todo = np.nonzero(status == STATUS_CONVERGED)[0]
-        if todo.size:
-            p_B[todo] = pressure_root(self.sat, residual, br, todo, INNER_FTOL, status, reason, "discharge-pressure")
-        failed = status != STATUS_CONVERGED
-        p_B[failed] = np.nan
-        if last.data is None:  # nothing evaluated (no valid suction pressure)
-            side = self._discharge_side(ops, p_A, p_B)
-        else:  # each converged point's last evaluation was at its root
-            side = last.result(failed, reason)
-        return {"p_B": p_B, "status": status, "reason": reason, "side": side}
-
-    def _suction_side(self, ops: dict, p_A: np.ndarray, idx: np.ndarray, final: bool = False) -> dict:
-        """Superheat residual at suction pressure p_A (with the inner discharge solve).
-
-        ``idx`` are the points' indices in the whole batch, for the warm start
-        of the discharge pressure from the previous suction iterate. With
-        ``final``, p_A is each point's root, the suction iterate last
-        evaluated: the components are evaluated once more (with every output
-        variable) at that iterate's discharge and evaporator-inlet pressures,
-        without solving again.
-        """
-        if final:
-            p_B = self._guess[idx]
-            side = self._discharge_side(ops, p_A, p_B)
-            dis = {"p_B": p_B, "status": np.full(p_A.size, STATUS_CONVERGED, np.int8), "reason": side["reason"]}
-            dis["status"][~np.isfinite(p_B)] = STATUS_OUTSIDE_ENVELOPE
-        else:
-            dis = self._solve_discharge(ops, p_A, idx)
-            self._guess[idx] = np.where(np.isfinite(dis["p_B"]), dis["p_B"], self._guess[idx])
-            side = dis["side"]
-        comp, cond = side["comp"], side["cond"]
-        saturated = ops["subcooling"] <= 0
-        h_D = self.sat.liquid_enthalpy(cond["p_out"])
-        if "h_out_continued" in cond:
-            h_D = np.where(saturated, h_D, cond["h_out_continued"])
-        # Evaporator inlet = outlet pressure + its own drop: a fixed point, warm-started
-        # from the drop at the previous suction iterate (the drop changes slowly).
-        if self.circuit.parallel:
-            h_set = self._setpoint_enthalpy(ops, p_A, dis["p_B"])
-            evap = self._parallel(ops, comp["mdot"], p_A, h_D, idx, final, h_set)
-            p_D = evap["p_D"]
-        else:
-            branch = self.circuit.branches[0].component
-            if not final:
-                self._dp_guess[idx] = self._converged_drop(branch, ops, comp["mdot"], p_A, h_D, self._dp_guess[idx])
-            p_D = p_A + self._dp_guess[idx]
-            evap = self._branch(branch, ops, comp["mdot"], p_D, h_D)
-        # The valve holds the outlet at the superheat setpoint, i.e. at the compressor's
-        # suction state A. The residual compares enthalpies (scaled to about kelvin):
-        # interpolated outlet enthalpy stays smooth where the LUT's outlet temperature
-        # has its kink (outlet turning two-phase), and matching it keeps the cycle's
-        # energy balance.
-        sh = (evap["h_out_continued"] - comp["h_in"]) / CP_SCALE
-        # An inlet not colder than the air evaporates nothing: the outlet stays at h_D.
-        sh = np.where(_no_heat_flow(evap) & np.isfinite(h_D), (h_D - comp["h_in"]) / CP_SCALE, sh)
-        status = dis["status"].copy()
-        reason = dis["reason"].copy()
-        bad = (status == STATUS_CONVERGED) & ~np.isfinite(sh)
-        status[bad] = STATUS_OUTSIDE_ENVELOPE
-        reason[bad] = np.where(side["reason"][bad] != "", side["reason"][bad], evap["reason"][bad])
-        residual = np.where(status == STATUS_CONVERGED, sh, np.nan)
-        out = {"residual": residual, "status": status, "reason": reason}
-        # A two-phase outlet: below saturated vapour (h_out_continued has no kink there).
-        out["outlet_wet"] = evap["h_out_continued"] < self.sat.vapour_enthalpy(evap["p_out"])
-        if final:
-            out.update(p_B=dis["p_B"], p_D=p_D, side=side, evap=evap)
-        return out
+    @property
+    def _ctx(self) -> SolveContext:
+        return SolveContext(self.models, self.sat, self.circuit)
 
     # -- public --------------------------------------------------------------
     def solve(self, points: OperatingPoints) -> dict[str, np.ndarray]:
@@ -732,11 +228,11 @@ class CycleSolver:
         # Operating inputs beyond a LUT's axes (a cabin at -20 degC against an evaporator LUT from
         # 10 degC): no refrigerant state helps; said up front, not as whichever bound the search met.
         outside = self._outside_axes(ops)
-        res = self._solve_at(ops)
+        res, first = solve_at(self._ctx, ops)
         valve, _ = self.models.valve()
         self.max_opening = valve.capacity_max / valve.capacity_nominal
         if self.circuit.parallel:
-            saturated = self._parallel_limits(ops, res)
+            saturated = self._parallel_limits(ops, res, first)
         else:
             saturated = (res["status"] == STATUS_CONVERGED) & (res["valve_opening"] > self.max_opening)
             idx = np.nonzero(saturated)[0]
@@ -748,7 +244,7 @@ class CycleSolver:
         self._mark_invalid(res, off, STATUS_OUTSIDE_ENVELOPE, outside[off])
         return res
 
-    def _parallel_limits(self, ops: dict, res: dict) -> np.ndarray:
+    def _parallel_limits(self, ops: dict, res: dict, first: SolveState) -> np.ndarray:
         """Parallel branches at their valves' limits, solved again (in place); the points floating.
 
         Two thermostatic valves in parallel each act on their own branch's
@@ -794,7 +290,7 @@ class CycleSolver:
         - saturated: a valve that would need more than its maximum opening
           sits at it, and its branch's superheat floats above the setpoint
           while the other branch holds the setpoint (the split is solved with
-          the other outlet at the setpoint, :meth:`_parallel`). The suction
+          the other outlet at the setpoint, :mod:`evtms.cycle.split`). The suction
           state is the outlets' mixture, with its own superheat, found as for
           a single branch (:meth:`_float_superheat`) so that the saturated
           valve passes its branch's flow at its maximum opening. Status 5
@@ -804,18 +300,18 @@ class CycleSolver:
           the first floats), the point stays invalid (status 9).
 
         Every valid point's suction state must be the branches' mixture to
-        within ``_MIX_TOL`` (the energy balance closes on it); one where the
+        within ``MIX_TOL`` (the energy balance closes on it); one where the
         suction closure stopped on a jump of the mixture is status 4.
         """
         labels = [b.label for b in self.circuit.branches]
         mode = ops["branch_mode"]
-        above_top = self._above_top.copy()  # of the first solve (a re-solve below resets it)
+        above_top = first.above_top.copy()
         # Why a closed valve closed, where not for the least flow (the default note in _flag).
         self._closed_cause = np.full(mode.size, "", dtype=object)
         # Closed valves: a branch that would need less than its model's least flow (at the last
         # suction iterate; where the suction search did not converge with the split at that
         # bound, it went back and forth across the flow at which that branch would close).
-        kind = self._clamped.copy()
+        kind = first.clamped.copy()
         least = np.isin(kind, (CLAMP_FIRST_LEAST, CLAMP_SECOND_LEAST))
         idx = np.nonzero(np.isin(res["status"], (STATUS_OUTSIDE_ENVELOPE, STATUS_NOT_CONVERGED)) & least)[0]
         if idx.size:
@@ -976,15 +472,15 @@ class CycleSolver:
                 continue
             o = {c: v[k] for c, v in sub.items()}
             least = np.full(k.size, self.models.flow_range(names[b])[0] * (1 + 1e-6))
-            drop = self._converged_drop(names[b], o, least, p_A[k], h_C[k], np.zeros(k.size))
-            h_out = self._branch(names[b], o, least, p_A[k] + drop, h_C[k])["h_out_continued"]
+            drop = converged_drop(self._ctx, names[b], o, least, p_A[k], h_C[k], np.zeros(k.size))
+            h_out = branch(self._ctx, names[b], o, least, p_A[k] + drop, h_C[k])["h_out_continued"]
             excess[k], duty[k] = h_out - h_set[k], least * (h_out - h_C[k])
         return excess, duty
 
     def _solve_again(self, ops: dict, res: dict, idx: np.ndarray, modes: np.ndarray) -> None:
         """Solve the points ``idx`` again with their branch modes set to ``modes`` (``ops`` and ``res`` in place)."""
         ops["branch_mode"][idx] = modes
-        r = self._solve_at({k: v[idx] for k, v in ops.items()})
+        r, _ = solve_at(self._ctx, {k: v[idx] for k, v in ops.items()})
         for k, v in r.items():
             res[k][idx] = v
 
@@ -997,134 +493,6 @@ class CycleSolver:
         for v in res.values():
             if v.dtype.kind == "f":
                 v[where] = np.nan
-
-    def _solve_at(
-        self,
-        ops: dict,
-        t_guess: np.ndarray | None = None,
-        p_B_guess: np.ndarray | None = None,
-        dp_guess: np.ndarray | None = None,
-        outer_slope: np.ndarray | float = _OUTER_SLOPE,
-    ) -> dict[str, np.ndarray]:
-        """The cycle with the evaporator-outlet superheat at ``ops["superheat"]`` (the valve not limited).
-
-        ``t_guess`` [K] is the first guess of the suction saturation
-        temperature (default 23 K below the cabin air), ``p_B_guess`` [Pa]
-        that of the discharge pressure (default condensing 13 K above the
-        ambient air) and ``dp_guess`` [Pa] that of the evaporator's pressure
-        drop (default 0; its fixed point takes one pass per suction iterate,
-        so a warm start whose root takes few iterates needs a good one).
-        Returns the result of :meth:`solve` with the statuses 0-4 and 8 (no
-        flags) and ``valve_opening`` the opening that passes the cycle's
-        flow, whatever its maximum.
-        """
-        n = ops["speed"].size
-        limits = self.models.limits()
-        # A hair inside the pressure ranges: the saturation temperature <-> pressure
-        # round trip must not step off a LUT's last node.
-        self._p_discharge = (limits["p_discharge"][0] * (1 + 1e-9), limits["p_discharge"][1] * (1 - 1e-9))
-        # A hair inside the compressor's pressure-ratio range, so that p_B/p_A stays on its grid.
-        self._pr = (max(limits["pr"][0], 1.0) * (1 + 1e-9), limits["pr"][1] * (1 - 1e-9))
-        self._axes = limits["axes"]
-        # The low end: evaporating 45 K below the (coldest) secondary stream, which leaves a large
-        # superheat, or at -30 degC where that is lower. Against hot coolant a starved branch runs
-        # further below it (valve at its maximum, full speed, coolant at 45 degC: -1 degC at the
-        # outlet, 46 K below), which a bound relative to the stream alone cut off.
-        T_sec = self._secondary_temperature(ops)
-        floor = np.minimum(T_sec - _SUCTION_LOW_BELOW, _SUCTION_LOW_FLOOR)
-        # Not below the saturation table (its pressure would be NaN, and the search with it).
-        floor = np.maximum(floor, self.sat.T[0] + 0.01)
-        lows, highs = [(self.sat.pressure(floor), None)], [(self.sat.pressure(T_sec - 0.5), None)]
-        for where, lim in self._suction_limits(ops, limits):
-            (p_lo_lim, p_hi_lim), (lo_name, hi_name) = lim["p_suction"], lim["axes"]["p_suction"]
-            lows.append((np.where(where, p_lo_lim * (1 + 1e-9), -np.inf), lo_name))
-            highs.append((np.where(where, p_hi_lim * (1 - 1e-9), np.inf), hi_name))
-        lo, lo_axis = tightest_bound(lows, upper=False)
-        hi, hi_axis = tightest_bound(highs, upper=True)
-        t_lo, t_hi = self.sat.temperature(lo), self.sat.temperature(hi)
-        self._guess = np.full(n, np.nan) if p_B_guess is None else np.asarray(p_B_guess, float).copy()
-        self._dp_guess = np.zeros(n) if dp_guess is None else np.nan_to_num(np.asarray(dp_guess, float))
-        self._dp_branch = {b.component: np.zeros(n) for b in self.circuit.branches}
-        self._split = np.full(n, np.nan)
-        self._clamped = np.zeros(n, np.int8)
-        self._slope = np.full(n, np.nan)
-        self.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
-
-        # The status each failure reason came with (the discharge side's own: a condenser that
-        # cannot reach its outlet at any discharge pressure is not the end of a model's envelope).
-        failure_status: dict[str, int] = {}
-
-        def residual(pa, i):
-            r = self._suction_side({k: v[i] for k, v in ops.items()}, pa, i)
-            failed = (r["status"] != STATUS_CONVERGED) & (r["reason"] != "")
-            failure_status.update(zip(r["reason"][failed], r["status"][failed].tolist(), strict=True))
-            return r["residual"], r["reason"]
-
-        # First guess: evaporating 23 K below the cabin air, the middle of the default
-        # circuit's envelope; the superheat falls about 4 K per kelvin above it.
-        if t_guess is None:
-            t_guess = T_sec - 23.0
-        t_guess = np.where(np.isfinite(t_guess), t_guess, T_sec - 23.0)
-        br = bracket(
-            self.sat, residual, t_lo, t_hi, t_guess, np.broadcast_to(np.asarray(outer_slope, float), (n,)), 15.0
-        )
-        status, reason = range_status(
-            br,
-            lo,
-            lo_axis,
-            hi,
-            hi_axis,
-            STATUS_EVAPORATOR_NO_ROOT,
-            (
-                "the superheat stays below its setpoint even at the lowest suction pressure searched",
-                "the superheat setpoint lies below the suction pressure",
-            ),
-            (
-                "the superheat stays above its setpoint up to saturation at the secondary inlet temperature",
-                "the superheat setpoint lies above the suction pressure",
-            ),
-        )
-        f_lo, f_hi = br.f_lo, br.f_hi
-        # Superheat above its setpoint up to the physical top (saturation 0.5 K below the coldest
-        # secondary inlet): with branches in parallel, the one on that stream caps the search.
-        self._above_top = (status == STATUS_EVAPORATOR_NO_ROOT) & br.hi_is_end & np.isfinite(f_hi) & (f_hi >= 0)
-        # Superheat below its setpoint down to the physical low end (evaporating 45 K below
-        # the secondary, or at -30 degC): where the outlet is still two-phase there, it floods.
-        low = np.nonzero((status == STATUS_EVAPORATOR_NO_ROOT) & br.lo_is_end & np.isfinite(f_lo) & (f_lo <= 0))[0]
-        if low.size:
-            wet = self._suction_side({k: v[low] for k, v in ops.items()}, lo[low], low)["outlet_wet"]
-            status[low[wet]] = STATUS_EVAPORATOR_WET
-            reason[low[wet]] = (
-                "the evaporator outlet stays two-phase down to the lowest suction pressure searched "
-                "(evaporating 45 K below the secondary inlet, or at -30 degC): the evaporator floods and "
-                "the compressor would draw liquid"
-            )
-        # Both ends outside a model's envelope: nothing to go on.
-        both = ~np.isfinite(f_lo) & ~np.isfinite(f_hi) & (status == STATUS_CONVERGED)
-        reason[both] = np.where(br.why_lo[both] != "", br.why_lo[both], br.why_hi[both])
-        status[both] = [failure_status.get(x, STATUS_OUTSIDE_ENVELOPE) for x in reason[both]]
-        p_A = np.full(n, np.nan)
-        idx = np.nonzero(status == STATUS_CONVERGED)[0]
-        if idx.size:
-            p_A[idx] = pressure_root(
-                self.sat, residual, br, idx, OUTER_FTOL, status, reason, "suction-pressure", failure_status
-            )
-        p_A[status != STATUS_CONVERGED] = np.nan
-        return self._final_states(ops, p_A, status, reason)
-
-    def _suction_limits(self, ops: dict, limits: dict) -> list[tuple[np.ndarray, dict]]:
-        """The models' suction-pressure ranges per group of points: a closed branch's model does not
-        bound the suction (a hot cabin alone may evaporate above the chiller LUT's last pressure)."""
-        n = ops["speed"].size
-        mode = np.asarray(ops.get("branch_mode", np.zeros(n)), int)
-        if not self.circuit.parallel or not np.isin(mode, (FIRST_CLOSED, SECOND_CLOSED)).any():
-            return [(np.ones(n, bool), limits)]
-        names = [b.component for b in self.circuit.branches]
-        return [
-            (~np.isin(mode, (FIRST_CLOSED, SECOND_CLOSED)), limits),
-            (mode == FIRST_CLOSED, self.models.limits(exclude=(names[0],))),
-            (mode == SECOND_CLOSED, self.models.limits(exclude=(names[1],))),
-        ]
 
     def _float_superheat(
         self, ops: dict, res: dict, idx: np.ndarray, key: str = "valve_opening", share: np.ndarray | None = None
@@ -1224,7 +592,9 @@ class CycleSolver:
             ops_i = {k: v[i] for k, v in sub.items()}
             ops_i["superheat"] = sh
             g = guess(sh, i)
-            r = self._solve_at(ops_i, t_guess=g["t"], p_B_guess=g["p_B"], dp_guess=g["dp"], outer_slope=_SH_OUTER_SLOPE)
+            r, _ = solve_at(
+                self._ctx, ops_i, t_guess=g["t"], p_B_guess=g["p_B"], dp_guess=g["dp"], outer_slope=_SH_OUTER_SLOPE
+            )
             for k, v in r.items():
                 store[k][i] = v
             ok = r["status"] == STATUS_CONVERGED
@@ -1374,146 +744,6 @@ class CycleSolver:
             if frost[i]:
                 notes.append("an evaporator surface is below 0 degC under condensate: frost risk")
             reason[i] = "; ".join(notes)
-
-    def _final_states(self, ops: dict, p_A: np.ndarray, status: np.ndarray, reason: np.ndarray) -> dict:
-        self.models.detailed(True)
-        try:
-            fin = self._suction_side(ops, p_A, np.arange(p_A.size), final=True)
-            return self._collect(ops, p_A, status, reason, fin)
-        finally:
-            self.models.detailed(False)
-
-    def _collect(self, ops: dict, p_A: np.ndarray, status: np.ndarray, reason: np.ndarray, fin: dict) -> dict:
-        late = (status == STATUS_CONVERGED) & (fin["status"] != STATUS_CONVERGED)
-        status[late] = fin["status"][late]
-        reason[late] = fin["reason"][late]
-        side, evap = fin["side"], fin["evap"]
-        comp, cond = side["comp"], side["cond"]
-        mdot = comp["mdot"]
-        # State C: with a saturated-liquid outlet it is that condition at the LUT's
-        # outlet pressure (the LUT's own h_out has its kink exactly there); a subcooled
-        # liquid is T_sat minus its enthalpy below saturation over the liquid's cp, as
-        # its target was set.
-        p_C = cond["p_out"]
-        saturated = ops["subcooling"] <= 0
-        h_l, T_sat = self.sat.liquid_enthalpy(p_C), self.sat.temperature(p_C)
-        h_C = np.where(saturated, h_l, cond["h_out_continued"])
-        T_C = np.where(saturated, T_sat, T_sat - (h_l - h_C) / self.sat.liquid_cp(p_C))
-        # Each branch: its flow, valve-outlet pressure and outlet enthalpy.
-        names = [b.component for b in self.circuit.branches]
-        if self.circuit.parallel:
-            branches, flows, inlets = evap["branches"], evap["flows"], evap["inlets"]
-        else:
-            branches, flows, inlets = {names[0]: evap}, {names[0]: mdot}, {names[0]: fin["p_D"]}
-        zero = np.zeros(p_A.size)
-        # The opening (over the nominal) that passes a branch's flow at its valve drop, by
-        # the valve's orifice law for a liquid inlet, mdot = S sqrt(2 rho_in dp); a
-        # subcooled liquid's density is the saturated liquid's at its temperature.
-        _, area = self.models.valve()
-        rho_C = self.sat.liquid_density(np.where(saturated, p_C, self.sat.pressure(T_C)))
-        opening = {}
-        with np.errstate(invalid="ignore", divide="ignore"):
-            for c in names:
-                opening[c] = flows[c] / (area * np.sqrt(2.0 * rho_C * (p_C - inlets[c])))
-        # Heat flows as each branch's flow times its enthalpy change, the outlet from its own model.
-        heat = {c: 0.0 - flows[c] * (branches[c]["h_out_continued"] - h_C) for c in names}
-        h_B = comp["h_out"]
-        superheat = self._branch_superheats(ops, p_A, fin["p_B"], comp, evap, branches)
-        res = {
-            "p_A": p_A,
-            "T_A": side["T_A"],
-            "h_A": comp["h_in"],
-            "p_B": fin["p_B"],
-            "T_B": comp["T_out"],
-            "h_B": h_B,
-            "p_C": p_C,
-            "T_C": T_C,
-            "h_C": h_C,
-            "p_D": fin["p_D"],
-            "T_D": self.sat.temperature(fin["p_D"]),
-            "h_D": h_C.copy(),
-            "mdot": mdot,
-            "mdot_evap": flows.get("evaporator", zero),
-            "mdot_chiller": flows.get("chiller", zero),
-            "Q_evap": heat.get("evaporator", zero),
-            "Q_latent": branches["evaporator"]["Q_latent"] if "evaporator" in branches else zero,
-            "Q_chiller": heat.get("chiller", zero),
-            "Q_cond": mdot * (h_B - h_C),
-            "W": comp["W"],
-            "W_fluid": mdot * (h_B - comp["h_in"]),
-            "h_A_evap": evap["h_out_continued"],
-            "dp_valve": p_C - fin["p_D"],
-            "valve_opening": opening[names[0]],
-            "valve_opening_chiller": opening.get("chiller", np.full(p_A.size, np.nan)),
-            "superheat_actual": superheat[names[0]],
-            "superheat_chiller": superheat.get("chiller", np.full(p_A.size, np.nan)),
-            "frost_risk": branches["evaporator"].get("frost_risk", zero) if "evaporator" in branches else zero,
-        }
-        with np.errstate(invalid="ignore", divide="ignore"):
-            res["COP"] = -(res["Q_evap"] + res["Q_chiller"]) / res["W"]
-        # A valid point carries finite figures. A root can sit on a jump of its residual where a
-        # component gives no heat (a LUT cell next to nodes with the refrigerant on the wrong side
-        # of its secondary stream, or the bench's own edge): its figures are then not a state.
-        no_heat = np.broadcast_to(_no_heat_flow(cond), p_A.shape).copy()
-        for c in names:
-            no_heat |= _no_heat_flow(branches[c]) & (np.asarray(flows[c]) > 0)
-        finite = np.logical_and.reduce([np.isfinite(np.asarray(res[k], float)) for k in _MUST_BE_FINITE])
-        broken = np.isin(status, VALID_CYCLE_FLAGS) & (no_heat | ~finite)
-        status[broken] = STATUS_OUTSIDE_ENVELOPE
-        reason[broken] = np.where(
-            no_heat[broken],
-            "the solution lies where a component takes no heat (its refrigerant inlet on the wrong side "
-            "of its secondary stream, or a LUT cell next to such nodes)",
-            "a component model gives NaN at the solved state",
-        )
-        invalid = ~np.isin(status, VALID_CYCLE_FLAGS)
-        for k, v in res.items():
-            v = np.array(v, float)
-            v[invalid] = np.nan
-            res[k] = v
-        res["status"] = status
-        res["reason"] = reason
-        return res
-
-    def _branch_superheats(self, ops: dict, p_A, p_B, comp: dict, evap: dict, branches: dict) -> dict:
-        """Each branch's outlet superheat [K]: the setpoint, the suction superheat for a branch alone
-        (or the only open one), NaN for a closed one; a floating parallel branch's from its outlet
-        enthalpy at ``p_A``, by the secant method on the compressor's inlet enthalpy h(T) (within 1e-3 K)."""
-        names = [b.component for b in self.circuit.branches]
-        if not self.circuit.parallel:
-            return {names[0]: ops["superheat"].copy()}
-        mode, suction, setpoint = ops["branch_mode"], ops["superheat"], ops["setpoint"]
-        out = {c: setpoint.copy() for c in names}
-        for b, (closed, floats) in enumerate(((FIRST_CLOSED, FIRST_FLOATS), (SECOND_CLOSED, SECOND_FLOATS))):
-            other = names[1 - b]
-            out[names[b]][mode == closed] = np.nan
-            out[other][mode == closed] = suction[mode == closed]
-            k = np.nonzero(mode == floats)[0]
-            if k.size == 0:
-                continue
-            target = branches[names[b]]["h_out_continued"][k]
-            T_sat = self.sat.temperature(p_A[k])
-            pr = p_B[k] / p_A[k]
-
-            def h(sh, k=k, T_sat=T_sat, pr=pr):
-                return self.models.compressor(ops["speed"][k], T_sat + sh, p_A[k], pr)["h_in"]
-
-            x0, y0 = setpoint[k], evap["h_set"][k]
-            x1, y1 = suction[k].copy(), comp["h_in"][k]
-            near = np.abs(x1 - x0) < 1e-6
-            if near.any():  # one point only: about 1 kJ/(kg K)
-                x1 = np.where(near, x0 + (target - y0) / CP_SCALE, x1)
-                y1 = np.where(near, h(x1), y1)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                for _ in range(4):
-                    x2 = x1 + (target - y1) * (x1 - x0) / (y1 - y0)
-                    x2 = np.where(np.isfinite(x2), x2, x1)
-                    if np.all(~np.isfinite(x2) | (np.abs(x2 - x1) < 1e-3)):
-                        x1 = x2
-                        break
-                    x0, y0, x1, y1 = x1, y1, x2, h(x2)
-            out[names[b]][k] = x1
-        return out
 
     #: Maximum over nominal opening of the valve (its maximum over nominal capacity), set by solve.
     max_opening = np.nan
