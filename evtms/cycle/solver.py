@@ -105,7 +105,7 @@ import numpy as np
 
 from evtms.cycle.closure import solve_at
 from evtms.cycle.limits import ValveLimits, parallel_limits
-from evtms.cycle.results import mark_invalid
+from evtms.cycle.results import BranchResult, CycleResult, mark_invalid
 from evtms.cycle.roots import bracketed_root
 from evtms.cycle.saturation import float_superheat
 from evtms.cycle.state import (
@@ -156,6 +156,8 @@ __all__ = [
     "STATUS_VALVE_SATURATED_FROST_RISK",
     "VALID_CYCLE_FLAGS",
     "VALVE_SATURATED_FLAGS",
+    "BranchResult",
+    "CycleResult",
     "CycleSolver",
     "CycleStatus",
     "OperatingPoints",
@@ -188,7 +190,7 @@ class CycleSolver:
         self.sat = saturation
         self.circuit = topology(circuit)
 
-    def solve(self, points: OperatingPoints) -> dict[str, np.ndarray]:
+    def solve(self, points: OperatingPoints) -> CycleResult:
         """Solve every operating point.
 
         First with the valve holding the superheat setpoint; where that needs
@@ -200,8 +202,8 @@ class CycleSolver:
 
         Returns
         -------
-        dict of str to numpy.ndarray
-            ``p_A, T_A, h_A``
+        CycleResult
+            Readable as a mapping of the result variables: ``p_A, T_A, h_A``
             ... ``p_D, T_D, h_D`` [Pa, K, J/kg], ``mdot`` [kg/s], ``Q_evap``
             (< 0), ``Q_latent``, ``Q_cond``, ``W`` (shaft), ``W_fluid``
             (``mdot (h_B - h_A)``) [W], ``COP`` (cooling, |Q_evap|/W) [1],
@@ -213,7 +215,8 @@ class CycleSolver:
             coldest surface is below 0 degC, else 0; on LUTs the share of the
             interpolation weight on such nodes, flagged from 0.5), ``status``
             (int8, :data:`CYCLE_FLAGS`) and ``reason`` (why a point failed, or
-            what its flags mean; empty when converged without a flag).
+            what its flags mean; empty when converged without a flag); each
+            branch's own figures also as its :class:`BranchResult`.
         """
         ctx = SolveContext(self.models, self.sat, self.circuit)
         ops = points.subset(np.arange(len(points)))
@@ -230,7 +233,7 @@ class CycleSolver:
         _flag(ctx, res, ops, limits)
         off = outside != ""
         mark_invalid(res, off, STATUS_OUTSIDE_ENVELOPE, outside[off])
-        return res
+        return CycleResult.from_arrays(res, ctx.circuit)
 
 
 def _single_valve_limit(ctx: SolveContext, ops: Ops, res: dict) -> ValveLimits:
