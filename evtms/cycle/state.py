@@ -21,6 +21,7 @@ solved (:meth:`OperatingPoints.subset`, plus ``branch_mode`` and
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -149,9 +150,10 @@ class SolveContext:
     def parallel(self) -> bool:
         return self.circuit.parallel
 
-    @property
+    @cached_property
     def max_opening(self) -> float:
-        """The valve's maximum over nominal opening [1] (its maximum over nominal capacity)."""
+        """The valve's maximum over nominal opening [1] (its maximum over nominal capacity); asked
+        for once per solve (the direct models work out the valve's nominal area on each call)."""
         valve, _ = self.models.valve()
         return valve.capacity_max / valve.capacity_nominal
 
