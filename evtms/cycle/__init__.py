@@ -7,6 +7,7 @@ input values; see :mod:`evtms.cycle.solver` for the closure.
 """
 
 from evtms.cycle.api import cycle_dataset, energy_balance, load_cycle_luts, run_cycle, solve_grid
+from evtms.cycle.results import BranchResult, CycleResult
 from evtms.cycle.solver import CYCLE_FLAGS, CycleSolver, CycleStatus, OperatingPoints
 from evtms.cycle.topology import INPUTS, TOPOLOGIES, Topology
 
@@ -14,6 +15,8 @@ __all__ = [
     "CYCLE_FLAGS",
     "INPUTS",
     "TOPOLOGIES",
+    "BranchResult",
+    "CycleResult",
     "CycleSolver",
     "CycleStatus",
     "Topology",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -11,6 +12,7 @@ import numpy as np
 from evtms import __version__
 from evtms.benches.parameters import Parameters
 from evtms.cycle.models import DirectModels, LutModels
+from evtms.cycle.results import CycleResult
 from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
 from evtms.cycle.tables import CycleLut, cycle_lut, fluid_tables, made_with
 from evtms.cycle.topology import INPUTS, Topology, topology
@@ -260,7 +262,7 @@ def cycle_encoding(ds: xr.Dataset) -> dict[str, dict]:
     return encoding
 
 
-def energy_balance(result: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def energy_balance(result: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """First-law residual of the cycle, each term from its own component.
 
     ``residual = Q_cond + Q_evap + Q_chiller - W_fluid`` [W] (``Q_evap``,
@@ -281,11 +283,11 @@ def run_cycle(
     params: Parameters | None = None,
     fluid: Fluid | None = None,
     circuit: Topology | str = "cabin",
-) -> dict[str, np.ndarray]:
+) -> CycleResult:
     """Solve operating points of a circuit on LUTs, or with the bench physics if ``luts`` is None.
 
-    Returns the solver's result (see :meth:`CycleSolver.solve`) plus
-    ``balance_residual`` and ``balance_relative``.
+    Returns the solver's result (see :meth:`CycleSolver.solve`) with
+    ``balance_residual`` and ``balance_relative`` (:func:`energy_balance`).
     """
     params = params or Parameters()
     circuit = topology(circuit)
@@ -298,8 +300,7 @@ def run_cycle(
     solver = CycleSolver(models, saturation, circuit)
     result = solver.solve(points)
     bal = energy_balance(result)
-    result["balance_residual"], result["balance_relative"] = bal["residual"], bal["relative"]
-    return result
+    return result.with_balance(bal["residual"], bal["relative"])
 
 
 def solve_grid(
@@ -308,7 +309,7 @@ def solve_grid(
     params: Parameters | None = None,
     circuit: Topology | str = "cabin",
     fluid: Fluid | None = None,
-) -> tuple[OperatingPoints, dict[str, np.ndarray]]:
+) -> tuple[OperatingPoints, CycleResult]:
     """Solve the circuit on every combination of its inputs' values (the CLI's and the demo's sweep).
 
     ``grid`` gives each input of ``circuit`` (``Topology.inputs``) its
@@ -323,7 +324,7 @@ def solve_grid(
 
 
 def cycle_dataset(
-    grid: dict[str, np.ndarray], result: dict[str, np.ndarray], source: str, circuit: Topology | str = "cabin"
+    grid: dict[str, np.ndarray], result: Mapping[str, np.ndarray], source: str, circuit: Topology | str = "cabin"
 ) -> xr.Dataset:
     """Results of a cycle sweep on a grid of inputs as a dataset with units.
 
