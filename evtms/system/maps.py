@@ -517,6 +517,7 @@ def map_axes(name: str, luts_folder: str | Path, settings: MapSettings | None = 
         Nodes per axis [SI, K for temperatures], in the map's axis order.
     """
     from evtms.cycle.tables import CycleLut
+    from evtms.luts.store import LutStore
     from evtms.paths import input_file
 
     if name not in MAPS:
@@ -528,7 +529,7 @@ def map_axes(name: str, luts_folder: str | Path, settings: MapSettings | None = 
         if values is None:
             values = COARSE_AXES.get(name, {}).get(axis, DEFAULT_AXES[axis])
         if values is None:  # the evaporator grid's humidity axis
-            path = Path(luts_folder) / "evaporator.nc"
+            path = LutStore(luts_folder).lut("evaporator")
             if not path.exists():
                 raise EvtmsInputError(f"{path}: no such file; write the cycle LUTs with 'evtms bench all --grid cycle'")
             values = CycleLut(input_file(path, "LUT file"), "evaporator").axes["RH_air_in"]
@@ -674,17 +675,13 @@ def _lut_identity(folder: Path, topology: str) -> dict[str, dict]:
     """Each LUT file a map of ``topology`` is built from: name, size and mtime_ns (its cache key part)."""
     from evtms.cycle.api import load_cycle_luts
     from evtms.cycle.topology import topology as get_topology
+    from evtms.luts.store import LutStore
 
-    out = {}
-    for c in get_topology(topology).components:
-        path = folder / f"{c}.nc"
-        try:
-            st = os.stat(path)
-        except OSError:
-            load_cycle_luts(folder, topology)  # its one-line error names the missing or bad file
-            raise
-        out[c] = {"file": path.name, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
-    return out
+    try:
+        return LutStore(folder).signature(get_topology(topology).components)
+    except OSError:
+        load_cycle_luts(folder, topology)  # its one-line error names the missing or bad file
+        raise
 
 
 @dataclass
@@ -969,14 +966,6 @@ def read_map(path: str | Path, key: str | None = None) -> CycleMap | None:
         return None
 
 
-def _locations(folder: Path, name: str) -> tuple[Path, Path]:
-    """Where map ``name`` of the LUTs in ``folder`` is cached: beside them, and the user-cache fallback."""
-    from evtms.luts.cache import cache_root
-
-    where = hashlib.sha256(str(folder.resolve()).encode()).hexdigest()[:16]
-    return folder / "maps" / f"{name}.nc", cache_root() / "maps" / where / f"{name}.nc"
-
-
 def _store(cmap: CycleMap, places: Sequence[Path]) -> None:
     """Write ``cmap`` to the first place that can be written (none: it stays in memory only)."""
     for path in places:
@@ -1007,7 +996,7 @@ def load_maps(
     Files are written atomically (temporary file + :func:`os.replace`), so a
     concurrent run never reads a partial file (the last writer wins). Where
     the LUT folder cannot be written, the map goes to the user cache
-    (:func:`evtms.luts.cache.cache_root` ``/maps/<folder hash>/``); where
+    (:meth:`evtms.luts.store.LutStore.map_places` says where); where
     neither can, it is returned unsaved. ``EVTMS_NO_CACHE=1`` neither reads
     nor writes any file.
 
@@ -1038,9 +1027,10 @@ def load_maps(
         Unknown map name, missing or bad LUT file or folder, bad settings, or a
         map without any solved node.
     """
-    from evtms.luts.cache import DISABLE_ENV
+    from evtms.luts.store import LutStore, caching
 
     folder = Path(luts_folder)
+    store = LutStore(folder)
     if folder.exists() and not folder.is_dir():
         raise EvtmsInputError(f"LUT folder {str(folder)!r} is a file; give the folder holding the cycle LUTs")
     if not folder.is_dir():
@@ -1049,11 +1039,11 @@ def load_maps(
     if unknown:
         raise EvtmsInputError(f"cycle map {unknown[0]!r} is unknown; allowed: {', '.join(MAPS)}")
     settings = settings or MapSettings()
-    use_files = os.environ.get(DISABLE_ENV) != "1"
+    use_files = caching()
     plans = [_plan(n, folder, settings) for n in dict.fromkeys(names)]
     maps: dict[str, CycleMap] = {}
     for p in plans:
-        for path in _locations(folder, p.name) if use_files else ():
+        for path in store.map_places(p.name) if use_files else ():
             if path.is_file() and (got := read_map(path, p.key)) is not None:
                 maps[p.name] = got
                 break
@@ -1062,6 +1052,6 @@ def load_maps(
         built = _build(stale, folder, progress, workers)
         for name, cmap in built.items():
             if use_files:
-                _store(cmap, _locations(folder, name))
+                _store(cmap, store.map_places(name))
             maps[name] = cmap
     return {n: maps[n] for n in names}
