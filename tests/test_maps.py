@@ -15,8 +15,10 @@ import numpy as np
 import pytest
 
 from evtms.errors import EvtmsInputError
+from evtms.luts.validate import read_map_lut
 from evtms.system import maps as maps_module
 from evtms.system.maps import (
+    MAP_FORMAT,
     MAP_OUTPUTS,
     MAPS,
     CycleMap,
@@ -235,6 +237,11 @@ def test_cache_is_read_back_and_rebuilt_when_a_lut_or_the_settings_change(cycle_
     assert calls[0] == (0, 48, "chiller") and calls[-1] == (48, 48, "chiller")
     path = folder / "maps" / "chiller.nc"
     assert path.is_file() and not list((folder / "maps").glob(".*"))  # no temporary file left
+    # A map LUT, written by the LUT layer and read back by it.
+    table = read_map_lut(path)
+    assert table.attrs["lut_kind"] == "map" and table.attrs["map_format"] == MAP_FORMAT
+    assert set(table.attrs["lut_files"]) == {"compressor", "condenser", "chiller", "expansion_valve"}
+    assert table.attributes["Q_chiller"]["units"] == "W" and table.attributes["T_amb"]["units"] == "K"
     calls.clear()
     t0 = time.perf_counter()
     again = load_maps(folder, small, names=("chiller",), progress=progress)["chiller"]
@@ -260,6 +267,25 @@ def test_cache_is_read_back_and_rebuilt_when_a_lut_or_the_settings_change(cycle_
     path.write_bytes(b"not netCDF")  # unreadable: rebuilt
     load_maps(folder, MapSettings(axes=SMALL, superheat=8.0), names=("chiller",), progress=progress)
     assert calls
+
+
+def test_a_map_cached_in_the_previous_format_is_rebuilt(cycle_luts_dir, small, tmp_path):
+    """A format-2 file (xarray's netCDF, no lut_kind) carrying the current key is not taken: rebuilt."""
+    import xarray as xr
+
+    folder = _luts_copy(cycle_luts_dir, tmp_path / "luts")
+    first = load_maps(folder, small, names=("chiller",))["chiller"]
+    path = folder / "maps" / "chiller.nc"
+    old = xr.Dataset(
+        {k: (first.axes, first.output(k) + 1.0) for k in MAP_OUTPUTS} | {"filled": (first.axes, first.filled_nodes)},
+        coords=dict(zip(first.axes, first.nodes, strict=True)),
+        attrs={"map_key": first.attrs["map_key"], "map_name": "chiller", "filled": first.filled, "map_format": 2},
+    )
+    old.to_netcdf(path, engine="netcdf4")
+    calls = []
+    again = load_maps(folder, small, names=("chiller",), progress=lambda *a: calls.append(a))["chiller"]
+    assert calls and np.array_equal(again.values, first.values)
+    assert read_map_lut(path).attrs["lut_kind"] == "map"
 
 
 def test_unwritable_lut_folder_falls_back_to_the_user_cache(cycle_luts_dir, small, tmp_path):

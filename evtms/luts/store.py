@@ -12,17 +12,30 @@ This module is the only code that knows how LUT files are laid out on disk::
 a grid, a user may give that folder, the demo's ``<out>/luts`` or ``<out>``
 itself (:meth:`LutStore.places`). A :class:`LutStore` names the files of one
 folder; it knows no physics and no component: the caller says which
-components it needs.
+components it needs, and a map's builder is handed in (:meth:`LutStore.load_maps`).
+
+A map is current when its file carries the key of what it is made from: the
+builder's recipe (its format, settings and axes) and the signature of the
+LUT files it reads (name, size, modification time), so a rewritten or
+touched LUT, other settings or another map format rebuild it; so does an
+unreadable file, or one that is no valid map LUT: never silently old.
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
+
+if TYPE_CHECKING:
+    from evtms.luts.io import MapTable
+
+T = TypeVar("T")
 
 #: Environment variable naming the cache folder.
 CACHE_DIR_ENV = "EVTMS_CACHE_DIR"
@@ -34,6 +47,8 @@ SUFFIX = ".nc"
 MAPS_FOLDER = "maps"
 #: The folder of an 'evtms demo' output folder that holds its LUT folders, one per grid.
 DEMO_LUTS_FOLDER = "luts"
+#: Global attribute of a map file: the cache key it was built for (:meth:`LutStore.map_key`).
+KEY_ATTR = "map_key"
 
 
 def cache_root() -> Path:
@@ -163,3 +178,100 @@ class LutStore:
             st = os.stat(path)
             out[c] = {"file": path.name, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
         return out
+
+    def map_key(self, recipe: Mapping[str, Any], components: Iterable[str]) -> tuple[str, dict]:
+        """The cache key of a map made by ``recipe`` from the LUTs of ``components``, and its provenance.
+
+        Parameters
+        ----------
+        recipe : mapping
+            Everything besides the LUT files the map depends on (JSON-serialisable):
+            its format version, settings, axes, ...
+        components : iterable of str
+            The components whose LUTs in this folder the map is made from.
+
+        Returns
+        -------
+        (str, dict)
+            SHA-256 (hex) of the provenance, and the provenance: ``recipe`` with
+            ``lut_files`` (:meth:`signature`).
+
+        Raises
+        ------
+        OSError
+            A LUT file is missing or cannot be read.
+        """
+        provenance = {**recipe, "lut_files": self.signature(components)}
+        key = hashlib.sha256(json.dumps(provenance, sort_keys=True).encode()).hexdigest()
+        return key, provenance
+
+    # ---- maps: the cache and building on demand ----------------------------------------------------
+    def load_maps(
+        self,
+        keys: Mapping[str, str],
+        build: Callable[[Sequence[str]], Mapping[str, MapTable]],
+        convert: Callable[[MapTable], T] = lambda table: table,
+    ) -> dict[str, T]:
+        """The maps named in ``keys``, each read from the first of its :meth:`map_places` that holds it, else built.
+
+        A file is taken when it is a valid map LUT carrying the map's key
+        (global attribute :data:`KEY_ATTR`) and ``convert`` accepts it; any
+        other (stale, damaged, of another format) is rebuilt. The maps to
+        build are built by one call of ``build``, get their key and are
+        written atomically to the first of their places that can be written
+        (none: kept in memory only), so a concurrent run never reads a
+        partial file (the last writer wins). ``EVTMS_NO_CACHE=1`` neither
+        reads nor writes any file.
+
+        Parameters
+        ----------
+        keys : mapping of str to str
+            Map name -> its cache key (:meth:`map_key`), in the order wanted.
+        build : callable
+            ``build(names)`` -> map name -> :class:`~evtms.luts.io.MapTable`, for the maps to build.
+        convert : callable, optional
+            Turns a map table into what the caller uses; raises ValueError,
+            KeyError or TypeError for a file it cannot use (rebuilt then).
+
+        Returns
+        -------
+        dict of str to the result of ``convert``
+            In the order of ``keys``.
+        """
+        from evtms.errors import EvtmsInputError
+        from evtms.luts.validate import read_map_lut
+
+        use_files = caching()
+        maps: dict[str, T] = {}
+        for name, key in keys.items():
+            for path in self.map_places(name) if use_files else ():
+                if not path.is_file():
+                    continue
+                try:
+                    maps[name] = convert(read_map_lut(path, {KEY_ATTR: key}))
+                    break
+                except (EvtmsInputError, OSError, ValueError, KeyError, TypeError):
+                    continue  # stale, damaged or of another format: the next place, else rebuild
+        stale = [name for name in keys if name not in maps]
+        if stale:
+            built = build(stale)
+            for name in stale:
+                table = built[name]
+                table.attrs[KEY_ATTR] = keys[name]
+                if use_files:
+                    self._save(table, self.map_places(name))
+                maps[name] = convert(table)
+        return {name: maps[name] for name in keys}
+
+    @staticmethod
+    def _save(table: MapTable, places: Sequence[Path]) -> Path | None:
+        """Write ``table`` to the first of ``places`` that can be written; None if none can."""
+        from evtms.luts.io import write_map_lut
+
+        for path in places:
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                return write_map_lut(table, path)
+            except (OSError, RuntimeError):
+                continue
+        return None
