@@ -175,8 +175,25 @@ def test_closure_between_nodes_and_clipping(maps):
                 np.testing.assert_array_equal(out, _interp(m, xe)[0])
                 assert _interp(m, xe)[1] == 0
                 assert _interp(m, xo, _map_interp)[1] == 1
-        values, clipped = m.interp(hi + 1.0)
-        assert clipped and np.array_equal(values, m.values[(-1,) * lo.size])
+        values, clipped = m.interp(hi + 1.0)  # the LUT layer's interpolator, clipped to the last node
+        assert clipped and np.allclose(values, m.values[(-1,) * lo.size], rtol=1e-14, atol=0.0)
+        assert m.interp(lo)[1] is False and np.all(np.isnan(m.interp(np.full(lo.size, np.nan))[0]))
+
+
+def test_the_loop_kernel_is_the_twin_of_the_luts_interpolator(maps):
+    """map_interp (the time loop's compiled kernel) and CycleMap.interp (evtms.luts.interp.Interpolator) give
+    the same outputs on random points, inside the axes and beyond them (clipped), to rounding."""
+    for m in maps.values():
+        lo = np.array([n[0] for n in m.nodes])
+        hi = np.array([n[-1] for n in m.nodes])
+        # Relative to each value, or to the output's largest value where it passes near 0 (Q_latent).
+        scale = np.max(np.abs(m.values.reshape(-1, len(MAP_OUTPUTS))), axis=0)
+        for _ in range(300):
+            x = lo + RNG.uniform(-0.2, 1.2, size=lo.size) * (hi - lo)
+            luts, clipped = m.interp(x)
+            twin, flag = _interp(m, x)
+            assert np.all(np.abs(luts - twin) <= 1e-12 * np.maximum(np.abs(twin), scale)), (x, luts, twin)
+            assert clipped == bool(flag)
 
 
 def test_fill_rule_lower_speed_then_higher_then_ambient():

@@ -54,7 +54,11 @@ A map is a LUT of a circuit: it is written and read by the LUT layer
 (:func:`evtms.luts.io.write_map_lut`, :func:`evtms.luts.validate.read_map_lut`;
 ``docs/lut-format.md``) and kept by the LUT folder's
 :class:`~evtms.luts.store.LutStore`, which caches it beside the LUTs and
-rebuilds it when stale (see :func:`load_maps`).
+rebuilds it when stale (see :func:`load_maps`). In Python a map interpolates
+through the LUT layer's :class:`~evtms.luts.interp.Interpolator`
+(:meth:`CycleMap.interp`); the time loop calls :data:`map_interp`, its
+compiled twin (the same multilinear weights, summed corner by corner rather
+than blended axis by axis: equal to rounding, checked by the tests).
 """
 
 from __future__ import annotations
@@ -332,6 +336,7 @@ class CycleMap:
     filled: int
     filled_nodes: np.ndarray | None = None
     attrs: dict = field(default_factory=dict)
+    _interpolator: object = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         nodes = tuple(np.ascontiguousarray(n, dtype=np.float64).reshape(-1) for n in self.nodes)
@@ -373,29 +378,40 @@ class CycleMap:
         return knots, starts, self.values.reshape(-1, len(MAP_OUTPUTS))
 
     def interp(self, x: Sequence[float]) -> tuple[np.ndarray, bool]:
-        """The outputs at one point, by :func:`map_interp` (a convenience; the loop calls the kernel).
+        """The outputs at one point, by the LUT layer's interpolator (the loop calls :data:`map_interp`).
 
         Parameters
         ----------
         x : sequence of float
-            One value per axis [SI, K for temperatures].
+            One value per axis [SI, K for temperatures]. A coordinate outside
+            its axis is clipped to the axis' end; NaN gives NaN outputs.
 
         Returns
         -------
         (numpy.ndarray, bool)
             The 9 outputs (:data:`MAP_OUTPUTS`) and whether a coordinate was clipped.
         """
-        knots, starts, table = self.packed()
-        out = np.empty(len(MAP_OUTPUTS))
-        clipped = map_interp(knots, starts, table, np.asarray(x, np.float64).reshape(-1), out)
-        return out, bool(clipped)
+        if self._interpolator is None:
+            from evtms.luts.interp import Interpolator
+
+            axes = list(zip(self.axes, self.nodes, strict=True))
+            itp = Interpolator(axes, {k: self.output(k) for k in MAP_OUTPUTS}, out_of_range="nan")
+            object.__setattr__(self, "_interpolator", itp)
+        x = np.asarray(x, np.float64).reshape(-1)
+        lo = np.array([n[0] for n in self.nodes])
+        hi = np.array([n[-1] for n in self.nodes])
+        inside = np.clip(x, lo, hi)  # NaN stays NaN: the 'nan' policy gives NaN outputs for it
+        clipped = bool(np.any((x < lo) | (x > hi)))
+        res = self._interpolator(inside[None, :])
+        return np.array([res[k][0] for k in MAP_OUTPUTS]), clipped
 
 
 def _map_interp(knots, starts, table, x, out):
     """Multilinear interpolation of every column of ``table`` at ``x``, the same weights for each.
 
     Plain scalar code (numba-compilable); :data:`map_interp` is its compiled
-    form.
+    form, the time loop's twin of :meth:`CycleMap.interp` (the LUT layer's
+    interpolator), which it equals to rounding.
 
     Parameters
     ----------
