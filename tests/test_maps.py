@@ -14,8 +14,10 @@ import numpy as np
 import pytest
 
 from evtms.errors import EvtmsInputError
+from evtms.luts.validate import read_map_lut
 from evtms.system import maps as maps_module
 from evtms.system.maps import (
+    MAP_FORMAT,
     MAP_OUTPUTS,
     MAPS,
     CycleMap,
@@ -172,8 +174,25 @@ def test_closure_between_nodes_and_clipping(maps):
                 np.testing.assert_array_equal(out, _interp(m, xe)[0])
                 assert _interp(m, xe)[1] == 0
                 assert _interp(m, xo, _map_interp)[1] == 1
-        values, clipped = m.interp(hi + 1.0)
-        assert clipped and np.array_equal(values, m.values[(-1,) * lo.size])
+        values, clipped = m.interp(hi + 1.0)  # the LUT layer's interpolator, clipped to the last node
+        assert clipped and np.allclose(values, m.values[(-1,) * lo.size], rtol=1e-14, atol=0.0)
+        assert m.interp(lo)[1] is False and np.all(np.isnan(m.interp(np.full(lo.size, np.nan))[0]))
+
+
+def test_the_loop_kernel_is_the_twin_of_the_luts_interpolator(maps):
+    """map_interp (the time loop's compiled kernel) and CycleMap.interp (evtms.luts.interp.Interpolator) give
+    the same outputs on random points, inside the axes and beyond them (clipped), to rounding."""
+    for m in maps.values():
+        lo = np.array([n[0] for n in m.nodes])
+        hi = np.array([n[-1] for n in m.nodes])
+        # Relative to each value, or to the output's largest value where it passes near 0 (Q_latent).
+        scale = np.max(np.abs(m.values.reshape(-1, len(MAP_OUTPUTS))), axis=0)
+        for _ in range(300):
+            x = lo + RNG.uniform(-0.2, 1.2, size=lo.size) * (hi - lo)
+            luts, clipped = m.interp(x)
+            twin, flag = _interp(m, x)
+            assert np.all(np.abs(luts - twin) <= 1e-12 * np.maximum(np.abs(twin), scale)), (x, luts, twin)
+            assert clipped == bool(flag)
 
 
 def test_fill_rule_lower_speed_then_higher_then_ambient():
@@ -234,6 +253,11 @@ def test_cache_is_read_back_and_rebuilt_when_a_lut_or_the_settings_change(cycle_
     assert calls[0] == (0, 48, "chiller") and calls[-1] == (48, 48, "chiller")
     path = folder / "maps" / "chiller.nc"
     assert path.is_file() and not list((folder / "maps").glob(".*"))  # no temporary file left
+    # A map LUT, written by the LUT layer and read back by it.
+    table = read_map_lut(path)
+    assert table.attrs["lut_kind"] == "map" and table.attrs["map_format"] == MAP_FORMAT
+    assert set(table.attrs["lut_files"]) == {"compressor", "condenser", "chiller", "expansion_valve"}
+    assert table.attributes["Q_chiller"]["units"] == "W" and table.attributes["T_amb"]["units"] == "K"
     calls.clear()
     again = load_maps(folder, small, names=("chiller",), progress=progress)["chiller"]
     assert not calls  # read from disk, nothing solved
@@ -258,6 +282,25 @@ def test_cache_is_read_back_and_rebuilt_when_a_lut_or_the_settings_change(cycle_
     path.write_bytes(b"not netCDF")  # unreadable: rebuilt
     load_maps(folder, MapSettings(axes=SMALL, superheat=8.0), names=("chiller",), progress=progress)
     assert calls
+
+
+def test_a_map_cached_in_the_previous_format_is_rebuilt(cycle_luts_dir, small, tmp_path):
+    """A format-2 file (xarray's netCDF, no lut_kind) carrying the current key is not taken: rebuilt."""
+    import xarray as xr
+
+    folder = _luts_copy(cycle_luts_dir, tmp_path / "luts")
+    first = load_maps(folder, small, names=("chiller",))["chiller"]
+    path = folder / "maps" / "chiller.nc"
+    old = xr.Dataset(
+        {k: (first.axes, first.output(k) + 1.0) for k in MAP_OUTPUTS} | {"filled": (first.axes, first.filled_nodes)},
+        coords=dict(zip(first.axes, first.nodes, strict=True)),
+        attrs={"map_key": first.attrs["map_key"], "map_name": "chiller", "filled": first.filled, "map_format": 2},
+    )
+    old.to_netcdf(path, engine="netcdf4")
+    calls = []
+    again = load_maps(folder, small, names=("chiller",), progress=lambda *a: calls.append(a))["chiller"]
+    assert calls and np.array_equal(again.values, first.values)
+    assert read_map_lut(path).attrs["lut_kind"] == "map"
 
 
 def test_unwritable_lut_folder_falls_back_to_the_user_cache(cycle_luts_dir, small, tmp_path):

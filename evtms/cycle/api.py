@@ -60,12 +60,10 @@ RESULT_VARIABLES = {
 }
 
 
-#: Where the cycle LUTs of a LUT folder a user gives may sit, in the order looked at: the folder
-#: itself ('evtms bench all --grid cycle -o DIR'), its cycle/ (the folder is the luts/ folder
-#: 'evtms demo -o OUT' writes) and its luts/cycle/ (the folder is the demo's OUT).
-CYCLE_LUT_PLACES = ((), ("cycle",), ("luts", "cycle"))
-#: The demo's thesis-grid LUT folders: looked at only to say what a folder holds.
-_THESIS_PLACES = (("thesis",), ("luts", "thesis"))
+#: The preset grid of the LUTs the cycle reads, and the demo's other grid (its folders are looked at
+#: only to say what a folder holds); where each grid's LUT folder may be: :meth:`LutStore.places`.
+CYCLE_GRID = "cycle"
+_THESIS_GRID = "thesis"
 #: What a LUT folder should be, as the error messages say it.
 EXPECTED_LUT_FOLDER = (
     "give the folder of cycle-grid LUTs that 'evtms bench all --grid cycle -o DIR' writes, "
@@ -78,13 +76,13 @@ def _q(path: Path) -> str:
 
 
 def _lut_files(where: Path, components: tuple[str, ...]) -> dict[str, LutMetadata | str]:
-    """Each of ``components``' files ``<where>/<component>.nc`` there: its checked header, or why it is no LUT."""
+    """Each of ``components``' LUT files in ``where``: its checked header, or why it is no LUT."""
+    from evtms.luts.store import LutStore
     from evtms.luts.validate import read_lut_metadata
     from evtms.paths import input_file
 
     found: dict[str, LutMetadata | str] = {}
-    for c in components:
-        path = where / f"{c}.nc"
+    for c, path in LutStore(where).luts(components).items():
         if not (path.exists() or path.is_symlink()):
             continue
         try:
@@ -97,7 +95,7 @@ def _lut_files(where: Path, components: tuple[str, ...]) -> dict[str, LutMetadat
 def _usable(entry: LutMetadata | str) -> bool:
     # A thesis-grid LUT is a valid file but spans temperatures, not the enthalpies and air
     # inlets the cycle queries: the cycle refuses it rather than fail at its first query.
-    return not isinstance(entry, str) and entry.attrs.get("grid") != "thesis"
+    return not isinstance(entry, str) and entry.attrs.get("grid") != _THESIS_GRID
 
 
 def _holding(where: Path, found: dict[str, LutMetadata | str], needed: tuple[str, ...]) -> str:
@@ -118,19 +116,19 @@ def _holding(where: Path, found: dict[str, LutMetadata | str], needed: tuple[str
 def _find_cycle_luts(folder: Path, needed: tuple[str, ...]) -> tuple[Path, dict[str, LutMetadata]] | None:
     """(folder holding the cycle LUTs of ``needed``, their headers), or None where no LUT file is found."""
     from evtms.luts.schema import COMPONENT_AXES
+    from evtms.luts.store import LutStore
 
     if folder.exists() and not folder.is_dir():
         raise EvtmsInputError(f"LUT folder {_q(folder)} is a file; {EXPECTED_LUT_FOLDER}")
-    for place in CYCLE_LUT_PLACES:
-        where = folder.joinpath(*place)
+    places = LutStore.places(folder, CYCLE_GRID)
+    for where in places:
         found = _lut_files(where, needed)
         if len(found) == len(needed) and all(_usable(e) for e in found.values()):
             return where, found  # type: ignore[return-value]
     # No complete set: say what is there (every component, the thesis folders too) before
     # anything is built over it.
     held = []
-    for place in CYCLE_LUT_PLACES + _THESIS_PLACES:
-        where = folder.joinpath(*place)
+    for where in places + LutStore.places(folder, _THESIS_GRID)[1:]:
         found = _lut_files(where, tuple(COMPONENT_AXES))
         if found:
             held.append(_holding(where, found, needed))
@@ -145,9 +143,10 @@ def cycle_luts_folder(folder: str | Path, circuit: Topology | str = "cabin+chill
     The LUTs are looked for in ``folder`` itself (as ``evtms bench all --grid
     cycle -o folder`` writes them), in ``folder/cycle`` (``folder`` is the
     ``luts/`` folder ``evtms demo -o OUT`` writes) and in ``folder/luts/cycle``
-    (``folder`` is the demo's ``OUT``), in this order. The first that holds a
-    valid LUT ``<component>.nc`` of every component of ``circuit``, none of
-    them on the thesis grid (its metadata ``grid``), is the one.
+    (``folder`` is the demo's ``OUT``), in this order
+    (:meth:`evtms.luts.store.LutStore.places`). The first that holds a valid
+    LUT of every component of ``circuit``, none of them on the thesis grid
+    (its metadata ``grid``), is the one.
 
     Parameters
     ----------

@@ -7,7 +7,8 @@ saturation curve. What it derives depends only on the source files and on a
 recipe (evtms version, variables, options), so it is cached:
 
 - in the user's cache folder (``$EVTMS_CACHE_DIR``, else
-  ``$XDG_CACHE_HOME/evtms``, else ``~/.cache/evtms``), never beside the LUTs:
+  ``$XDG_CACHE_HOME/evtms``, else ``~/.cache/evtms``: :func:`evtms.luts.store.cache_root`,
+  which also names the entries), never beside the LUTs:
   a LUT folder may be read-only or shared, and a command's inputs stay
   untouched; one folder per entry, ``<name>-<source>-<key>/``, with one
   ``.npy`` file per array and a ``meta.json``; ``source`` hashes the source
@@ -30,7 +31,6 @@ import contextlib
 import hashlib
 import json
 import os
-import re
 import shutil
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
@@ -39,19 +39,17 @@ from pathlib import Path
 import numpy as np
 
 from evtms import __version__
+from evtms.luts.store import (
+    CACHE_DIR_ENV,
+    DISABLE_ENV,
+    array_entries,
+    array_entry,
+    cache_root,
+    caching,
+    stale_array_entries,
+)
 
-#: Environment variable naming the cache folder.
-CACHE_DIR_ENV = "EVTMS_CACHE_DIR"
-#: Set to 1 to neither read nor write the cache (always build in memory).
-DISABLE_ENV = "EVTMS_NO_CACHE"
-
-
-def cache_root() -> Path:
-    """The cache folder: ``$EVTMS_CACHE_DIR``, ``$XDG_CACHE_HOME/evtms`` or ``~/.cache/evtms``."""
-    if os.environ.get(CACHE_DIR_ENV):
-        return Path(os.environ[CACHE_DIR_ENV])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "evtms"
+__all__ = ["CACHE_DIR_ENV", "DISABLE_ENV", "cache_key", "cache_root", "cached_arrays"]
 
 
 def cache_key(sources: Sequence[str | Path], recipe: Mapping) -> str:
@@ -98,32 +96,30 @@ def cached_arrays(
     (dict of str to numpy.ndarray, dict)
         The arrays (memory-mapped, read-only, when from the cache) and info.
     """
-    if os.environ.get(DISABLE_ENV) == "1":
+    if not caching():
         return build()
     key = cache_key(sources, recipe)
-    where = hashlib.sha256("\n".join(str(Path(p).resolve()) for p in sources).encode()).hexdigest()[:12]
-    prefix = f"{name}-{where}"
-    root = cache_root()
-    entry = root / f"{prefix}-{key[:32]}"
+    entry = array_entry(name, sources, key)
     # This path's entry, else one made through a hard link to the same files (same key).
-    candidates = [entry] if entry.is_dir() else sorted(root.glob(f"{name}-*-{key[:32]}"))
+    candidates = [entry] if entry.is_dir() else array_entries(name, key)
     for found in candidates:
         got = _load(found)
         if got is not None:
             return got
     arrays, info = build()
     with contextlib.suppress(OSError):
-        _store(root, entry, prefix, arrays, info)
+        _store(entry, arrays, info)
         got = _load(entry)
         if got is not None:
             return got
     return arrays, info
 
 
-def _store(root: Path, entry: Path, name: str, arrays: Mapping[str, np.ndarray], info: dict) -> None:
-    """Write an entry atomically (temporary folder, then rename) and drop stale ones of ``name``."""
+def _store(entry: Path, arrays: Mapping[str, np.ndarray], info: dict) -> None:
+    """Write an entry atomically (temporary folder, then rename) and drop the stale ones of its sources."""
+    root = entry.parent
     root.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=root))
+    tmp = Path(tempfile.mkdtemp(prefix=f".{entry.name[:-33]}-", dir=root))
     try:
         for key, value in arrays.items():
             np.save(tmp / f"{key}.npy", np.ascontiguousarray(value), allow_pickle=False)
@@ -137,7 +133,5 @@ def _store(root: Path, entry: Path, name: str, arrays: Mapping[str, np.ndarray],
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
-    stale = re.compile(rf"{re.escape(name)}-[0-9a-f]{{32}}")
-    for old in root.iterdir():
-        if old != entry and stale.fullmatch(old.name) and old.is_dir():
-            shutil.rmtree(old, ignore_errors=True)
+    for old in stale_array_entries(entry):
+        shutil.rmtree(old, ignore_errors=True)

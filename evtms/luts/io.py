@@ -18,7 +18,7 @@ import math
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -27,7 +27,16 @@ import numpy as np
 
 from evtms import __version__
 from evtms.errors import EvtmsInputError
-from evtms.luts.schema import AXES, CONVENTIONS, FORMAT_VERSION, variable_spec
+from evtms.luts.schema import (
+    AXES,
+    CONVENTIONS,
+    FLAG_VARIABLES,
+    FORMAT_VERSION,
+    KIND_ATTR,
+    MAP_JSON_ATTR,
+    MAP_REQUIRED_GLOBAL_ATTRS,
+    variable_spec,
+)
 
 if TYPE_CHECKING:  # xarray is imported lazily: it costs ~0.5 s
     import xarray as xr
@@ -154,7 +163,8 @@ def _round_mantissa(values: np.ndarray, bits: int) -> np.ndarray:
 
 
 def store_values(name: str, values: np.ndarray, storage: LutStorage | None = None) -> np.ndarray:
-    """``values`` of variable ``name`` as they are stored: int8 status, floats cast and rounded per ``storage``.
+    """``values`` of variable ``name`` as they are stored: int8 flags (:data:`~evtms.luts.schema.FLAG_VARIABLES`),
+    floats cast and rounded per ``storage``.
 
     Raises
     ------
@@ -162,7 +172,7 @@ def store_values(name: str, values: np.ndarray, storage: LutStorage | None = Non
         A finite value does not fit float32 (with ``storage.float32``).
     """
     storage = storage or LutStorage()
-    if name == "status":
+    if name in FLAG_VARIABLES:
         return np.asarray(values, np.int8)
     values = np.asarray(values)
     if values.dtype.kind != "f":
@@ -180,13 +190,14 @@ def store_values(name: str, values: np.ndarray, storage: LutStorage | None = Non
 def variable_storage(name: str, storage: LutStorage | None = None, ndim: int = 1) -> dict[str, Any]:
     """``netCDF4.Dataset.createVariable`` keyword arguments of LUT data variable ``name``.
 
-    ``status`` is int8 without fill value, floats are in ``storage``'s type
-    with a NaN fill value; all zlib-compressed (level :data:`COMPRESSION_LEVEL`)
-    with the shuffle filter, except scalars (``ndim`` 0), which HDF5 cannot
-    compress. Axes take :func:`axis_storage`.
+    ``status`` (and a map's ``filled``: :data:`~evtms.luts.schema.FLAG_VARIABLES`)
+    is int8 without fill value, floats are in ``storage``'s type with a NaN
+    fill value; all zlib-compressed (level :data:`COMPRESSION_LEVEL`) with the
+    shuffle filter, except scalars (``ndim`` 0), which HDF5 cannot compress.
+    Axes take :func:`axis_storage`.
     """
     storage = storage or LutStorage()
-    if name == "status":
+    if name in FLAG_VARIABLES:
         kwargs: dict[str, Any] = {"datatype": "i1", "fill_value": None}
     else:
         kwargs = {"datatype": storage.dtype.str[1:], "fill_value": storage.dtype.type(np.nan)}
@@ -205,10 +216,10 @@ def storage_attributes(name: str, stored: np.ndarray | None, storage: LutStorage
 
     ``evtms_storage`` (``storage.label``) and ``actual_range`` (smallest and
     largest finite stored value, in the stored type; omitted when there is
-    none, or when ``stored`` is None). ``status`` gets none.
+    none, or when ``stored`` is None). Flags (``status``) get none.
     """
     storage = storage or LutStorage()
-    if name == "status":
+    if name in FLAG_VARIABLES:
         return {}
     attrs: dict[str, Any] = {_STORAGE_ATTR: storage.label}
     if stored is not None:
@@ -262,6 +273,11 @@ def fixed_axes(grid: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], d
     return axes, fixed
 
 
+def _utc_now() -> str:
+    """The current UTC time to the second, ISO 8601 with ``Z`` (``created`` attributes)."""
+    return _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+
+
 def global_attributes(
     *,
     component: str,
@@ -279,7 +295,7 @@ def global_attributes(
     ``fixed_inputs`` maps the inputs that take one value (not axes) to that
     value in SI units.
     """
-    created = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+    created = _utc_now()
     return {
         "Conventions": CONVENTIONS,
         "title": title,
@@ -403,6 +419,141 @@ def write_lut(ds: xr.Dataset, path: str | Path, storage: LutStorage | None = Non
     attrs["lut_format_version"] = np.int32(FORMAT_VERSION)
     with atomic_output(path) as tmp, LutFileWriter(tmp, axes, list(arrays), attributes, attrs, storage=storage) as w:
         w.write((), arrays)  # one slab: the whole dataset
+        w.finish()
+    return path
+
+
+@dataclass(frozen=True, eq=False)
+class MapTable:
+    """A map LUT in memory: complete tables of variables on a rectilinear grid, with their provenance.
+
+    A map is a LUT of a circuit rather than a component (global attribute
+    ``lut_kind`` ``map``): every node holds numbers, a node that was invalid
+    holding a donor node's values (``filled`` 1); ``status`` keeps each node's
+    status as computed. The layer knows nothing of what the variables mean:
+    the caller gives their units and long names.
+
+    Attributes
+    ----------
+    axes : dict of str to numpy.ndarray
+        Axis name -> nodes [SI], float64, finite and strictly increasing, in table order.
+    variables : dict of str to numpy.ndarray
+        Data variable -> values shaped as the grid: float64, finite; ``status``
+        and ``filled`` (:data:`~evtms.luts.schema.FLAG_VARIABLES`) int8.
+    attributes : dict of str to dict
+        Axis or variable name -> its attributes (``units`` and ``long_name``
+        each; a flag's ``flag_values`` and ``flag_meanings``).
+    attrs : dict
+        Global attributes (:data:`~evtms.luts.schema.MAP_REQUIRED_GLOBAL_ATTRS`
+        at least, when written); a dict value is stored as JSON and comes back as a dict.
+    """
+
+    axes: dict[str, np.ndarray]
+    variables: dict[str, np.ndarray]
+    attributes: dict[str, dict]
+    attrs: dict[str, Any]
+
+    def __post_init__(self) -> None:
+        axes = {k: np.ascontiguousarray(v, np.float64).reshape(-1) for k, v in self.axes.items()}
+        shape = tuple(a.size for a in axes.values())
+        variables = {}
+        for k, v in self.variables.items():
+            v = np.ascontiguousarray(v, np.int8 if k in FLAG_VARIABLES else np.float64)
+            if v.shape != shape:
+                raise ValueError(f"map variable {k!r} has shape {v.shape}; the grid is {shape}")
+            variables[k] = v
+        for k, a in axes.items():
+            if a.size == 0 or not np.all(np.isfinite(a)) or np.any(np.diff(a) <= 0):
+                raise ValueError(f"map axis {k!r} must be finite and strictly increasing")
+        object.__setattr__(self, "axes", axes)
+        object.__setattr__(self, "variables", variables)
+
+    @property
+    def name(self) -> str:
+        """The map's name (global attribute ``map_name``)."""
+        return str(self.attrs.get("map_name", ""))
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Node counts per axis."""
+        return tuple(a.size for a in self.axes.values())
+
+    def interpolator(self, variables: Sequence[str] | None = None, out_of_range: str = "clip"):
+        """A multilinear :class:`~evtms.luts.interp.Interpolator` of ``variables`` (default: every float variable).
+
+        Parameters
+        ----------
+        variables : sequence of str, optional
+            Float variables to interpolate, in the order of the results.
+        out_of_range : {"clip", "nan", "error"}
+            Policy for points outside the axes (default: clipped to them).
+
+        Returns
+        -------
+        Interpolator
+        """
+        from evtms.luts.interp import Interpolator
+
+        names = [k for k in self.variables if k not in FLAG_VARIABLES] if variables is None else list(variables)
+        return Interpolator(list(self.axes.items()), {k: self.variables[k] for k in names}, out_of_range)
+
+
+def write_map_lut(table: MapTable, path: str | Path) -> Path:
+    """Write a map LUT with the one LUT writer (:class:`~evtms.luts.writer.LutFileWriter`), atomically.
+
+    Stored as every LUT is (lossless: axes float64 uncompressed, floats with
+    NaN fill value, ``evtms_storage`` and ``actual_range``, flags int8, zlib
+    level :data:`COMPRESSION_LEVEL` with shuffle), with the format's version,
+    ``lut_kind`` ``map``, CF ``Conventions`` and the table's global
+    attributes; dict attributes as JSON text, named in ``json_attributes``.
+
+    Parameters
+    ----------
+    table : MapTable
+        The map; its ``attrs`` hold :data:`~evtms.luts.schema.MAP_REQUIRED_GLOBAL_ATTRS`
+        (``Conventions``, ``lut_kind`` and ``lut_format_version`` are set; ``evtms_version``, ``created``
+        and ``history`` added where missing).
+    path : str or Path
+        The file (its folder must exist).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        A required global attribute is missing, or an axis or variable has no units or long_name.
+    """
+    from evtms.luts.writer import LutFileWriter
+
+    path = Path(path)
+    attrs: dict[str, Any] = {"Conventions": CONVENTIONS, **table.attrs}
+    attrs[KIND_ATTR] = "map"
+    attrs["lut_format_version"] = np.int32(FORMAT_VERSION)
+    attrs.setdefault("evtms_version", __version__)
+    attrs.setdefault("created", _utc_now())
+    attrs.setdefault("history", f"{attrs['created']} written by evtms {__version__}")
+    missing = [k for k in MAP_REQUIRED_GLOBAL_ATTRS if k not in attrs]
+    if missing:
+        raise ValueError(f"map LUT {table.name!r}: global attribute {missing[0]!r} is missing")
+    json_names = [k for k, v in attrs.items() if isinstance(v, dict)]
+    for k in json_names:
+        attrs[k] = json.dumps(attrs[k], sort_keys=True)
+    if json_names:
+        attrs[MAP_JSON_ATTR] = " ".join(json_names)
+    attributes = {}
+    for k in (*table.axes, *table.variables):
+        given = dict(table.attributes.get(k, {}))
+        if "units" not in given or "long_name" not in given:
+            raise ValueError(f"map LUT {table.name!r}: {k!r} needs units and long_name")
+        if k in table.variables and k not in FLAG_VARIABLES:
+            given = {a: v for a, v in given.items() if a not in ("actual_range", _STORAGE_ATTR)}
+            given.update(storage_attributes(k, None))
+        attributes[k] = given
+    with atomic_output(path) as tmp, LutFileWriter(tmp, table.axes, list(table.variables), attributes, attrs) as w:
+        w.write((), table.variables)
         w.finish()
     return path
 

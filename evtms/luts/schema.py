@@ -254,3 +254,28 @@ REQUIRED_GLOBAL_ATTRS = (
 
 #: Global attributes holding JSON objects (``fixed_inputs`` only from version 2, and optional).
 JSON_GLOBAL_ATTRS = ("parameters", "environment", "fixed_inputs")
+
+#: Global attribute saying what a LUT tabulates, one of :data:`LUT_KINDS`. A file without it is a
+#: component LUT (every bench LUT: their files carry no such attribute).
+KIND_ATTR = "lut_kind"
+#: ``component``: one bench's outputs over its inputs, NaN at invalid points (the rules above);
+#: ``map``: a circuit's steady outputs over its commands and boundaries, complete (every node holds
+#: numbers; invalid ones are filled from a donor and marked), written by
+#: :func:`evtms.luts.io.write_map_lut` and read by :func:`evtms.luts.validate.read_map_lut`.
+LUT_KINDS = ("component", "map")
+#: Global attributes every map LUT carries (its own provenance comes besides them).
+MAP_REQUIRED_GLOBAL_ATTRS = (
+    "Conventions",
+    "title",
+    KIND_ATTR,
+    "map_name",
+    "evtms_version",
+    "created",
+    "history",
+    "lut_format_version",
+)
+#: Global attribute of a map LUT listing (space-separated) its other global attributes that hold JSON.
+MAP_JSON_ATTR = "json_attributes"
+#: Data variables stored as int8 flags (no fill value): every LUT's ``status``, and a map's ``filled``
+#: (1 where a node's values were copied from a donor node). Every other data variable is a float.
+FLAG_VARIABLES = ("status", "filled")

@@ -28,13 +28,19 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import numpy as np
 
 from evtms.errors import EvtmsInputError
-from evtms.luts.io import LutStorage, fixed_inputs_json
+from evtms.luts.io import LutStorage, MapTable, fixed_inputs_json
 from evtms.luts.schema import (
     ALTERNATE_AXES,
     AXES,
     COMPONENT_AXES,
     COMPONENT_VARIABLES,
     EXTRA_AXES,
+    FLAG_VARIABLES,
+    FORMAT_VERSION,
+    KIND_ATTR,
+    LUT_KINDS,
+    MAP_JSON_ATTR,
+    MAP_REQUIRED_GLOBAL_ATTRS,
     READABLE_VERSIONS,
     REQUIRED_GLOBAL_ATTRS,
     accepted_units,
@@ -190,6 +196,10 @@ def _axis_conversion(name: str, axis: str, units: Any, convert_units: bool) -> t
 def _check_header(name: str, h: _Header, convert_units: bool) -> _Checked:
     """Every metadata rule of the format, in order; the first broken one raises."""
     version = _version(name, h.attrs)
+    kind = h.attrs.get(KIND_ATTR, "component")
+    if kind != "component":
+        shown = kind if kind in LUT_KINDS else repr(kind)
+        _fail(name, f"holds a {shown} LUT (lut_kind {kind!r}); a component LUT is needed here")
     for attr in REQUIRED_GLOBAL_ATTRS:
         if attr not in h.attrs:
             _fail(name, f"global attribute {attr!r} is missing")
@@ -691,3 +701,120 @@ def valid_flags(ds: xr.Dataset | LutMetadata) -> np.ndarray:
     if isinstance(ds, LutMetadata):
         return ds.valid_flags()
     return np.atleast_1d(ds["status"].attrs.get("valid_flag_values", [0]))
+
+
+# ----------------------------------------------------------------------------
+# Map LUTs
+# ----------------------------------------------------------------------------
+def _check_map_axis(name: str, d: str, coords: Mapping[str, tuple[np.ndarray, dict]]) -> np.ndarray:
+    if d not in coords:
+        _fail(name, f"axis {d!r} has no coordinate variable")
+    values, attrs = coords[d]
+    values = np.asarray(values)
+    if values.ndim != 1 or values.dtype != np.float64:
+        _fail(name, f"axis {d!r} must be a 1-D float64 coordinate")
+    if not np.all(np.isfinite(values)) or not np.all(np.diff(values) > 0):
+        _fail(name, f"axis {d!r} must be finite and strictly increasing")
+    if "_FillValue" in attrs:
+        _fail(name, f"axis {d!r} has a _FillValue; coordinates carry none")
+    if "units" not in attrs or "long_name" not in attrs:
+        _fail(name, f"axis {d!r} needs units and long_name")
+    return values
+
+
+def read_map_lut(path: str | Path, expect: Mapping[str, Any] | None = None) -> MapTable:
+    """Read and check a map LUT (:func:`evtms.luts.io.write_map_lut`), the file closed again on return.
+
+    The rules: a netCDF file of a readable format version with ``lut_kind``
+    ``map`` and :data:`~evtms.luts.schema.MAP_REQUIRED_GLOBAL_ATTRS`; every
+    data variable on the same axes, each axis a 1-D float64 coordinate,
+    finite and strictly increasing, without ``_FillValue``; every axis and
+    variable with ``units`` and ``long_name``; floats finite at every node
+    (a map is complete); flags int8, ``status`` with ``flag_values`` and
+    ``flag_meanings`` that pair up and define every code it holds.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    expect : mapping, optional
+        Global attributes the file must carry with these values (e.g. its
+        cache key), checked before any data is read.
+
+    Returns
+    -------
+    MapTable
+        Axes, variables (floats as float64) and attributes as stored (without
+        ``_FillValue``); the global attributes named in ``json_attributes``
+        decoded.
+
+    Raises
+    ------
+    LutFormatError
+        The file is missing, not netCDF, truncated, another kind of LUT, an
+        expected attribute differs, or a rule is broken; one line naming the
+        file and the rule.
+    """
+    path = Path(path)
+    name = str(path)
+    _signature(path, name)
+    with _netcdf(path, name) as nc:
+        attrs = _attr_dict(nc)
+        _version(name, attrs)
+        kind = attrs.get(KIND_ATTR, "component")
+        if kind != "map":
+            shown = kind if kind in LUT_KINDS else repr(kind)
+            _fail(name, f"holds a {shown} LUT (lut_kind {kind!r}); a map LUT is needed here")
+        for attr in MAP_REQUIRED_GLOBAL_ATTRS:
+            if attr not in attrs:
+                _fail(name, f"global attribute {attr!r} is missing")
+        for key, value in (expect or {}).items():
+            if attrs.get(key) != value:
+                _fail(name, f"global attribute {key} is {attrs.get(key)!r}; expected {value!r}")
+        coord_names = {v for v, var in nc.variables.items() if v in nc.dimensions and var.dimensions == (v,)}
+        data = [v for v in nc.variables if v not in coord_names]
+        if not data:
+            _fail(name, "the file holds no data variable")
+        dims = list(nc.variables[data[0]].dimensions)
+        sizes = {d: len(nc.dimensions[d]) for d in dims}
+        _check_size(name, dims, sizes)
+        coords = {d: (_read(name, nc.variables[d]), _attr_dict(nc.variables[d])) for d in dims if d in coord_names}
+        axes = {d: _check_map_axis(name, d, coords) for d in dims}
+        attributes = {d: coords[d][1] for d in dims}
+        variables = {}
+        for v in data:
+            var = nc.variables[v]
+            vattrs = {k: a for k, a in _attr_dict(var).items() if k != "_FillValue"}
+            if list(var.dimensions) != dims:
+                _fail(name, f"variable {v!r} has dimensions {', '.join(var.dimensions)}; expected {', '.join(dims)}")
+            if "units" not in vattrs or "long_name" not in vattrs:
+                _fail(name, f"variable {v!r} needs units and long_name")
+            values = _read(name, var)
+            if v in FLAG_VARIABLES:
+                if values.dtype != np.int8:
+                    _fail(name, f"{v} must be int8, not {values.dtype}")
+            elif values.dtype.kind != "f":
+                _fail(name, f"variable {v!r} is {values.dtype}; expected float64")
+            else:
+                values = values.astype(np.float64, copy=False)
+                if not np.all(np.isfinite(values)):
+                    _fail(name, f"variable {v!r} is not finite at every node; a map is complete")
+            variables[v] = values
+            attributes[v] = vattrs
+    if "status" in variables:
+        flags, meanings = attributes["status"].get("flag_values"), attributes["status"].get("flag_meanings")
+        if flags is None or meanings is None:
+            _fail(name, "status needs flag_values and flag_meanings")
+        flags = np.atleast_1d(flags)
+        if len(flags) != len(str(meanings).split()) or 0 not in flags:
+            _fail(name, "status flag_values and flag_meanings must pair up and include 0 = valid")
+        _check_status(name, variables["status"], flags)
+    for k in str(attrs.get(MAP_JSON_ATTR, "")).split():
+        attrs[k] = _json_object(name, k, attrs.get(k))
+    attrs.pop(MAP_JSON_ATTR, None)
+    if int(np.asarray(attrs["lut_format_version"]).reshape(-1)[0]) != FORMAT_VERSION:
+        _fail(name, f"map LUTs are written in format version {FORMAT_VERSION} only")
+    try:
+        return MapTable(axes, variables, attributes, attrs)
+    except ValueError as exc:
+        _fail(name, str(exc))

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from evtms.luts.io import LutStorage, axis_storage, finite_range, store_values, variable_storage
+from evtms.luts.schema import FLAG_VARIABLES
 
 
 class LutFileWriter:
@@ -119,7 +120,7 @@ class LutFileWriter:
         index = tuple(index) + (slice(None),) * (len(self.axes) - len(index))
         for name, values in arrays.items():
             values = store_values(name, values, self.storage)
-            if name != "status" and values.dtype.kind == "f":
+            if name not in FLAG_VARIABLES and values.dtype.kind == "f":
                 lo, hi = finite_range(values)
                 if lo is not None:
                     old = self.ranges.setdefault(name, [lo, hi])

@@ -50,28 +50,36 @@ A map without any valid node is an error. The filled nodes are counted
 (``CycleMap.filled``, file attribute ``filled``) and marked (variable
 ``filled``).
 
-Maps are cached beside the LUTs in ``<luts_folder>/maps/<name>.nc`` (see
-:func:`load_maps`).
+A map is a LUT of a circuit: it is written and read by the LUT layer
+(:func:`evtms.luts.io.write_map_lut`, :func:`evtms.luts.validate.read_map_lut`;
+``docs/lut-format.md``) and kept by the LUT folder's
+:class:`~evtms.luts.store.LutStore`, which caches it beside the LUTs and
+rebuilds it when stale (see :func:`load_maps`). In Python a map interpolates
+through the LUT layer's :class:`~evtms.luts.interp.Interpolator`
+(:meth:`CycleMap.interp`); the time loop calls :data:`map_interp`, its
+compiled twin (the same multilinear weights, summed corner by corner rather
+than blended axis by axis: equal to rounding, checked by the tests).
 """
 
 from __future__ import annotations
 
-import contextlib
 import datetime as dt
-import hashlib
-import json
 import math
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from evtms import __version__
 from evtms._jit import jit
 from evtms.errors import EvtmsInputError, EvtmsInterrupted
+
+if TYPE_CHECKING:
+    from evtms.luts.io import MapTable
 
 #: The outputs of every map, in slot order.
 MAP_OUTPUTS = (
@@ -124,7 +132,8 @@ AXIS_INPUTS = {
 }
 
 #: Bump when the build rule or the file layout changes: cached maps of another format are rebuilt.
-MAP_FORMAT = 2
+#: 3: map LUTs written and read by the LUT layer (evtms.luts.io.write_map_lut, lut_kind "map").
+MAP_FORMAT = 3
 
 
 @dataclass(frozen=True)
@@ -327,6 +336,7 @@ class CycleMap:
     filled: int
     filled_nodes: np.ndarray | None = None
     attrs: dict = field(default_factory=dict)
+    _interpolator: object = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         nodes = tuple(np.ascontiguousarray(n, dtype=np.float64).reshape(-1) for n in self.nodes)
@@ -368,29 +378,40 @@ class CycleMap:
         return knots, starts, self.values.reshape(-1, len(MAP_OUTPUTS))
 
     def interp(self, x: Sequence[float]) -> tuple[np.ndarray, bool]:
-        """The outputs at one point, by :func:`map_interp` (a convenience; the loop calls the kernel).
+        """The outputs at one point, by the LUT layer's interpolator (the loop calls :data:`map_interp`).
 
         Parameters
         ----------
         x : sequence of float
-            One value per axis [SI, K for temperatures].
+            One value per axis [SI, K for temperatures]. A coordinate outside
+            its axis is clipped to the axis' end; NaN gives NaN outputs.
 
         Returns
         -------
         (numpy.ndarray, bool)
             The 9 outputs (:data:`MAP_OUTPUTS`) and whether a coordinate was clipped.
         """
-        knots, starts, table = self.packed()
-        out = np.empty(len(MAP_OUTPUTS))
-        clipped = map_interp(knots, starts, table, np.asarray(x, np.float64).reshape(-1), out)
-        return out, bool(clipped)
+        if self._interpolator is None:
+            from evtms.luts.interp import Interpolator
+
+            axes = list(zip(self.axes, self.nodes, strict=True))
+            itp = Interpolator(axes, {k: self.output(k) for k in MAP_OUTPUTS}, out_of_range="nan")
+            object.__setattr__(self, "_interpolator", itp)
+        x = np.asarray(x, np.float64).reshape(-1)
+        lo = np.array([n[0] for n in self.nodes])
+        hi = np.array([n[-1] for n in self.nodes])
+        inside = np.clip(x, lo, hi)  # NaN stays NaN: the 'nan' policy gives NaN outputs for it
+        clipped = bool(np.any((x < lo) | (x > hi)))
+        res = self._interpolator(inside[None, :])
+        return np.array([res[k][0] for k in MAP_OUTPUTS]), clipped
 
 
 def _map_interp(knots, starts, table, x, out):
     """Multilinear interpolation of every column of ``table`` at ``x``, the same weights for each.
 
     Plain scalar code (numba-compilable); :data:`map_interp` is its compiled
-    form.
+    form, the time loop's twin of :meth:`CycleMap.interp` (the LUT layer's
+    interpolator), which it equals to rounding.
 
     Parameters
     ----------
@@ -517,6 +538,7 @@ def map_axes(name: str, luts_folder: str | Path, settings: MapSettings | None = 
         Nodes per axis [SI, K for temperatures], in the map's axis order.
     """
     from evtms.cycle.tables import CycleLut
+    from evtms.luts.store import LutStore
     from evtms.paths import input_file
 
     if name not in MAPS:
@@ -528,7 +550,7 @@ def map_axes(name: str, luts_folder: str | Path, settings: MapSettings | None = 
         if values is None:
             values = COARSE_AXES.get(name, {}).get(axis, DEFAULT_AXES[axis])
         if values is None:  # the evaporator grid's humidity axis
-            path = Path(luts_folder) / "evaporator.nc"
+            path = LutStore(luts_folder).lut("evaporator")
             if not path.exists():
                 raise EvtmsInputError(f"{path}: no such file; write the cycle LUTs with 'evtms bench all --grid cycle'")
             values = CycleLut(input_file(path, "LUT file"), "evaporator").axes["RH_air_in"]
@@ -671,23 +693,6 @@ def fill_invalid(
     return values, ok & ~np.asarray(valid, bool)
 
 
-def _lut_identity(folder: Path, topology: str) -> dict[str, dict]:
-    """Each LUT file a map of ``topology`` is built from: name, size and mtime_ns (its cache key part)."""
-    from evtms.cycle.api import load_cycle_luts
-    from evtms.cycle.topology import topology as get_topology
-
-    out = {}
-    for c in get_topology(topology).components:
-        path = folder / f"{c}.nc"
-        try:
-            st = os.stat(path)
-        except OSError:
-            load_cycle_luts(folder, topology)  # its one-line error names the missing or bad file
-            raise
-        out[c] = {"file": path.name, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
-    return out
-
-
 @dataclass
 class _Plan:
     """One map to build: its axes, operating inputs, cache key and provenance."""
@@ -704,10 +709,13 @@ class _Plan:
 
 
 def _plan(name: str, folder: Path, settings: MapSettings) -> _Plan:
+    from evtms.cycle.api import load_cycle_luts
+    from evtms.cycle.topology import topology
+    from evtms.luts.store import LutStore
+
     spec = MAPS[name]
     axes = map_axes(name, folder, settings)
-    luts = _lut_identity(folder, spec.topology)
-    provenance = {
+    recipe = {
         "map_format": MAP_FORMAT,
         "evtms_version": __version__,
         "map_name": name,
@@ -715,9 +723,12 @@ def _plan(name: str, folder: Path, settings: MapSettings) -> _Plan:
         "fixed": dict(spec.fixed),
         "settings": settings.recipe(name),
         "axes": {a: [float(v) for v in axes[a]] for a in spec.axes},
-        "lut_files": luts,
     }
-    key = hashlib.sha256(json.dumps(provenance, sort_keys=True).encode()).hexdigest()
+    try:
+        key, provenance = LutStore(folder).map_key(recipe, topology(spec.topology).components)
+    except OSError:
+        load_cycle_luts(folder, spec.topology)  # its one-line error names the missing or bad file
+        raise
     return _Plan(name, axes, operating_inputs(name, axes, settings), key, provenance)
 
 
@@ -843,8 +854,8 @@ def build_map(
 # Files
 
 
-def map_dataset(cmap: CycleMap):
-    """A map as an :class:`xarray.Dataset`: one variable per output with units, provenance attributes.
+def map_table(cmap: CycleMap) -> MapTable:
+    """A map as the LUT layer stores it (:class:`evtms.luts.io.MapTable`): outputs with units, provenance.
 
     Parameters
     ----------
@@ -853,58 +864,71 @@ def map_dataset(cmap: CycleMap):
 
     Returns
     -------
-    xarray.Dataset
+    MapTable
         Outputs (:data:`OUTPUT_ATTRS`), ``filled`` and ``status`` (int8) on the
-        map's axes; dict attributes as JSON text.
+        map's axes; global attributes: the provenance, fill rule and counts.
     """
-    import xarray as xr
-
     from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
+    from evtms.luts.io import MapTable
 
-    dims = cmap.axes
-    coords = {
-        a: xr.Variable(a, n, {"units": AXIS_ATTRS[a][0], "long_name": AXIS_ATTRS[a][1]})
-        for a, n in zip(dims, cmap.nodes, strict=True)
+    axes = dict(zip(cmap.axes, cmap.nodes, strict=True))
+    attributes = {a: {"units": AXIS_ATTRS[a][0], "long_name": AXIS_ATTRS[a][1]} for a in cmap.axes}
+    variables = {k: cmap.output(k) for k in MAP_OUTPUTS}
+    attributes |= {k: {"units": OUTPUT_ATTRS[k][0], "long_name": OUTPUT_ATTRS[k][1]} for k in MAP_OUTPUTS}
+    variables["filled"] = np.zeros(cmap.shape, np.int8) if cmap.filled_nodes is None else cmap.filled_nodes
+    attributes["filled"] = {
+        "units": "1",
+        "long_name": "1: node invalid on the LUTs, values copied from a donor node",
+        "flag_values": np.array([0, 1], np.int8),
+        "flag_meanings": "solved filled",
     }
-    data = {
-        k: xr.Variable(dims, cmap.output(k), {"units": OUTPUT_ATTRS[k][0], "long_name": OUTPUT_ATTRS[k][1]})
-        for k in MAP_OUTPUTS
-    }
-    filled = np.zeros(cmap.shape, np.int8) if cmap.filled_nodes is None else cmap.filled_nodes.astype(np.int8)
-    data["filled"] = xr.Variable(
-        dims, filled, {"units": "1", "long_name": "1: node invalid on the LUTs, values copied from a donor node"}
-    )
-    attrs = {k: v for k, v in cmap.attrs.items() if k != "status"}
     if "status" in cmap.attrs:
         codes = sorted(CYCLE_FLAGS)
-        data["status"] = xr.Variable(
-            dims,
-            np.asarray(cmap.attrs["status"], np.int8),
-            {
-                "units": "1",
-                "long_name": "cycle status of the node as solved (before the fill)",
-                "flag_values": np.array(codes, np.int8),
-                "flag_meanings": " ".join(CYCLE_FLAGS[c] for c in codes),
-                "valid_flag_values": np.array(VALID_CYCLE_FLAGS, np.int8),
-            },
-        )
-    for k in ("fixed", "settings", "axes", "lut_files"):
-        if k in attrs:
-            attrs[k] = json.dumps(attrs[k], sort_keys=True)
+        variables["status"] = np.asarray(cmap.attrs["status"], np.int8)
+        attributes["status"] = {
+            "units": "1",
+            "long_name": "cycle status of the node as solved (before the fill)",
+            "flag_values": np.array(codes, np.int8),
+            "flag_meanings": " ".join(CYCLE_FLAGS[c] for c in codes),
+            "valid_flag_values": np.array(VALID_CYCLE_FLAGS, np.int8),
+        }
+    attrs = {k: v for k, v in cmap.attrs.items() if k != "status"}
+    created = attrs.get("created", "")
     attrs = {
-        "Conventions": "CF-1.10",
         "title": f"evtms steady cycle map {cmap.name}",
         "description": MAPS[cmap.name].description if cmap.name in MAPS else "",
         "fill_rule": "invalid nodes copy the whole output vector of the nearest valid node at lower speed, "
         "else higher speed, else along T_amb, then the other axes in map order (evtms.system.maps)",
+        "history": f"{created} built by the cycle solver on the LUTs (evtms.system.maps)".strip(),
         **attrs,
+        "map_name": cmap.name,
         "filled": int(cmap.filled),
     }
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    return MapTable(axes, variables, attributes, attrs)
+
+
+def cycle_map(table: MapTable) -> CycleMap:
+    """The cycle map a map table of :func:`map_table` holds.
+
+    Raises
+    ------
+    KeyError, ValueError, TypeError
+        Not a cycle map: an unknown name, other axes, a missing output or count.
+    """
+    name = table.name
+    axes = tuple(MAPS[name].axes)
+    if tuple(table.axes) != axes:
+        raise ValueError(f"map {name}: axes {', '.join(table.axes)}; expected {', '.join(axes)}")
+    values = np.stack([table.variables[k] for k in MAP_OUTPUTS], axis=-1)
+    attrs = dict(table.attrs)
+    if "status" in table.variables:
+        attrs["status"] = table.variables["status"]
+    filled = np.asarray(table.variables["filled"], bool)
+    return CycleMap(name, axes, tuple(table.axes.values()), values, int(attrs["filled"]), filled, attrs)
 
 
 def write_map(cmap: CycleMap, path: str | Path) -> Path:
-    """Write a map to netCDF atomically (a temporary file beside ``path``, then :func:`os.replace`).
+    """Write a map as a map LUT (:func:`evtms.luts.io.write_map_lut`: the one LUT writer, atomically).
 
     Parameters
     ----------
@@ -918,75 +942,33 @@ def write_map(cmap: CycleMap, path: str | Path) -> Path:
     Path
         ``path``.
     """
-    from evtms.luts.io import atomic_output
+    from evtms.luts.io import write_map_lut
 
-    ds = map_dataset(cmap)
-    encoding: dict[str, dict] = {d: {"_FillValue": None} for d in ds.coords}
-    for k in ds.data_vars:
-        encoding[k] = {"_FillValue": None, "zlib": True, "shuffle": True, "complevel": 4}
-    path = Path(path)
-    with atomic_output(path) as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
-    return path
+    return write_map_lut(map_table(cmap), path)
 
 
 def read_map(path: str | Path, key: str | None = None) -> CycleMap | None:
-    """The map in a file of :func:`write_map`.
+    """The map in a file of :func:`write_map` (:func:`evtms.luts.validate.read_map_lut`).
 
     Parameters
     ----------
     path : path
         The map file.
     key : str, optional
-        The ``map_key`` the file must carry (the cache key of :func:`load_maps`).
+        The cache key the file must carry (:meth:`evtms.luts.store.LutStore.map_key`).
 
     Returns
     -------
     CycleMap or None
-        None if the file is missing, unreadable, malformed or (with ``key``) stale.
+        None if the file is missing, unreadable, no valid map LUT, not a cycle map or (with ``key``) stale.
     """
-    import xarray as xr
+    from evtms.luts.store import KEY_ATTR
+    from evtms.luts.validate import read_map_lut
 
     try:
-        with xr.open_dataset(path, engine="netcdf4", decode_times=False) as ds:
-            attrs = dict(ds.attrs)
-            if key is not None and attrs.get("map_key") != key:
-                return None
-            name = str(attrs["map_name"])
-            axes = tuple(MAPS[name].axes)
-            nodes = tuple(np.asarray(ds[a].values, np.float64) for a in axes)
-            values = np.stack([np.asarray(ds[k].transpose(*axes).values, np.float64) for k in MAP_OUTPUTS], axis=-1)
-            filled_nodes = np.asarray(ds["filled"].transpose(*axes).values, bool)
-            if "status" in ds:
-                attrs["status"] = np.asarray(ds["status"].transpose(*axes).values, np.int8)
-    except (OSError, ValueError, KeyError, RuntimeError, TypeError):
-        return None  # damaged, truncated, another layout: rebuild
-    for k in ("fixed", "settings", "axes", "lut_files"):
-        with contextlib.suppress(KeyError, TypeError, ValueError):
-            attrs[k] = json.loads(attrs[k])
-    try:
-        return CycleMap(name, axes, nodes, values, int(attrs["filled"]), filled_nodes, attrs)
-    except (ValueError, KeyError, TypeError):
+        return cycle_map(read_map_lut(path, None if key is None else {KEY_ATTR: key}))
+    except (EvtmsInputError, OSError, ValueError, KeyError, TypeError):
         return None
-
-
-def _locations(folder: Path, name: str) -> tuple[Path, Path]:
-    """Where map ``name`` of the LUTs in ``folder`` is cached: beside them, and the user-cache fallback."""
-    from evtms.luts.cache import cache_root
-
-    where = hashlib.sha256(str(folder.resolve()).encode()).hexdigest()[:16]
-    return folder / "maps" / f"{name}.nc", cache_root() / "maps" / where / f"{name}.nc"
-
-
-def _store(cmap: CycleMap, places: Sequence[Path]) -> None:
-    """Write ``cmap`` to the first place that can be written (none: it stays in memory only)."""
-    for path in places:
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            write_map(cmap, path)
-            return
-        except (OSError, RuntimeError):
-            continue
 
 
 def load_maps(
@@ -999,18 +981,16 @@ def load_maps(
 ) -> dict[str, CycleMap]:
     """The cycle maps ``names`` of the LUTs in ``luts_folder``, from the cache or built.
 
-    A map is cached in ``<luts_folder>/maps/<name>.nc`` (netCDF with units;
-    attributes: the LUT files' identities, the settings as JSON, the filled
-    count, evtms's version, created). It is rebuilt when one of the LUTs it
-    is made from changed (file name, size or mtime_ns), when the settings,
-    its axes, the evtms version or :data:`MAP_FORMAT` differ, or when the file
-    is unreadable; maps to build are solved together (one pool of workers).
-    Files are written atomically (temporary file + :func:`os.replace`), so a
-    concurrent run never reads a partial file (the last writer wins). Where
-    the LUT folder cannot be written, the map goes to the user cache
-    (:func:`evtms.luts.cache.cache_root` ``/maps/<folder hash>/``); where
-    neither can, it is returned unsaved. ``EVTMS_NO_CACHE=1`` neither reads
-    nor writes any file.
+    The folder's :class:`~evtms.luts.store.LutStore` keeps them: a map is
+    cached in ``<luts_folder>/maps/<name>.nc``, a map LUT (netCDF with units;
+    attributes: the LUT files' signatures, the settings as JSON, the filled
+    count, evtms's version, created), and rebuilt when one of the LUTs it is
+    made from changed (file name, size or mtime_ns), when the settings, its
+    axes, the evtms version or :data:`MAP_FORMAT` differ, or when the file is
+    unreadable; maps to build are solved together (one pool of workers).
+    Where the LUT folder cannot be written, the map goes to the user cache;
+    where neither can, it is returned unsaved. ``EVTMS_NO_CACHE=1`` neither
+    reads nor writes any file.
 
     Parameters
     ----------
@@ -1039,7 +1019,7 @@ def load_maps(
         Unknown map name, missing or bad LUT file or folder, bad settings, or a
         map without any solved node.
     """
-    from evtms.luts.cache import DISABLE_ENV
+    from evtms.luts.store import LutStore
 
     folder = Path(luts_folder)
     if folder.exists() and not folder.is_dir():
@@ -1050,19 +1030,11 @@ def load_maps(
     if unknown:
         raise EvtmsInputError(f"cycle map {unknown[0]!r} is unknown; allowed: {', '.join(MAPS)}")
     settings = settings or MapSettings()
-    use_files = os.environ.get(DISABLE_ENV) != "1"
-    plans = [_plan(n, folder, settings) for n in dict.fromkeys(names)]
-    maps: dict[str, CycleMap] = {}
-    for p in plans:
-        for path in _locations(folder, p.name) if use_files else ():
-            if path.is_file() and (got := read_map(path, p.key)) is not None:
-                maps[p.name] = got
-                break
-    stale = [p for p in plans if p.name not in maps]
-    if stale:
-        built = _build(stale, folder, progress, workers)
-        for name, cmap in built.items():
-            if use_files:
-                _store(cmap, _locations(folder, name))
-            maps[name] = cmap
+    plans = {n: _plan(n, folder, settings) for n in dict.fromkeys(names)}
+
+    def build(stale: Sequence[str]) -> dict[str, MapTable]:
+        built = _build([plans[n] for n in stale], folder, progress, workers)
+        return {n: map_table(cmap) for n, cmap in built.items()}
+
+    maps = LutStore(folder).load_maps({n: p.key for n, p in plans.items()}, build, cycle_map)
     return {n: maps[n] for n in names}

@@ -191,14 +191,15 @@ def load_refrigerant(
     from evtms.cycle import load_cycle_luts
     from evtms.cycle.api import saturation_curve
     from evtms.cycle.tables import made_with
+    from evtms.luts.store import LutStore
 
     params = params or SystemParams()
     settings = settings or map_settings(params)
     # Every LUT the maps need is read (headers) and checked first: a bad one is one error before any map work.
     luts = load_cycle_luts(luts_folder, "cabin+chiller")
     sat = saturation_curve(luts)
-    # The LUTs all come from one folder, the one found in luts_folder: the maps are cached there.
-    folder = next(iter(luts.values())).path.parent
+    # The LUTs all come from one folder, the one found in luts_folder: its store caches the maps.
+    folder = LutStore.containing(next(iter(luts.values())).path).folder
     maps = load_maps(folder, settings, progress=progress)
     return Refrigerant(
         maps=maps,

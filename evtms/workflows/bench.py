@@ -172,11 +172,13 @@ def _check(request: BenchRequest) -> int:
 
 def _targets(request: BenchRequest, inputs: list[Path]) -> dict[str, Path]:
     """The LUT file of each bench: ``output`` (or ``luts/<name>.nc``), or ``<output>/<name>.nc`` for several."""
+    from evtms.luts.store import SUFFIX, LutStore
+
     names = list(request.names)
     if len(names) > 1:
         folder = output_folder(request.output or Path("luts"), inputs)
-        return {name: output_file(folder / f"{name}.nc", inputs) for name in names}
-    return {names[0]: output_file(request.output or Path("luts") / f"{names[0]}.nc", inputs, (".nc",))}
+        return {name: output_file(path, inputs) for name, path in LutStore(folder).luts(names).items()}
+    return {names[0]: output_file(request.output or LutStore(Path("luts")).lut(names[0]), inputs, (SUFFIX,))}
 
 
 def _plan(request: BenchRequest):

@@ -144,12 +144,13 @@ def ensure_luts(
     Ctrl-C raises KeyboardInterrupt (a sweep's saved chunks stay in its
     partial folder).
     """
+    from evtms.luts.store import LutStore
+
     notify = notify or (lambda message: None)
     result = result or DemoResult(index=folder / "index.html")
     folder.mkdir(parents=True, exist_ok=True)
     jobs, reused = [], []
-    for c in _components():
-        path = folder / f"{c}.nc"
+    for c, path in LutStore(folder).luts(_components()).items():
         if not force and lut_is_current(path, c, grid, params):
             reused.append(f"{grid}/{c}")
         else:
@@ -226,6 +227,7 @@ def run_demo(
         an output folder that cannot be written (checked before any work).
     """
     from evtms.errors import EvtmsInputError
+    from evtms.luts.store import LutStore
     from evtms.paths import creating_parents, output_folder
     from evtms.system.params import load_parameter_tree
     from evtms.workflows.common import params_input
@@ -241,7 +243,7 @@ def run_demo(
     result = DemoResult(index=out / "index.html")
     with creating_parents(out, folder=True):
         for grid in GRIDS:
-            ensure_luts(out / "luts" / grid, grid, params, force, workers, notify, result)
+            ensure_luts(LutStore.demo(out, grid).folder, grid, params, force, workers, notify, result)
         t0 = time.perf_counter()
         simulation = _simulation(out, notify, map_settings)
         _cycle_and_reports(out, params, result, notify, simulation)
@@ -255,6 +257,7 @@ DEMO_SIMULATION = {"cycle": "wltc3b", "T_amb": 313.15, "T_init": 313.15, "sun": 
 
 def _simulation(out: Path, notify: Notify, map_settings) -> dict:
     """One WLTC simulation on the cycle LUTs' maps: its file, figure and summary."""
+    from evtms.luts.store import LutStore
     from evtms.reports.system_plots import simulation_figure
     from evtms.system.drive_cycles import drive_cycle
     from evtms.system.output import to_dataset, write_simulation
@@ -262,7 +265,7 @@ def _simulation(out: Path, notify: Notify, map_settings) -> dict:
     from evtms.system.simulate import simulate
 
     notify("building the cycle maps for the system simulation (cached beside the cycle LUTs)")
-    refrigerant = load_refrigerant(out / "luts" / "cycle", settings=map_settings)
+    refrigerant = load_refrigerant(LutStore.demo(out, "cycle").folder, settings=map_settings)
     spec = DEMO_SIMULATION
     notify(f"simulating {spec['cycle']} at {spec['T_amb'] - 273.15:g} degC after a hot soak")
     run = simulate(
@@ -289,6 +292,7 @@ def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify
     from evtms.fluid import Fluid
     from evtms.luts import open_lut
     from evtms.luts.io import atomic_output
+    from evtms.luts.store import LutStore
     from evtms.reports.bench_plots import bench_report_figures
     from evtms.reports.cycle_plots import diagram_data, energy_balance_figure, ph_diagram, pt_diagram
     from evtms.reports.html import bench_report_page
@@ -296,12 +300,13 @@ def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify
     fluid = Fluid(params.fluid, params.backend)
     # Cycle over compressor speed at the default conditions.
     notify("solving the cycle over compressor speed on the cycle LUTs")
-    luts = load_cycle_luts(out / "luts" / "cycle")
+    cycle_store = LutStore.demo(out, "cycle")
+    luts = load_cycle_luts(cycle_store.folder)
     # Over compressor speed, every other input at its default.
     grid = {"speed": np.linspace(0.2, 1.0, 9)}
     grid |= {k: np.array([INPUTS[k].default]) for k in TOPOLOGIES["cabin"].inputs if k != "speed"}
     _, res = solve_grid(grid, luts, params, "cabin", fluid)
-    sweep = cycle_dataset(grid, res, "LUTs in luts/cycle")
+    sweep = cycle_dataset(grid, res, f"LUTs in {cycle_store.folder.relative_to(out).as_posix()}")
     (out / "cycle").mkdir(exist_ok=True)
     with atomic_output(out / "cycle" / "speed_sweep.nc") as tmp:
         sweep.to_netcdf(tmp, engine="netcdf4")
@@ -327,7 +332,7 @@ def _cycle_and_reports(out: Path, params: Parameters, result: DemoResult, notify
     bench_pages = []
     for c in _components():
         notify(f"drawing the {c} bench report")
-        lut_path = out / "luts" / "thesis" / f"{c}.nc"
+        lut_path = LutStore.demo(out, "thesis").lut(c)
         ds = open_lut(lut_path)
         folder = out / "reports" / c
         folder.mkdir(parents=True, exist_ok=True)
@@ -340,6 +345,7 @@ def _write_index(out: Path, result: DemoResult, bench_pages, cycle_figures, swee
     import html
 
     from evtms.cycle.solver import CYCLE_FLAGS
+    from evtms.luts.store import LutStore
     from evtms.reports.html import _rel, _table, write_page
 
     body = [
@@ -350,9 +356,8 @@ def _write_index(out: Path, result: DemoResult, bench_pages, cycle_figures, swee
         body.append(f'<li><a href="{_rel(page, out)}">{html.escape(c)}</a></li>')
     body.append("</ul><h2>LUT files</h2><ul>")
     for grid in GRIDS:
-        for c in _components():
-            p = out / "luts" / grid / f"{c}.nc"
-            body.append(f'<li><a href="{_rel(p, out)}">{grid}/{c}.nc</a></li>')
+        for p in LutStore.demo(out, grid).luts(_components()).values():
+            body.append(f'<li><a href="{_rel(p, out)}">{grid}/{p.name}</a></li>')
     body.append("</ul><h2>Cycle on the LUTs</h2>")
     rows = []
     for i, speed in enumerate(sweep["speed"].values):

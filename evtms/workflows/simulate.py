@@ -136,6 +136,7 @@ def cycle_luts(luts: Path) -> tuple[Path | None, list[Path]]:
     of cycle LUTs, is refused: nothing is built over LUTs already there.
     """
     from evtms.cycle.api import cycle_luts_folder
+    from evtms.luts.store import LutStore
 
     luts = Path(luts)
     if luts.exists() and not luts.is_dir():
@@ -148,7 +149,7 @@ def cycle_luts(luts: Path) -> tuple[Path | None, list[Path]]:
         raise EvtmsInputError(f"`luts`: {exc}") from None
     if folder is None:
         return None, []
-    return folder, sorted(folder.glob("*.nc")) + sorted((folder / "maps").glob("*.nc"))
+    return folder, LutStore(folder).files()
 
 
 def surrogate_models(path: Path):
@@ -178,6 +179,7 @@ def system_refrigerant(
     reported to ``progress`` under its name.
     """
     from evtms.cycle import load_cycle_luts
+    from evtms.luts.store import LutStore
     from evtms.system.refrigerant import load_refrigerant
     from evtms.workflows.demo import ensure_luts
 
@@ -195,7 +197,7 @@ def system_refrigerant(
     def maps(done: int, total: int, name: str) -> None:
         if name not in announced:
             announced.add(name)
-            notify(f"building cycle map {name} in {folder}/maps/ (once)")
+            notify(f"building cycle map {name} in {LutStore(folder).maps_folder}/ (once)")
         if progress is not None:
             progress(done, total, name)
 
