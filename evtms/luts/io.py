@@ -41,6 +41,8 @@ from evtms.luts.schema import (
 if TYPE_CHECKING:  # xarray is imported lazily: it costs ~0.5 s
     import xarray as xr
 
+    from evtms.luts.interp import Interpolator
+
 #: zlib level of every data variable: level 4 gives nearly all of level 9's size at a third of its time.
 COMPRESSION_LEVEL = 4
 #: Most significant decimal digits a lossy float32 variable may keep (float32 holds about 7).
@@ -478,7 +480,7 @@ class MapTable:
         """Node counts per axis."""
         return tuple(a.size for a in self.axes.values())
 
-    def interpolator(self, variables: Sequence[str] | None = None, out_of_range: str = "clip"):
+    def interpolator(self, variables: Sequence[str] | None = None, out_of_range: str = "clip") -> Interpolator:
         """A multilinear :class:`~evtms.luts.interp.Interpolator` of ``variables`` (default: every float variable).
 
         Parameters
