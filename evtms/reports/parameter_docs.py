@@ -17,19 +17,19 @@ import sys
 from pathlib import Path
 
 from evtms.params import Range
+from evtms.params import _number as number_text
 from evtms.system.params import SECTIONS, parameter_fields
 
 _BLOCK = re.compile(r"<!-- parameters: \[(\w+)\] -->\n.*?<!-- end parameters -->", re.S)
 
 
 def _number(value: object) -> str:
+    """A default or bound as the table shows it: numbers as the parameter messages write them."""
     if value is None:
         return "unset"
     if isinstance(value, str):
         return f"`{value}`"
-    if isinstance(value, int):
-        return str(value)
-    return f"{value:.12g}"
+    return number_text(value)
 
 
 def _allowed(f: dataclasses.Field) -> str:
