@@ -95,7 +95,7 @@ class CycleLut:
             from evtms.luts import open_lut
 
             ds = open_lut(self.path, self.component, stored_variables(variables))
-            return DatasetLut(ds, self.component).interpolator(variables, tuple(curved), vapour=vapour).to_arrays()
+            return DatasetLut(ds, self.component).table_arrays(variables, tuple(curved), vapour)
 
         arrays, info = self._cached("itp", recipe, build)
         return Interpolator.from_arrays(arrays, info, compiled)
@@ -114,7 +114,7 @@ class CycleLut:
             from evtms.luts import open_lut
 
             ds = open_lut(self.path, self.component, [])
-            return DatasetLut(ds, self.component).indicator(name, codes).to_arrays()
+            return DatasetLut(ds, self.component).indicator_arrays(name, codes)
 
         arrays, info = self._cached("flag", {"name": name, "codes": list(codes), "version": 2}, build)
         return Interpolator.from_arrays(arrays, info, compiled)
@@ -124,7 +124,7 @@ class CycleLut:
         return self._cached(name, recipe, build)
 
 
-#: Nodes per slice of the approach transform (:meth:`DatasetLut._approach`).
+#: Nodes per slab of the approach transform (:meth:`DatasetLut._approach`), about.
 _APPROACH_SLICE = 1 << 20
 
 
@@ -150,25 +150,43 @@ class DatasetLut:
         """As :meth:`CycleLut.interpolator`, built from the dataset in memory."""
         from evtms.luts import Interpolator
 
-        ds = self.ds
-        if APPROACH in variables:
-            ds = ds.assign({APPROACH: (self.dims, self._approach(vapour))})
-        itp = Interpolator.from_dataset(ds, variables, out_of_range="nan", curvature=curvature)
+        itp = Interpolator.from_arrays(*self.table_arrays(variables, curvature, vapour), compiled)
         itp.compiled = itp.compiled and compiled
         return itp
 
+    def table_arrays(
+        self, variables: list[str], curvature: tuple[str, ...], vapour: VapourTable | None = None
+    ) -> tuple[dict, dict]:
+        """The arrays and description of :meth:`interpolator`'s table, its rows computed as they are
+        written (:meth:`evtms.luts.Interpolator.table_arrays`)."""
+        from evtms.luts import Interpolator
+
+        tables = {}
+        for v in variables:
+            tables[v] = self._approach(vapour) if v == APPROACH else self._values(v)
+        axes = [(d, self.axes[d]) for d in self.dims]
+        return Interpolator.table_arrays(axes, tables, "nan", curvature, self.fixed)
+
+    def _values(self, name: str) -> np.ndarray:
+        from evtms.errors import EvtmsInputError
+
+        if name not in self.ds.data_vars:
+            raise EvtmsInputError(f"variable {name!r} is not in the LUT; allowed: {', '.join(self.ds.data_vars)}")
+        return self.ds[name].transpose(*self.dims).values
+
     def _approach(self, vapour: VapourTable) -> np.ndarray:
         """:func:`~evtms.cycle.approach.approach_log` at every node (NaN where the outlet is)."""
-        h_out = self.ds[OUTLET].values
-        p_out = self.ds["p_out"].values
+        h_out = self.ds[OUTLET].transpose(*self.dims).values
+        p_out = self.ds["p_out"].transpose(*self.dims).values
         T_sec = np.broadcast_to(np.asarray(self.secondary_inlet(), float), h_out.shape)
-        # In slices: the table lookups hold a dozen temporaries the size of their input.
-        flat = [a.reshape(-1) for a in (h_out, p_out, np.ascontiguousarray(T_sec))]
-        out = np.empty(h_out.size)
-        for start in range(0, out.size, _APPROACH_SLICE):
-            part = slice(start, start + _APPROACH_SLICE)
-            out[part] = approach_log(flat[0][part], flat[1][part], flat[2][part], vapour)
-        return out.reshape(h_out.shape)
+        # In slabs of the first axis: the table lookups hold a dozen temporaries the size of their
+        # input, and the secondary temperature is a broadcast view, copied a slab at a time.
+        out = np.empty(h_out.shape)
+        rows = max(1, _APPROACH_SLICE // max(h_out[0].size, 1))
+        for i0 in range(0, len(out), rows):
+            a, b, c = (np.ascontiguousarray(x[i0 : i0 + rows]).reshape(-1) for x in (h_out, p_out, T_sec))
+            out[i0 : i0 + rows] = approach_log(a, b, c, vapour).reshape(out[i0 : i0 + rows].shape)
+        return out
 
     def secondary_inlet(self) -> np.ndarray | float:
         """The secondary inlet temperature [K] at the nodes: its axis (broadcast) or the value the LUT was made at."""
@@ -185,13 +203,20 @@ class DatasetLut:
         """As :meth:`CycleLut.indicator`, built from the dataset in memory."""
         from evtms.luts import Interpolator
 
-        status = self.ds["status"].values
+        itp = Interpolator.from_arrays(*self.indicator_arrays(name, codes), compiled)
+        itp.compiled = itp.compiled and compiled
+        return itp
+
+    def indicator_arrays(self, name: str, codes: tuple[int, ...]) -> tuple[dict, dict]:
+        """The arrays and description of :meth:`indicator`'s table."""
+        from evtms.luts import Interpolator
+
+        status = self.ds["status"].transpose(*self.dims).values
         flagged = np.isin(status, codes)
         valid = np.isin(status, np.asarray(self.ds["status"].attrs["valid_flag_values"]))
         table = np.where(valid | flagged, flagged, np.nan)
-        itp = Interpolator([(d, self.axes[d]) for d in self.dims], {name: table}, "nan", fixed=self.fixed)
-        itp.compiled = itp.compiled and compiled
-        return itp
+        axes = [(d, self.axes[d]) for d in self.dims]
+        return Interpolator.table_arrays(axes, {name: table}, "nan", False, self.fixed)
 
     def derived(self, name: str, recipe: dict, build) -> tuple[dict[str, np.ndarray], dict]:
         return build()

@@ -89,7 +89,10 @@ def cached_arrays(
     recipe : mapping
         Everything else they depend on (JSON-serialisable).
     build : callable
-        Returns ``(arrays, info)``: named arrays and a JSON-serialisable dict.
+        Returns ``(arrays, info)``: named arrays and a JSON-serialisable dict. An
+        array may be an object that computes itself as it is written
+        (``write_npy(path)``, e.g. :class:`evtms.luts.interp.RowTable`), so that
+        it is never held whole; without a cache it comes back as built.
 
     Returns
     -------
@@ -122,7 +125,10 @@ def _store(entry: Path, arrays: Mapping[str, np.ndarray], info: dict) -> None:
     tmp = Path(tempfile.mkdtemp(prefix=f".{entry.name[:-33]}-", dir=root))
     try:
         for key, value in arrays.items():
-            np.save(tmp / f"{key}.npy", np.ascontiguousarray(value), allow_pickle=False)
+            if hasattr(value, "write_npy"):  # computed as it is written (evtms.luts.interp.RowTable)
+                value.write_npy(tmp / f"{key}.npy")
+            else:
+                np.save(tmp / f"{key}.npy", np.ascontiguousarray(value), allow_pickle=False)
         meta = {"arrays": list(arrays), "info": info, "evtms": __version__}
         (tmp / "meta.json").write_text(json.dumps(meta), encoding="utf-8")
         try:

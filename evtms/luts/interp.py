@@ -121,21 +121,39 @@ class Interpolator:
         curved = list(self.variables) if curvature is True else [v for v in (curvature or ()) if v in tables]
         self.curvature = bool(curved)
         self._curved_vars = [self.variables.index(v) for v in curved]
-        self._curved_axes = [j for j, a in enumerate(self.axes) if len(a) >= 3] if curved else []
-        # One row per grid point, one column per variable, then the second derivatives along each
-        # axis (a column per axis and curved variable): a gather fetches them all at once. Filled
-        # column by column, so that building it holds one column besides the table (6.8 million
-        # points: 0.4 GB for 8 columns, not twice that).
-        ncols = len(self.variables) + len(curved) * len(self._curved_axes)
-        values = np.empty((math.prod(shape), ncols))
-        for k, v in enumerate(self.variables):
-            values[:, k] = np.asarray(tables[v], np.float64).reshape(-1)
-        k = len(self.variables)
-        for j in self._curved_axes:
-            for v in curved:
-                values[:, k] = _second_derivative(np.asarray(tables[v], np.float64), self.axes[j], j).reshape(-1)
-                k += 1
-        self._finish(values, out_of_range)
+        self._curved_axes = curved_axes(self.axes) if curved else []
+        table = RowTable(self.axes, [tables[v] for v in self.variables], self._curved_vars, self._curved_axes)
+        self._finish(table.materialize(), out_of_range)
+
+    @classmethod
+    def table_arrays(
+        cls,
+        axes: Sequence[tuple[str, np.ndarray]],
+        tables: Mapping[str, np.ndarray],
+        out_of_range: str = "error",
+        curvature: bool | Sequence[str] = False,
+        fixed: Mapping[str, float] | None = None,
+    ) -> tuple[dict[str, np.ndarray | RowTable], dict]:
+        """What :meth:`to_arrays` gives for ``Interpolator(axes, tables, ...)``, without building it:
+        the table is a :class:`RowTable`, computed slab by slab as a cache writes it (see
+        :meth:`RowTable.write_npy`), so the whole table is never held in memory."""
+        names = [name for name, _ in axes]
+        grid = [np.ascontiguousarray(values, dtype=np.float64) for _, values in axes]
+        variables = list(tables)
+        curved = variables if curvature is True else [v for v in (curvature or ()) if v in tables]
+        curved_vars = [variables.index(v) for v in curved]
+        on = curved_axes(grid) if curved else []
+        table = RowTable(grid, [tables[v] for v in variables], curved_vars, on)
+        arrays = {"values": table, **{f"axis_{j}": a for j, a in enumerate(grid)}}
+        info = {
+            "names": names,
+            "variables": variables,
+            "curved": curved,
+            "curved_axes": on,
+            "fixed": {k: float(v) for k, v in (fixed or {}).items()},
+            "out_of_range": out_of_range,
+        }
+        return arrays, info
 
     def _finish(self, values: np.ndarray, out_of_range: str, compiled: bool = True) -> None:
         """Everything a call needs besides the table ``values`` (rows: grid points; columns:
@@ -205,6 +223,8 @@ class Interpolator:
         itp.curvature = bool(itp._curved_vars)
         itp._curved_axes = [int(j) for j in info["curved_axes"]]
         values = arrays["values"]
+        if isinstance(values, RowTable):  # not cached (no cache folder): computed here
+            values = values.materialize()
         ncols = len(itp.variables) + len(itp._curved_vars) * len(itp._curved_axes)
         if values.ndim != 2 or values.shape[1] != ncols or values.shape[0] != math.prod(len(a) for a in itp.axes):
             raise ValueError(f"table of shape {values.shape} does not fit the described grid")
@@ -500,14 +520,119 @@ class Interpolator:
         return tuple(out)
 
 
-def _second_derivative(table: np.ndarray, axis: np.ndarray, j: int) -> np.ndarray:
-    """d2f/dx2 along dimension ``j`` at every node (3-point divided difference).
+def curved_axes(axes: Sequence[np.ndarray]) -> list[int]:
+    """The axes a curvature correction runs along: those of three nodes or more."""
+    return [j for j, a in enumerate(axes) if len(a) >= 3]
+
+
+#: Rows of a :class:`RowTable` block, about: 2^18 rows of 8 columns is 16 MB.
+_TABLE_BLOCK_ROWS = 1 << 18
+
+
+class RowTable:
+    """An interpolation table computed on demand, in slabs of its first axis.
+
+    One row per grid point (C order), one column per variable, then the
+    second derivatives along each curved axis (a column per axis and curved
+    variable, :func:`second_difference`). The rows of a slab of the first
+    axis need only that slab of the variables (and one node either side of
+    it for the derivative along the first axis), so a slab at a time is
+    computed and written: the table, the largest array of a cycle run's
+    set-up (580 MB for the cycle-grid evaporator), is never held whole.
+    Every value is the same arithmetic on the same operands whatever the slab.
+
+    Parameters
+    ----------
+    axes : sequence of numpy.ndarray
+        Axis values [SI], in table dimension order.
+    tables : sequence of array_like
+        One array per variable, shaped like the grid.
+    curved_vars : sequence of int
+        Indices of the variables with curvature columns.
+    curved_axes : sequence of int
+        Axes those columns run along (each of three nodes or more).
+    """
+
+    def __init__(self, axes, tables, curved_vars, curved_axes) -> None:
+        self.axes = list(axes)
+        self.tables = [np.asarray(t) for t in tables]
+        self.curved_vars = list(curved_vars)
+        self.curved_axes = list(curved_axes)
+        grid = tuple(len(a) for a in self.axes)
+        ncols = len(self.tables) + len(self.curved_vars) * len(self.curved_axes)
+        self.shape = (math.prod(grid), ncols)
+        self.dtype = np.dtype(np.float64)
+        self._grid = grid
+
+    def blocks(self):
+        """The table's rows in order, as (rows, columns) arrays of whole slabs of the first axis."""
+        if not self._grid:
+            yield np.array([[float(np.asarray(t)) for t in self.tables]]).reshape(1, -1)
+            return
+        rest = math.prod(self._grid[1:])
+        step = max(1, _TABLE_BLOCK_ROWS // max(rest, 1))
+        for i0 in range(0, self._grid[0], step):
+            yield self._slab(i0, min(i0 + step, self._grid[0]))
+
+    def _slab(self, i0: int, i1: int) -> np.ndarray:
+        block = np.empty(((i1 - i0) * math.prod(self._grid[1:]), self.shape[1]))
+        for k, t in enumerate(self.tables):
+            block[:, k] = np.asarray(t[i0:i1], np.float64).reshape(-1)
+        k = len(self.tables)
+        for j in self.curved_axes:
+            for v in self.curved_vars:
+                block[:, k] = second_difference(self.tables[v], self.axes[j], j, i0, i1).reshape(-1)
+                k += 1
+        return block
+
+    def materialize(self) -> np.ndarray:
+        """The whole table in memory."""
+        out = np.empty(self.shape)
+        row = 0
+        for block in self.blocks():
+            out[row : row + len(block)] = block
+            row += len(block)
+        return out
+
+    def write_npy(self, path) -> None:
+        """Write the table as a ``.npy`` file, block by block (what :mod:`evtms.luts.cache` calls)."""
+        with open(path, "wb") as fh:
+            header = {"descr": np.lib.format.dtype_to_descr(self.dtype), "fortran_order": False, "shape": self.shape}
+            np.lib.format.write_array_header_1_0(fh, header)
+            for block in self.blocks():
+                fh.write(np.ascontiguousarray(block).data)
+
+
+def second_difference(table, axis: np.ndarray, j: int, i0: int = 0, i1: int | None = None) -> np.ndarray:
+    """d2f/dx2 along dimension ``j`` at the nodes ``i0:i1`` of the first dimension (3-point divided difference).
 
     Interior nodes use their two neighbours on a non-uniform axis; the end
     nodes take their neighbour's value. NaN wherever a point used is NaN.
+
+    Parameters
+    ----------
+    table : array_like
+        Values on the grid.
+    axis : numpy.ndarray
+        The nodes of dimension ``j`` [its units]; three or more.
+    j : int
+        Dimension of the derivative.
+    i0, i1 : int
+        Slab of the first dimension to return (default all of it).
     """
-    f = np.moveaxis(table, j, 0)
+    n0 = np.shape(table)[0]
+    i1 = n0 if i1 is None else i1
     h = np.diff(axis)
+    if j == 0:
+        # Each node's difference is centred on it, clamped to the interior at the ends.
+        centre = np.clip(np.arange(i0, i1), 1, n0 - 2)
+        lo, hi = int(centre[0]) - 1, int(centre[-1]) + 2
+        f = np.asarray(table[lo:hi], np.float64)
+        c = centre - lo
+        shape = (-1,) + (1,) * (f.ndim - 1)
+        h0, h1 = h[centre - 1].reshape(shape), h[centre].reshape(shape)
+        return 2.0 * ((f[c + 1] - f[c]) / h1 - (f[c] - f[c - 1]) / h0) / (h0 + h1)
+    f = np.moveaxis(np.asarray(table[i0:i1], np.float64), j, 0)
     shape = (-1,) + (1,) * (f.ndim - 1)
     h0, h1 = h[:-1].reshape(shape), h[1:].reshape(shape)
     d2 = 2.0 * ((f[2:] - f[1:-1]) / h1 - (f[1:-1] - f[:-2]) / h0) / (h0 + h1)
