@@ -284,7 +284,7 @@ def coil_geometry(coil: CoilParams) -> CoilGeometry:
 
 
 #: The coil modes :func:`solve_coil` marches compiled by default (numba enabled).
-COMPILED_MODES = ("condenser",)
+COMPILED_MODES = ("condenser", "evaporator")
 
 
 def _air_inlet_arrays(T: np.ndarray, RH: np.ndarray, p: float) -> dict[str, np.ndarray]:
