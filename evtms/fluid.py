@@ -286,22 +286,32 @@ class Fluid:
 
         Built on first use from about 5,000 states (some 30 ms). The guess is a
         function of the state alone, so a state's result does not depend on the
-        call it came in (a sweep gives the same numbers in one process or many)."""
-        if getattr(self, "_guess", None) is None:
-            self._guess = VapourTable(self, n=120, superheat_max=120.0, step=3.0)
-        return self._guess
+        call it came in (a sweep gives the same numbers in one process or many).
+        Kept per fluid name and backend for the process: a cycle solver builds a
+        new :class:`Fluid` per call."""
+        key = ("guess", self.name, self.backend)
+        if key not in _TABLES:
+            _TABLES[key] = VapourTable(self, n=120, superheat_max=120.0, step=3.0)
+        return _TABLES[key]
 
     def saturation_curve(self) -> SaturationCurve:
-        """The fluid's tabulated :class:`SaturationCurve`, built on first use."""
-        if getattr(self, "_curve", None) is None:
-            self._curve = SaturationCurve(self)
-        return self._curve
+        """The fluid's tabulated :class:`SaturationCurve`, built on first use in a process (per
+        fluid name and backend: some 0.1 s, which a direct cycle point paid on every call)."""
+        key = ("curve", self.name, self.backend)
+        if key not in _TABLES:
+            _TABLES[key] = SaturationCurve(self)
+        return _TABLES[key]
 
     def saturation_pressure(self, T: np.ndarray | float) -> np.ndarray:
         """Saturation pressure [Pa] at temperature ``T`` [K]; NaN outside the dome."""
         T = np.asarray(T, dtype=float)
         T_ok = np.where((T >= self.T_triple) & (T < self.T_crit), T, np.nan)
         return self.state("TQ", T_ok, 0.0, ("P",))["P"]
+
+
+#: The tables :meth:`Fluid.saturation_curve` and :meth:`Fluid._guess_table` built, by kind,
+#: fluid name and backend (functions of those alone).
+_TABLES: dict[tuple[str, str, str], Any] = {}
 
 
 def _newton_temperature(
