@@ -288,10 +288,13 @@ COMPILED_MODES = ("condenser", "evaporator")
 
 
 def _air_inlet_arrays(T: np.ndarray, RH: np.ndarray, p: float) -> dict[str, np.ndarray]:
-    """Moist-air inlet properties per point, computed once per distinct (T, RH)."""
-    pairs = np.stack([T, RH], axis=1)
-    uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
-    rows = [humid_air_inlet(float(t), p, float(rh)) for t, rh in uniq]
+    """Moist-air inlet properties per point, computed once per distinct (T, RH).
+
+    The pairs are packed into complex numbers (:func:`evtms.fluid._unique_rows`' way): a
+    cycle solver's one-point calls spent 0.1 ms in ``np.unique(axis=0)``."""
+    packed = np.asarray(T, float) + 1j * np.asarray(RH, float)
+    uniq, inverse = np.unique(packed, return_inverse=True)
+    rows = [humid_air_inlet(float(v.real), p, float(v.imag)) for v in uniq]
     if not rows:  # no points: empty arrays with the same keys
         return {key: np.empty(0) for key in ("w", "h", "cp", "rho", "mu", "k", "T_dew", "Pr")}
     return {key: np.array([r[key] for r in rows])[inverse.reshape(-1)] for key in rows[0]}
