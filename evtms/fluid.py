@@ -286,22 +286,32 @@ class Fluid:
 
         Built on first use from about 5,000 states (some 30 ms). The guess is a
         function of the state alone, so a state's result does not depend on the
-        call it came in (a sweep gives the same numbers in one process or many)."""
-        if getattr(self, "_guess", None) is None:
-            self._guess = VapourTable(self, n=120, superheat_max=120.0, step=3.0)
-        return self._guess
+        call it came in (a sweep gives the same numbers in one process or many).
+        Kept per fluid name and backend for the process: a cycle solver builds a
+        new :class:`Fluid` per call."""
+        key = ("guess", self.name, self.backend)
+        if key not in _TABLES:
+            _TABLES[key] = VapourTable(self, n=120, superheat_max=120.0, step=3.0)
+        return _TABLES[key]
 
     def saturation_curve(self) -> SaturationCurve:
-        """The fluid's tabulated :class:`SaturationCurve`, built on first use."""
-        if getattr(self, "_curve", None) is None:
-            self._curve = SaturationCurve(self)
-        return self._curve
+        """The fluid's tabulated :class:`SaturationCurve`, built on first use in a process (per
+        fluid name and backend: some 0.1 s, which a direct cycle point paid on every call)."""
+        key = ("curve", self.name, self.backend)
+        if key not in _TABLES:
+            _TABLES[key] = SaturationCurve(self)
+        return _TABLES[key]
 
     def saturation_pressure(self, T: np.ndarray | float) -> np.ndarray:
         """Saturation pressure [Pa] at temperature ``T`` [K]; NaN outside the dome."""
         T = np.asarray(T, dtype=float)
         T_ok = np.where((T >= self.T_triple) & (T < self.T_crit), T, np.nan)
         return self.state("TQ", T_ok, 0.0, ("P",))["P"]
+
+
+#: The tables :meth:`Fluid.saturation_curve` and :meth:`Fluid._guess_table` built, by kind,
+#: fluid name and backend (functions of those alone).
+_TABLES: dict[tuple[str, str, str], Any] = {}
 
 
 def _newton_temperature(
@@ -468,6 +478,12 @@ def _invert_humid_air_table(h: np.ndarray, w: np.ndarray, p: float) -> np.ndarra
         return out
     n_w = int(np.ceil(w[ok].max() / 0.01) * 10) + 3  # table lines up to the next 0.01, and spares
     table = _humid_air_table(p, n_w)
+    compiled = _compiled_inversion()
+    if compiled is not None:  # the same arithmetic per point: the NumPy loop's overhead dominates a few points
+        res = np.empty(int(ok.sum()))
+        compiled(np.ascontiguousarray(h[ok]), np.ascontiguousarray(w[ok]), table, _TABLE_T, _TABLE_DW, res)
+        out[ok] = res
+        return out
     # Quadratic (3-line Lagrange) interpolation in w: h(T, w) is slightly curved in w.
     j = np.clip(np.rint(w[ok] / _TABLE_DW).astype(np.intp), 1, n_w - 2)
     s = w[ok] / _TABLE_DW - j
@@ -489,6 +505,43 @@ def _invert_humid_air_table(h: np.ndarray, w: np.ndarray, p: float) -> np.ndarra
     inside = (target >= line(np.zeros_like(lo))) & (target <= line(np.full_like(lo, _TABLE_T.size - 1)))
     out[ok] = np.where(inside, T, np.nan)
     return out
+
+
+def _invert_points(
+    h: np.ndarray, w: np.ndarray, table: np.ndarray, T_grid: np.ndarray, dw: float, out: np.ndarray
+) -> None:
+    """:func:`_invert_humid_air_table`'s interpolation and bisection point by point (compiled by
+    :func:`_compiled_inversion`), operation for operation: ``w`` within 0-0.2."""
+    n_w, n_T = table.shape
+    for n in range(h.size):
+        j = min(max(int(np.rint(w[n] / dw)), 1), n_w - 2)
+        s = w[n] / dw - j
+        c_m, c_0, c_p = 0.5 * s * (s - 1.0), 1.0 - s * s, 0.5 * s * (s + 1.0)
+        target = h[n]
+        first = c_m * table[j - 1, 0] + c_0 * table[j, 0] + c_p * table[j + 1, 0]
+        last = c_m * table[j - 1, n_T - 1] + c_0 * table[j, n_T - 1] + c_p * table[j + 1, n_T - 1]
+        if not (first <= target <= last):
+            out[n] = np.nan
+            continue
+        lo, hi = 0, n_T - 1
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if c_m * table[j - 1, mid] + c_0 * table[j, mid] + c_p * table[j + 1, mid] <= target:
+                lo = mid
+            else:
+                hi = mid
+        h_lo = c_m * table[j - 1, lo] + c_0 * table[j, lo] + c_p * table[j + 1, lo]
+        h_hi = c_m * table[j - 1, hi] + c_0 * table[j, hi] + c_p * table[j + 1, hi]
+        out[n] = T_grid[lo] + (target - h_lo) / (h_hi - h_lo) * (T_grid[hi] - T_grid[lo])
+
+
+@functools.cache
+def _compiled_inversion():
+    """:func:`_invert_points` compiled, or None without numba (the NumPy loop then serves).
+    Compiled on first use, so importing this module does not import numba."""
+    from evtms._jit import jit, numba_enabled
+
+    return jit(_invert_points) if numba_enabled() else None
 
 
 @functools.lru_cache(maxsize=256)

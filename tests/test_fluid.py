@@ -175,3 +175,26 @@ def test_vapour_table_superheat_inverts_the_enthalpy_rise(fluid):
     assert ok.mean() > 0.9
     np.testing.assert_allclose(table.superheat_of(p[ok], rise[ok]), superheat[ok], atol=1e-9)
     assert np.isnan(table.superheat_of(np.array([1e3]), np.array([1e4]))).all()
+
+
+def test_compiled_humid_air_inversion_is_the_numpy_one(monkeypatch):
+    # The moist-air table inversion runs compiled per point where numba is enabled: the same
+    # arithmetic as the NumPy loop, so the same numbers (a sweep's files do not depend on it).
+    from evtms import fluid as fluid_module
+
+    rng = np.random.default_rng(0)
+    w = rng.uniform(0.0, 0.03, 500)
+    T = rng.uniform(250.0, 330.0, 500)
+    h = fluid_module.humid_air_enthalpy(T, w, 101325.0)
+    h[:3] = (1e9, -1e9, np.nan)  # beyond the table, and not a number
+    fluid_module._compiled_inversion.cache_clear()
+    compiled = fluid_module._invert_humid_air_table(h, w, 101325.0)
+    monkeypatch.setenv("EVTMS_NO_NUMBA", "1")
+    fluid_module._compiled_inversion.cache_clear()
+    try:
+        reference = fluid_module._invert_humid_air_table(h, w, 101325.0)
+    finally:
+        fluid_module._compiled_inversion.cache_clear()
+    np.testing.assert_array_equal(compiled, reference)
+    assert np.isnan(compiled[:3]).all()
+    assert np.abs(compiled[3:] - T[3:]).max() < 1e-4

@@ -292,7 +292,7 @@ def run_cycle(
     circuit = topology(circuit)
     if luts is None:
         fluid = fluid or Fluid(params.fluid, params.backend)
-        models, saturation = DirectModels(params, fluid), SaturationCurve(fluid)
+        models, saturation = DirectModels(params, fluid), fluid.saturation_curve()
     else:  # no CoolProp needed where the cache has the saturation curve
         compiled = len(points) >= COMPILED_FROM_POINTS
         models, saturation = LutModels(luts, circuit.components, compiled), saturation_curve(luts, fluid)
