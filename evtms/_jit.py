@@ -13,11 +13,62 @@ numba keys a function's cache on its own source file only: the loop
 kernel alone, touch ``loop.py`` (or delete ``evtms/system/__pycache__/*.nb*``)
 or the loop keeps the old machine code. An installed release replaces both
 files together.
+
+Where the cache goes: numba writes it to ``__pycache__`` beside each module
+when that folder can be written, else to a per-user folder
+(``~/.cache/numba`` or ``$XDG_CACHE_HOME/numba``, keyed by the module's path);
+``NUMBA_CACHE_DIR`` overrides both. So an install into a read-only
+site-packages still compiles once per user, not once per run.
+
+A process pays numba's start-up once: its import, then, on the first call of
+any compiled function, the set-up of its compiler (most of it even when the
+machine code comes from the cache). numba imports SciPy's BLAS (for ``np.dot``
+and ``np.linalg`` in compiled code) and cffi during that set-up, which costs
+more than the rest; evtms's kernels use neither, so a program of its own (the
+command line) calls :func:`lean_numba` first and numba is set up without them.
 """
 
 from __future__ import annotations
 
 import os
+import sys
+
+#: Modules numba binds only for features no evtms kernel uses: SciPy (``np.dot``, ``np.linalg``
+#: in compiled code call its BLAS and LAPACK) and cffi (calls into cffi libraries).
+_UNUSED_BY_KERNELS = ("scipy", "cffi")
+_lean = False
+
+
+def lean_numba() -> None:
+    """Set numba up, when it is first imported, without its SciPy and cffi bindings.
+
+    For a process that runs only evtms (``evtms`` on the command line): numba
+    then supports neither ``np.dot``/``np.linalg`` nor cffi calls in code it
+    compiles in this process, which no evtms kernel needs. SciPy and cffi stay
+    importable as usual. No effect once numba is imported.
+    """
+    global _lean
+    _lean = True
+
+
+def load_numba():
+    """The numba module, imported (lean after :func:`lean_numba`); ImportError if numba is missing."""
+    if not _lean or "numba" in sys.modules:
+        import numba
+
+        return numba
+    hidden = [m for m in _UNUSED_BY_KERNELS if m not in sys.modules]
+    for m in hidden:
+        sys.modules[m] = None  # an import of it fails: numba leaves that binding out
+    try:
+        import numba
+        import numba.core.typing.cffi_utils  # noqa: F401 - decides cffi support now, cffi hidden
+        import numba.np.arraymath  # noqa: F401 - decides BLAS support now, SciPy hidden
+    finally:
+        for m in hidden:
+            if sys.modules.get(m, 0) is None:
+                del sys.modules[m]
+    return numba
 
 
 def numba_enabled() -> bool:
@@ -25,7 +76,7 @@ def numba_enabled() -> bool:
     if os.environ.get("EVTMS_NO_NUMBA", "") not in ("", "0"):
         return False
     try:
-        import numba  # noqa: F401
+        load_numba()
     except ImportError:  # pragma: no cover - numba is a dependency
         return False
     return True
@@ -35,6 +86,4 @@ def jit(fn):
     """``fn`` compiled by numba (no Python objects, cached), or ``fn`` itself."""
     if not numba_enabled():
         return fn
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(fn)
+    return load_numba().njit(cache=True, nogil=True)(fn)

@@ -301,6 +301,56 @@ def test_output_file_round_trip(refrigerant, tmp_path):
         assert ds.attrs["T_amb"] == 268.15
 
 
+@pytest.mark.parametrize("ambients", [(303.15,), (268.15, 303.15)], ids=["one run", "two ambients"])
+def test_output_writer_makes_the_file_xarray_makes(refrigerant, tmp_path, ambients):
+    """The netCDF4 writer's file reads back as the file xarray's to_netcdf writes from the same Dataset:
+    every variable bit for bit, every attribute but the time stamp, the storage (compression, chunks, fill)."""
+    import netCDF4
+    import xarray as xr
+
+    from evtms.system.output import to_dataset, write_simulation
+
+    runs = [simulate(WLTC, T, refrigerant) for T in ambients]
+    runs[-1].records["T_cabin"][5] = np.nan  # a NaN inside the data survives both writers
+    ours = write_simulation(runs, tmp_path / "netcdf4.nc")
+    ds = to_dataset(runs)
+    ds.to_netcdf(
+        tmp_path / "xarray.nc",
+        engine="netcdf4",
+        format="NETCDF4",
+        encoding={k: {"zlib": True, "complevel": 1} for k in ds.data_vars},
+    )
+    with netCDF4.Dataset(ours) as a, netCDF4.Dataset(tmp_path / "xarray.nc") as b:
+        assert a.data_model == b.data_model == "NETCDF4"
+        assert {d: len(v) for d, v in a.dimensions.items()} == {d: len(v) for d, v in b.dimensions.items()}
+        assert a.ncattrs() == b.ncattrs()
+        for k in a.ncattrs():
+            if k != "created":
+                assert type(a.getncattr(k)) is type(b.getncattr(k)) and a.getncattr(k) == b.getncattr(k), k
+        assert list(a.variables) == list(b.variables)
+        for name, va in a.variables.items():
+            vb = b.variables[name]
+            va.set_auto_maskandscale(False)
+            vb.set_auto_maskandscale(False)
+            assert (va.dtype, va.dimensions, va.chunking(), va.filters()) == (
+                vb.dtype,
+                vb.dimensions,
+                vb.chunking(),
+                vb.filters(),
+            ), name
+            assert va.ncattrs() == vb.ncattrs(), name
+            for k in va.ncattrs():
+                x, y = va.getncattr(k), vb.getncattr(k)
+                assert (
+                    np.asarray(x).dtype == np.asarray(y).dtype and np.asarray(x).tobytes() == np.asarray(y).tobytes()
+                ), (name, k)
+            assert va[...].tobytes() == vb[...].tobytes(), name
+    with xr.open_dataset(ours) as x, xr.open_dataset(tmp_path / "xarray.nc") as y:
+        y.attrs["created"] = x.attrs["created"]
+        xr.testing.assert_identical(x, y)
+        assert np.isnan(x["T_cabin"].values.reshape(len(ambients), -1)[-1, 5])
+
+
 def test_precondition_runs_on_the_grid_before_the_cycle(refrigerant):
     hot = dict(T_init=313.15, sun=600.0)
     plain = simulate(WLTC, 313.15, refrigerant, **hot)

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import one_error_line
+from conftest import SMALL_MAP_AXES, one_error_line
 from typer.testing import CliRunner
 
 from evtms.cli import app
@@ -69,6 +71,49 @@ def test_wltc_at_30_degC_json_and_file(luts, tmp_path):
         assert max(ledgers.values()) <= 1e-9
         assert json.loads(ds.attrs["parameters"])["battery"]["n_series"] == 96
         assert np.nanmax(ds["Q_evaporator"].values) > 500.0  # the cabin was cooled on the maps
+
+
+#: Libraries a simulation on cached maps has no use for (the output is written by netCDF4, numba
+#: is set up without SciPy's BLAS, figures and the cycle physics are other commands').
+_NOT_NEEDED = ("xarray", "scipy", "CoolProp", "matplotlib", "dask", "pandas", "rich")
+
+#: The command line's entry point in a fresh process, the maps on the small axes as in this
+#: module's tests; prints the exit code and the libraries above that got imported.
+_ENTRY_POINT = """
+import dataclasses, json, sys
+from evtms._jit import lean_numba
+lean_numba()  # as evtms.cli.main does first: the patch below imports numba before main runs
+from evtms.system import refrigerant
+full, axes = refrigerant.map_settings, json.loads(sys.argv[1])
+refrigerant.map_settings = lambda p: dataclasses.replace(full(p), axes=axes)
+sys.argv = ["evtms", *sys.argv[2:]]
+from evtms.cli import main
+try:
+    main()
+except SystemExit as exc:
+    code = exc.code
+print(json.dumps({"code": code, "imported": [m for m in %r if m in sys.modules]}))
+"""
+
+
+def test_a_run_on_cached_maps_imports_only_what_it_needs(luts, tmp_path):
+    """evtms simulate on cached maps, as a user runs it: no xarray, SciPy, CoolProp, matplotlib, dask or rich."""
+    args = ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", str(luts), "--json"]
+    first = run(*args, "-o", tmp_path / "first.nc")  # builds the maps if no test did yet
+    assert first.exit_code == 0, first.output
+    code = _ENTRY_POINT % (list(_NOT_NEEDED),)
+    res = subprocess.run(
+        [sys.executable, "-c", code, json.dumps(SMALL_MAP_AXES), *args, "-o", str(tmp_path / "run.nc")],
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 0, res.stderr
+    summary, report = (json.loads(line) for line in res.stdout.strip().splitlines())
+    assert report == {"code": 0, "imported": []}
+    assert set(summary) == set(json.loads(first.stdout))
+    with xr.open_dataset(tmp_path / "first.nc") as a, xr.open_dataset(tmp_path / "run.nc") as b:
+        for name in a.variables:
+            assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
 
 
 def test_scenarios_and_a_sweep_of_ambients(luts, tmp_path):

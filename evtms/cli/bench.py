@@ -5,14 +5,44 @@ from __future__ import annotations
 import shlex
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+from typer.core import TyperGroup
 
 from evtms.cli.common import _ARGV, JsonOut, _error, _ProgressBar, note, print_json
-from evtms.workflows.bench import BenchInfo, bench_catalogue
+
+if TYPE_CHECKING:
+    from evtms.workflows.bench import BenchInfo
+
+
+class _BenchGroup(TyperGroup):
+    """'evtms bench': one command per registered bench, made when 'bench' itself is run.
+
+    The commands' help comes from the bench registry, which imports NumPy and
+    every bench module: made on first use, the other commands (and
+    ``evtms --help``) need not import them.
+    """
+
+    def _load(self) -> None:
+        if "all" in self.commands:
+            return
+        benches = typer.Typer(rich_markup_mode=self.rich_markup_mode)  # help shown as the group's
+        _register_benches(benches)
+        for name, command in typer.main.get_group(benches).commands.items():
+            self.add_command(command, name)
+
+    def list_commands(self, ctx):
+        self._load()
+        return super().list_commands(ctx)
+
+    def get_command(self, ctx, cmd_name):
+        self._load()
+        return super().get_command(ctx, cmd_name)
+
 
 bench_app = typer.Typer(
+    cls=_BenchGroup,
     help=(
         "Sweep a component bench over a grid and write its LUT (netCDF). "
         "'evtms bench COMPONENT --help' lists that bench's axes, units, ranges and presets.\n\n"
@@ -109,14 +139,17 @@ def _bench_command(names: list[str]):
     return command
 
 
-def _register_benches() -> None:
+def _register_benches(app: typer.Typer) -> None:
+    """One command per registered bench on ``app``, and 'all'."""
+    from evtms.workflows.bench import bench_catalogue
+
     catalogue = bench_catalogue()
     for name, bench in catalogue.items():
         cli_name = name.replace("_", "-")
-        bench_app.command(cli_name, help=_bench_help(bench))(_bench_command([name]))
+        app.command(cli_name, help=_bench_help(bench))(_bench_command([name]))
         if cli_name != name:  # the registry's spelling works too
-            bench_app.command(name, help=_bench_help(bench), hidden=True)(_bench_command([name]))
-    bench_app.command(
+            app.command(name, help=_bench_help(bench), hidden=True)(_bench_command([name]))
+    app.command(
         "all",
         help=(
             f"Sweep every bench ({', '.join(catalogue)}) on one grid preset and write <folder>/<name>.nc.\n\n"
@@ -157,6 +190,3 @@ def _run_benches(*, quiet: bool, json_out: bool, **options) -> None:
                 ]
             }
         )
-
-
-_register_benches()

@@ -167,35 +167,44 @@ def with_options(block: Callable, at: int = 0) -> Callable:
 
 
 class _ProgressBar:
-    """A rich progress bar on stderr, one task per label (a bench, a cycle map)."""
+    """A rich progress bar on stderr, one task per label (a bench, a cycle map).
+
+    rich is imported with the first task shown: a quiet run (``--json``, ``--quiet``, stderr not a
+    terminal) or one with nothing to report (maps cached) does not import it.
+    """
 
     def __init__(self, quiet: bool) -> None:
+        self._quiet = quiet
+        self._progress = None
+
+    def __enter__(self) -> _ProgressBar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._progress is not None:
+            self._progress.__exit__(*exc)
+
+    def _start(self):
         from rich.console import Console
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-        self._progress = Progress(
+        progress = Progress(
             TextColumn("{task.description:<16}"),
             BarColumn(),
             MofNCompleteColumn(),
             TextColumn("{task.fields[rate]}"),
             TimeRemainingColumn(),
             console=Console(stderr=True),
-            disable=quiet,
             transient=False,
         )
-
-    def __enter__(self) -> _ProgressBar:
-        self._started = False
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self._started:
-            self._progress.__exit__(*exc)
+        progress.__enter__()
+        return progress
 
     def task(self, name: str, total: int):
-        if not self._started:  # shown from the first task on: a request refused before any work draws nothing
-            self._progress.__enter__()
-            self._started = True
+        if self._quiet:  # nothing drawn: no bar to keep
+            return lambda done, total: None
+        if self._progress is None:  # shown from the first task on: a request refused before any work draws nothing
+            self._progress = self._start()
         task = self._progress.add_task(name, total=total, rate="")
         t0 = time.perf_counter()
 

@@ -11,9 +11,6 @@ import numpy as np
 
 from evtms import __version__
 from evtms.benches.parameters import Parameters
-from evtms.cycle.models import DirectModels, LutModels
-from evtms.cycle.results import CycleResult
-from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS, CycleSolver, OperatingPoints
 from evtms.cycle.tables import CycleLut, cycle_lut, fluid_tables, made_with
 from evtms.cycle.topology import INPUTS, Topology, topology
 from evtms.errors import EvtmsInputError
@@ -22,6 +19,8 @@ from evtms.fluid import Fluid, SaturationCurve
 if TYPE_CHECKING:
     import xarray as xr
 
+    from evtms.cycle.results import CycleResult
+    from evtms.cycle.solver import OperatingPoints
     from evtms.luts.validate import LutMetadata
 
 #: Batches from this many points interpolate through the compiled kernel: below, numba's
@@ -288,6 +287,10 @@ def run_cycle(
     Returns the solver's result (see :meth:`CycleSolver.solve`) with
     ``balance_residual`` and ``balance_relative`` (:func:`energy_balance`).
     """
+    # The solver and its models load here: finding and reading LUT folders (the simulator's use) needs neither.
+    from evtms.cycle.models import DirectModels, LutModels
+    from evtms.cycle.solver import CycleSolver
+
     params = params or Parameters()
     circuit = topology(circuit)
     if luts is None:
@@ -315,6 +318,8 @@ def solve_grid(
     values; an input it lacks takes its default (:data:`INPUTS`). Returns
     the operating points (C order of the grid) and :func:`run_cycle`'s result.
     """
+    from evtms.cycle.solver import OperatingPoints
+
     circuit = topology(circuit)
     axes = [np.asarray(grid.get(k, [INPUTS[k].default]), float) for k in circuit.inputs]
     mesh = np.meshgrid(*axes, indexing="ij")
@@ -334,6 +339,8 @@ def cycle_dataset(
     import datetime as dt
 
     import xarray as xr
+
+    from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
 
     circuit = topology(circuit)
     dims = circuit.inputs

@@ -21,8 +21,11 @@ interpolator's grid description travels as two packed arrays, built once by
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from evtms._jit import load_numba
+
+numba = load_numba()  # lean in the command line's process (evtms._jit.lean_numba)
 
 # Out-of-range policies as the kernel's integer codes.
 ERROR, CLIP, NAN = 0, 1, 2

@@ -21,8 +21,9 @@ bit); the NumPy path stays as the reference and the fallback. Set the
 environment variable ``EVTMS_NO_NUMBA=1`` to use the NumPy path (it is read
 when an interpolator is built). A process pays for numba once: about 0.2 s to
 import it when the first interpolator is built, about 0.3 s on the first call
-to load the kernel's cached machine code (numba imports ``scipy.linalg`` then,
-if nothing has yet), several seconds to compile it if there is no cache.
+to load the kernel's cached machine code (numba sets up its compiler then and
+imports ``scipy.linalg``, except in the command line's process:
+:func:`evtms._jit.lean_numba`), several seconds to compile it if there is no cache.
 """
 
 from __future__ import annotations

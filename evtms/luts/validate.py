@@ -17,6 +17,7 @@ become ``fixed_inputs``.
 from __future__ import annotations
 
 import contextlib
+import copy
 import json
 import math
 import os
@@ -530,6 +531,42 @@ def read_lut_metadata(path: str | Path, component: str | None = None) -> LutMeta
     if component is not None and component not in COMPONENT_AXES:
         raise EvtmsInputError(f"component {component!r} is unknown; allowed: {', '.join(COMPONENT_AXES)}")
     stat = _signature(path, name)
+    if _HEADERS is None:
+        return _read_header(path, name, component, stat)
+    key = (name, component)
+    known = _HEADERS.get(key)
+    if known is not None and known._identity == _identity(stat):
+        return copy.deepcopy(known)  # a copy: a caller may change its header, never the next caller's
+    meta = _read_header(path, name, component, stat)
+    _HEADERS[key] = copy.deepcopy(meta)
+    return meta
+
+
+#: Inside :func:`headers_read_once`: the headers read so far, by (path, component).
+_HEADERS: dict[tuple[str, str | None], LutMetadata] | None = None
+
+
+@contextlib.contextmanager
+def headers_read_once() -> Iterator[None]:
+    """Within this block :func:`read_lut_metadata` reads and checks each LUT's header once.
+
+    One job asks for a LUT's header several times (finding the LUT folder,
+    loading the cycle LUTs, keying the maps); in this block a later call gets
+    a copy of the first one's header, unless the file's identity (device,
+    inode, size, mtime_ns) changed since. Outside it every call reads the
+    file, however fast it is rewritten.
+    """
+    global _HEADERS
+    outer = _HEADERS
+    _HEADERS = {} if outer is None else outer
+    try:
+        yield
+    finally:
+        _HEADERS = outer
+
+
+def _read_header(path: Path, name: str, component: str | None, stat: os.stat_result) -> LutMetadata:
+    """:func:`read_lut_metadata`'s work: the file's header read and checked."""
     with _netcdf(path, name) as nc:
         attrs = _attr_dict(nc)
         if component is not None and "component" in attrs and attrs["component"] != component:

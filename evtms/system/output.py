@@ -7,12 +7,21 @@ Format (``docs/simulation-format.md``): dimension ``time`` (records at
 ``flags`` (uint16 bit field, CF ``flag_masks``/``flag_meanings``). Several
 ambient temperatures in one call add a leading dimension ``T_amb``; a run
 that stopped early (SOC at its floor) is padded with NaN (``mode`` -1).
+
+The file is described once (:func:`file_content`) and either written by
+netCDF4 directly (:func:`write_simulation`, what ``evtms simulate`` runs:
+importing xarray and building its dataset would cost a short run more than the
+simulation) or turned into an xarray Dataset (:func:`to_dataset`, for figures
+and notebooks). The writer makes the file xarray's ``to_netcdf`` made from
+that Dataset: float variables carry ``_FillValue`` NaN, the data variables are
+zlib-compressed (level 1, shuffled), the coordinates are stored contiguous.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,15 +30,45 @@ from evtms import __version__
 from evtms.system.loop import FLAG_NAMES, MODE_NAMES
 from evtms.system.simulate import RECORD_VARIABLES, SimulationResult
 
+#: zlib level of the data variables (level 1: most of the size saving, a fraction of the time of level 4).
+COMPLEVEL = 1
 
-def to_dataset(results: list[SimulationResult]):
-    """The runs as one xarray Dataset (a ``T_amb`` dimension when there are several)."""
-    import xarray as xr
 
+@dataclass
+class FileVariable:
+    """One variable of the output file.
+
+    Attributes
+    ----------
+    dims : tuple of str
+        Its dimensions.
+    data : numpy.ndarray
+        Its values, in the type stored.
+    attrs : dict
+        Its attributes (``units``, ``long_name``, CF flags).
+    coordinate : bool
+        A coordinate (``time``, ``T_amb``): stored uncompressed.
+    """
+
+    dims: tuple[str, ...]
+    data: np.ndarray
+    attrs: dict
+    coordinate: bool = False
+
+
+@dataclass
+class FileContent:
+    """What the output file holds: variables in file order (data, then coordinates) and global attributes."""
+
+    variables: dict[str, FileVariable]
+    attrs: dict
+
+
+def file_content(results: list[SimulationResult]) -> FileContent:
+    """The runs as the output file holds them (a ``T_amb`` dimension when there are several)."""
     several = len(results) > 1
     n = max(r.records["time"].size for r in results)
     longest = max(results, key=lambda r: r.records["time"].size)
-    time = longest.records["time"]
 
     def stack(values: list[np.ndarray], fill) -> np.ndarray:
         out = np.full((len(values), n), fill, dtype=np.asarray(values[0]).dtype)
@@ -38,12 +77,11 @@ def to_dataset(results: list[SimulationResult]):
         return out if several else out[0]
 
     dims = ("T_amb", "time") if several else ("time",)
-    data = {}
-    for name, (units, long_name) in RECORD_VARIABLES.items():
-        data[name] = xr.Variable(
-            dims, stack([r.records[name] for r in results], np.nan), {"units": units, "long_name": long_name}
-        )
-    data["mode"] = xr.Variable(
+    variables = {
+        name: FileVariable(dims, stack([r.records[name] for r in results], np.nan), {"units": units, "long_name": ln})
+        for name, (units, ln) in RECORD_VARIABLES.items()
+    }
+    variables["mode"] = FileVariable(
         dims,
         stack([r.mode for r in results], -1).astype(np.int8),
         {
@@ -52,7 +90,7 @@ def to_dataset(results: list[SimulationResult]):
             "flag_meanings": " ".join(m.replace("+", "_plus_") for m in MODE_NAMES),
         },
     )
-    data["flags"] = xr.Variable(
+    variables["flags"] = FileVariable(
         dims,
         stack([r.flags for r in results], 0).astype(np.uint16),
         {
@@ -61,11 +99,18 @@ def to_dataset(results: list[SimulationResult]):
             "flag_meanings": " ".join(FLAG_NAMES),
         },
     )
-    coords = {"time": xr.Variable("time", time, {"units": "s", "long_name": "time since the start of the cycle"})}
+    time_attrs = {"units": "s", "long_name": "time since the start of the cycle"}
+    variables["time"] = FileVariable(("time",), longest.records["time"], time_attrs, coordinate=True)
     if several:
-        coords["T_amb"] = xr.Variable(
-            "T_amb", np.array([r.attrs["T_amb"] for r in results]), {"units": "K", "long_name": "ambient temperature"}
-        )
+        ambients = np.array([r.attrs["T_amb"] for r in results])
+        T_attrs = {"units": "K", "long_name": "ambient temperature"}  # noqa: N806 - the variable's name
+        variables["T_amb"] = FileVariable(("T_amb",), ambients, T_attrs, coordinate=True)
+    return FileContent(variables, _global_attrs(results))
+
+
+def _global_attrs(results: list[SimulationResult]) -> dict:
+    """The file's global attributes: conventions, provenance, the run's description, ledgers and summary."""
+    several = len(results) > 1
     created = dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
     first = results[0].attrs
     attrs = {
@@ -82,15 +127,56 @@ def to_dataset(results: list[SimulationResult]):
         attrs["range"] = json.dumps([json.loads(r.attrs["range"]) for r in results]) if several else first["range"]
     if not several:
         attrs["T_amb"] = first["T_amb"]
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    return attrs
+
+
+def to_dataset(results: list[SimulationResult]):
+    """The runs as one xarray Dataset (a ``T_amb`` dimension when there are several)."""
+    import xarray as xr
+
+    content = file_content(results)
+    data, coords = {}, {}
+    for name, v in content.variables.items():
+        (coords if v.coordinate else data)[name] = xr.Variable(v.dims, v.data, v.attrs)
+    return xr.Dataset(data, coords=coords, attrs=content.attrs)
 
 
 def write_simulation(results: list[SimulationResult], path: str | Path) -> Path:
     """Write the runs to ``path`` atomically (a concurrent run never sees a partial file)."""
     from evtms.luts.io import atomic_output
 
-    ds = to_dataset(results)
-    encoding = {k: {"zlib": True, "complevel": 1} for k in ds.data_vars}
+    content = file_content(results)
     with atomic_output(path) as tmp:
-        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+        _write_netcdf4(content, tmp)
     return Path(path)
+
+
+def _write_netcdf4(content: FileContent, path: Path) -> None:
+    """``content`` as a netCDF-4 file, with the calls xarray's netCDF4 backend makes for the same Dataset."""
+    import netCDF4
+
+    with netCDF4.Dataset(path, "w", format="NETCDF4", clobber=True) as nc:
+        for key, value in content.attrs.items():
+            nc.setncattr(key, value)
+        for v in content.variables.values():  # dimensions in the order the variables name them
+            for d, size in zip(v.dims, v.data.shape, strict=True):
+                if d not in nc.dimensions:
+                    nc.createDimension(d, size)
+        for name, v in content.variables.items():
+            var = nc.createVariable(
+                name,
+                v.data.dtype,
+                v.dims,
+                zlib=not v.coordinate,
+                complevel=COMPLEVEL if not v.coordinate else 4,
+                shuffle=True,
+                fletcher32=False,
+                contiguous=False,
+                chunksizes=None,
+                endian="native",
+                least_significant_digit=None,
+                fill_value=np.nan if v.data.dtype.kind == "f" else None,
+            )
+            var.setncatts(v.attrs)
+            var.set_auto_maskandscale(False)  # the values as they are: NaN stays NaN, no masking
+            var[...] = v.data

@@ -319,12 +319,18 @@ def run_simulation(
     EvtmsInputError
         Anything the request asks that is not allowed (the message names the request field).
     """
+    from evtms.luts.validate import headers_read_once
+
+    with headers_read_once():  # the LUTs' headers are asked for several times before any work
+        return _run_simulation(request, notify or quiet, progress)
+
+
+def _run_simulation(request: SimulationRequest, notify: Notify, progress: Progress | None) -> SimulationRun:
     t0 = time.perf_counter()
     from evtms.system.output import write_simulation
     from evtms.system.scenarios import run_scenario
     from evtms.system.simulate import check_model
 
-    notify = notify or quiet
     depletion, named = _check_choice(request)
     sc, setup, tree, ambients, inputs = _plan(request, depletion, named)
     lut_folder, lut_files = cycle_luts(request.luts)
