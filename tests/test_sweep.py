@@ -220,7 +220,7 @@ def test_concurrent_sweeps_to_one_output_leave_one_whole_table(tmp_path):
 def test_a_failed_run_is_a_row_with_status_error():
     from evtms.system.sweep_table import failed_figures
 
-    row = failed_figures("the loop\nstopped")
+    row = failed_figures(3, None, "the loop\nstopped")
     assert row["status"] == "error" and row["message"] == "the loop stopped"
     assert set(row) == {c.name for c in FIGURE_COLUMNS} and math.isnan(row["battery_energy_kWh"])
 
@@ -266,6 +266,28 @@ def test_batches_come_back_in_run_order_whatever_their_size_and_completion(size)
     assert [r["T_battery_end_degC"] for r in serial] == sorted(r["T_battery_end_degC"] for r in serial)
     assert seen[-1] == 7 and len(seen) == -(-7 // size)
     assert list(iter_installed()) == []  # uninstalled after the runs
+
+
+def test_a_run_that_raises_is_its_rows_error_and_the_others_run_on(monkeypatch):
+    from evtms.system import scenarios
+    from evtms.system.sweep import run_batches
+    from evtms.system.sweep_table import failed_figures
+
+    real = scenarios.run_scenario
+
+    def flaky(setup, refrigerant, T_amb, **options):
+        if T_amb > 280.0 and T_amb < 285.0:
+            raise FloatingPointError("the loop\nleft finite numbers")
+        return real(setup, refrigerant, T_amb, **options)
+
+    monkeypatch.setattr(scenarios, "run_scenario", flaky)
+    ctx = _context()
+    with pytest.raises(FloatingPointError):  # no ``failed``: the error ends the sweep (the training's choice)
+        run_batches(ctx)
+    ctx.failed = failed_figures
+    rows = run_batches(ctx, _ReversedRunner(), size=2)
+    assert [r["status"] for r in rows] == ["end of cycle"] * 4 + ["error"] + ["end of cycle"] * 2  # 283.15 K
+    assert rows[4]["message"] == "the loop left finite numbers" and math.isnan(rows[4]["soc_end"])
 
 
 def _train(tmp_path, name: str, runner=None):

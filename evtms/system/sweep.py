@@ -94,6 +94,9 @@ class SweepContext:
         ``output_every``, ``precondition``, ``model``, ``soak_cabin`` [K], ``keep_trace``).
     mode_models : ModeModels, optional
         The mode models of the surrogate model.
+    failed : callable, optional
+        ``failed(index, run, message)``: what is kept of a run that raised (picklable, as ``reduce``);
+        None: the error ends the sweep.
     token : str
         The context's name in each process's registry.
     """
@@ -104,6 +107,7 @@ class SweepContext:
     reduce: Callable[[int, Run, Any], Any]
     options: dict = field(default_factory=dict)
     mode_models: Any = None
+    failed: Callable[[int, Run, str], Any] | None = None
     token: str = field(default_factory=lambda: uuid.uuid4().hex)
 
 
@@ -145,7 +149,12 @@ def simulate_run(context: SweepContext, index: int) -> Any:
         options["soak_cabin"] = run.soak_cabin
     if context.mode_models is not None:
         options["mode_models"] = context.mode_models
-    result = run_scenario(setup, context.refrigerants[run.refrigerant], run.T_amb, **options)
+    try:
+        result = run_scenario(setup, context.refrigerants[run.refrigerant], run.T_amb, **options)
+    except Exception as exc:  # one run's failure is its row's status; the other runs go on
+        if context.failed is None:
+            raise
+        return context.failed(index, run, " ".join(str(exc).split()) or type(exc).__name__)
     return context.reduce(index, run, result)
 
 

@@ -132,8 +132,9 @@ def run_figures(result) -> dict:
     return row
 
 
-def failed_figures(message: str) -> dict:
-    """The figure columns of a run that failed: status ``error``, the message, NaN figures."""
+def failed_figures(index: int, run, message: str) -> dict:
+    """The figure columns of run ``index`` that failed (``failed`` of a sweep's context): status ``error``, the
+    message, NaN figures."""
     row = {c.name: (math.nan if c.kind == "float" else "") for c in FIGURE_COLUMNS}
     row.update(status="error", message=" ".join(message.split()))
     return row

@@ -379,7 +379,7 @@ def run_sweep(request: SweepRequest, *, notify: Notify | None = None, progress: 
         Ctrl-C: nothing is written (the runs' files written so far are kept).
     """
     from evtms.system.sweep import SweepContext, make_runner, run_batches
-    from evtms.system.sweep_table import RUNS_MARKER, SweepRows, SweepTable, write_table
+    from evtms.system.sweep_table import RUNS_MARKER, SweepRows, SweepTable, failed_figures, write_table
     from evtms.workflows.simulate import cycle_luts, surrogate_models
 
     t0 = time.perf_counter()
@@ -406,7 +406,7 @@ def run_sweep(request: SweepRequest, *, notify: Notify | None = None, progress: 
     options = dict(dt=r.dt, output_every=r.output_every, precondition=r.precondition, model=r.model)
     if r.soak_cabin is not None:
         options["soak_cabin"] = r.soak_cabin + 273.15
-    context = SweepContext(setups, maps, runs, None, options, mode_models)
+    context = SweepContext(setups, maps, runs, None, options, mode_models, failed_figures)
     context.reduce = SweepRows(len(runs), None if r.runs is None else str(r.runs), context.token)
     runner = make_runner(r.workers, r.scheduler)
     t_runs = None
