@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -102,8 +103,9 @@ def _row_line(row: dict) -> str:
         where += f" {Path(row['params']).name}"
     if row["status"] == "error":
         return f"{where}  error: {row['message']}"
+    per_km = row["battery_Wh_per_km"]
     return (
         f"{where}  battery {row['battery_energy_kWh']:.3f} kWh (HVAC {row['hvac_energy_kWh']:.3f})  "
-        f"{row['battery_Wh_per_km']:.1f} Wh/km  cabin {row['T_cabin_end_degC']:.1f} degC  "
+        f"{'n/a' if math.isnan(per_km) else f'{per_km:.1f}'} Wh/km  cabin {row['T_cabin_end_degC']:.1f} degC  "
         f"battery {row['T_battery_min_degC']:.1f}..{row['T_battery_max_degC']:.1f} degC  {row['status']}"
     )

@@ -308,8 +308,14 @@ def _setups(r: SweepRequest, grid: _Grid):
 
 
 def _refrigerants(r: SweepRequest, trees, lut_folder, notify: Notify, progress: Progress | None):
-    """(cycle maps, one per distinct coolant setting; each parameter set's index into them)."""
+    """(cycle maps, one per distinct coolant setting; each parameter set's index into them).
+
+    Every parameter file's component tables are checked against the LUTs, also where its maps are
+    another set's (loaded once).
+    """
+    from evtms.cycle import load_cycle_luts
     from evtms.system.refrigerant import map_settings
+    from evtms.workflows.common import check_lut_components
     from evtms.workflows.simulate import cycle_luts, system_refrigerant
 
     maps, settings, which = [], [], []
@@ -317,8 +323,8 @@ def _refrigerants(r: SweepRequest, trees, lut_folder, notify: Notify, progress: 
     for tree in trees:
         s = map_settings(tree.system)
         if s in settings:
-            if tree.given_components():  # the maps are loaded: the file's component tables still must fit
-                system_refrigerant(r.luts, folder, tree, notify, progress)
+            if tree.given_components():
+                check_lut_components(load_cycle_luts(folder, "cabin+chiller"), tree, tree.path, folder)
             which.append(settings.index(s))
             continue
         maps.append(system_refrigerant(r.luts, folder, tree, notify, progress))
@@ -378,6 +384,7 @@ def run_sweep(request: SweepRequest, *, notify: Notify | None = None, progress: 
     EvtmsInterrupted
         Ctrl-C: nothing is written (the runs' files written so far are kept).
     """
+    from evtms.system.simulate import check_model
     from evtms.system.sweep import SweepContext, make_runner, run_batches
     from evtms.system.sweep_table import RUNS_MARKER, SweepRows, SweepTable, failed_figures, write_table
     from evtms.workflows.simulate import cycle_luts, surrogate_models
@@ -398,8 +405,6 @@ def run_sweep(request: SweepRequest, *, notify: Notify | None = None, progress: 
     if r.runs is not None:
         output_folder(r.runs, inputs + [r.output])
     maps, which = _refrigerants(r, trees, lut_folder, notify, progress)
-    from evtms.system.simulate import check_model
-
     for m in maps:
         check_model(r.model, r.mode or "auto", mode_models, m)
     runs = _runs(grid, which)
