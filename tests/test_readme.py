@@ -11,10 +11,11 @@ demo; here ``evtms demo -o OUT`` leaves the session's cycle LUTs in
 ``OUT/luts/cycle/``, where the demo writes them, for the commands that read
 them), ``evtms bench all --grid cycle`` (its LUTs are the session's, linked in:
 building them again would take minutes) and nothing that needs a cluster of
-one's own (the docs give no such command to copy). Three commands run
+one's own (the docs give no such command to copy). Four commands run
 lighter than written, each checked in full elsewhere: ``evtms surrogate
 train`` with ``--quick --runs-per-mode 3`` (tiny networks; the full training
-takes minutes), ``evtms report compare`` with ``--dts 1,10 --repeat 1``, and
+takes minutes), ``evtms report compare`` with ``--dts 1,10 --repeat 1``, ``evtms sweep`` at
+one ambient (``--t-amb 25 --rh-amb 0.4 --sun 0``: its other scenarios are the same code), and
 ``--model physics`` with the cycle maps standing in for the bench physics
 (a hot WLTC on the physics takes minutes; ``test_simulate_cli`` runs the
 physics end to end on a short trace).
@@ -105,7 +106,7 @@ def test_every_documented_command_works_in_a_fresh_folder(tmp_path, monkeypatch,
     patch_small_maps(monkeypatch)
     monkeypatch.setattr(refrigerant.Refrigerant, "solve_direct", _maps_as_physics)
     lighter = {("surrogate", "train"): ["--quick", "--runs-per-mode", "3"], ("report", "compare"): [
-        "--dts", "1,10", "--repeat", "1"]}  # fmt: skip
+        "--dts", "1,10", "--repeat", "1"], ("sweep",): ["--t-amb", "25", "--rh-amb", "0.4", "--sun", "0"]}  # fmt: skip
     runner = CliRunner()
     ran = 0
     for kind, step in doc_steps():
@@ -125,7 +126,7 @@ def test_every_documented_command_works_in_a_fresh_folder(tmp_path, monkeypatch,
         if argv[1:4] == ["bench", "all", "--grid"] and argv[4] == "cycle":
             link_luts(cycle_luts_dir, Path(argv[argv.index("-o") + 1]))
             continue
-        res = runner.invoke(app, argv[1:] + lighter.get(tuple(argv[1:3]), []))
+        res = runner.invoke(app, argv[1:] + lighter.get(tuple(argv[1:3]), lighter.get(tuple(argv[1:2]), [])))
         assert res.exit_code == 0, f"{shlex.join(argv)}\n{res.output}"
         ran += 1
     assert ran >= 25

@@ -31,6 +31,11 @@ pytest.importorskip("sklearn")
 
 @pytest.fixture(scope="module")
 def refrigerant() -> Refrigerant:
+    return synthetic_refrigerant()
+
+
+def synthetic_refrigerant() -> Refrigerant:
+    """Synthetic cycle maps that close their balance (as in ``test_simulate.py``): seconds, no LUT files."""
     sp, Ta, Tair, Tc = [0.1, 0.5, 1.0], [243.15, 323.15], [243.15, 343.15], [243.15, 343.15]
     maps = {
         "ac": _map(

@@ -320,6 +320,10 @@ class DaskRunner:
         Address of an existing scheduler, ``tcp://host:port``, e.g. ``tcp://10.0.0.5:8786``.
         It must answer within :data:`CONNECT_SECONDS`. A local cluster
         listens on 127.0.0.1 only (scheduler, workers and dashboards).
+    warm_up : callable, optional
+        Run on every worker once connected (default: build the default fluid,
+        which imports CoolProp, about 2 s, not inside the first chunk); None:
+        nothing (the system simulations do not use CoolProp).
 
     Raises
     ------
@@ -330,7 +334,9 @@ class DaskRunner:
 
     name = "dask"
 
-    def __init__(self, workers: int | None = None, scheduler: str | None = None) -> None:
+    def __init__(
+        self, workers: int | None = None, scheduler: str | None = None, warm_up: Callable[[], None] | None = _warm_up
+    ) -> None:
         if scheduler is not None:
             check_scheduler_address(scheduler)
         try:
@@ -388,8 +394,8 @@ class DaskRunner:
                 )
             self.client = Client(self._cluster)
         self.workers = max(len(self.client.scheduler_info().get("workers", {})), 1)
-        # Import CoolProp (about 2 s) on every worker now, not inside its first chunk.
-        self.client.run(_warm_up)
+        if warm_up is not None:
+            self.client.run(warm_up)
 
     def run(self, job: Callable[[int], dict], chunks: Iterable[int]) -> Iterator[tuple[int, dict]]:
         from distributed import as_completed

@@ -2,7 +2,7 @@
 
 One module per command group (:mod:`~evtms.cli.bench`, :mod:`~evtms.cli.lut`,
 :mod:`~evtms.cli.cycle`, :mod:`~evtms.cli.report`, :mod:`~evtms.cli.surrogate`,
-:mod:`~evtms.cli.simulate`, :mod:`~evtms.cli.demo`) and :mod:`~evtms.cli.common`
+:mod:`~evtms.cli.simulate`, :mod:`~evtms.cli.sweep`, :mod:`~evtms.cli.demo`) and :mod:`~evtms.cli.common`
 for the error boundary, JSON printing and progress. Heavy libraries (CoolProp,
 xarray, matplotlib) are imported inside the commands that need them, so
 ``evtms --help`` answers at once.
@@ -15,7 +15,7 @@ from typing import Annotated
 import typer
 
 from evtms import __version__
-from evtms.cli import bench, cycle, demo, lut, report, simulate, surrogate
+from evtms.cli import bench, cycle, demo, lut, report, simulate, surrogate, sweep
 from evtms.cli.common import _EvtmsGroup, _json_safe, print_json
 
 __all__ = ["_json_safe", "app", "main", "print_json"]
@@ -53,6 +53,7 @@ app.add_typer(report.report_app, name="report")
 app.add_typer(surrogate.surrogate_app, name="surrogate")
 app.command()(demo.demo)
 app.command()(simulate.simulate)
+app.command()(sweep.sweep)
 
 
 def main() -> None:

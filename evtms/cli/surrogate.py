@@ -30,6 +30,17 @@ _Luts = Annotated[
 ]
 _Seed = Annotated[int, typer.Option("--seed", help="Seed of the scenario design and of every fit.")]
 _RunsPerMode = Annotated[int, typer.Option("--runs-per-mode", help="Training simulations per mode.")]
+_Workers = Annotated[
+    int | None, typer.Option("--workers", help="Run the training simulations in N local dask worker processes.")
+]
+_Scheduler = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        help="Send the training simulations to a dask.distributed scheduler, tcp://host:port (it runs the code "
+        "sent to it: use only a cluster you trust). The models are the same wherever they run.",
+    ),
+]
 _Quick = Annotated[
     bool, typer.Option("--quick", help="Small design and tiny networks (tests; errors not representative).")
 ]
@@ -44,6 +55,8 @@ def surrogate_train(
     seed: _Seed = 0,
     runs_per_mode: _RunsPerMode = 24,
     quick: _Quick = False,
+    workers: _Workers = None,
+    scheduler: _Scheduler = None,
     json_out: JsonOut = False,
 ) -> None:
     """Train the mode models: simulate a designed set of scenarios on the cycle maps (dt 1 s), fit per mode a

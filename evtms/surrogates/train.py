@@ -362,24 +362,84 @@ def compose_linear_skip(
 # Data
 
 
+def training_setup(sc: D.Scenario, params: SystemParams | None):
+    """A design scenario as the simulation engine's setup (:class:`evtms.system.scenarios.ScenarioSetup`).
+
+    The same run as :func:`run_scenario` (the scenario's cycle, parameters, mode, humidity and sun; its
+    initial cabin temperature goes with the run, :class:`evtms.system.sweep.Run`).
+    """
+    from evtms.system.scenarios import Scenario, ScenarioSetup
+
+    p = sc.params(params)
+    return ScenarioSetup(
+        scenario=Scenario(name=sc.name, cycle=sc.cycle, mode=sc.mode, heating=p.hvac.heating),
+        cycle=sc.drive_cycle(),
+        T_amb=sc.T_amb,
+        params=p,
+        mode=sc.mode,
+        RH_amb=sc.RH_amb,
+        sun=sc.sun,
+        inputs={},
+        heating=p.hvac.heating,
+    )
+
+
+class TrainingData:
+    """The engine's ``reduce`` for training runs: a run's step pairs of ``codes`` and its LUT records.
+
+    Runs on the worker, so only the pairs and the records the held-out
+    comparisons read (:data:`ROLLOUT_VARIABLES`) travel back, not the loop's trace.
+    """
+
+    def __init__(self, codes: set[int]) -> None:
+        self.codes = frozenset(codes)
+
+    def __call__(self, index: int, run, res: SimulationResult):
+        pairs = {code: p for code, p in mm.training_pairs(res.trace).items() if code in self.codes}
+        res.trace = None  # type: ignore[attr-defined]
+        res.records = {v: res.records[v] for v in ROLLOUT_VARIABLES}
+        return pairs, res
+
+
 def _collect(
     scenarios: list[D.Scenario],
     refrigerant: Refrigerant,
     params: SystemParams | None,
     codes: set[int],
     tick: Callable[[str], None],
+    runner=None,
+) -> list[tuple[dict[int, tuple[np.ndarray, ...]], SimulationResult]]:
+    """Each scenario's step pairs by mode code (only ``codes``) and its LUT result, in scenario order.
+
+    The runs go through the simulation engine (:func:`evtms.system.sweep.run_batches`), in this
+    process or on ``runner``'s workers; they come back in scenario order either way, so the fits
+    (and the models) do not depend on where the runs ran.
+    """
+    from evtms.system.sweep import Run, SweepContext, run_batches
+
+    setups = [training_setup(sc, params) for sc in scenarios]
+    runs = [Run(i, sc.T_amb, soak_cabin=sc.T_cabin0) for i, sc in enumerate(scenarios)]
+    context = SweepContext(setups, [refrigerant], runs, TrainingData(codes), {"dt": 1.0, "keep_trace": True})
+    seen = [0]
+
+    def done(n: int, total: int) -> None:
+        for sc in scenarios[seen[0] : n]:
+            tick(f"simulated {sc.name}")
+        seen[0] = n
+
+    return run_batches(context, runner, progress=done)
+
+
+def _by_mode(
+    scenarios: list[D.Scenario], out: list, codes: set[int]
 ) -> tuple[dict[int, list[tuple[np.ndarray, ...]]], dict[str, SimulationResult]]:
-    """Step pairs by mode code (only ``codes``) of every scenario, and the LUT results by scenario name."""
+    """The step pairs of ``scenarios`` by mode code (in scenario order) and their results by name."""
     pairs: dict[int, list[tuple[np.ndarray, ...]]] = {c: [] for c in codes}
     results = {}
-    for sc in scenarios:
-        res = run_scenario(sc, refrigerant, params)
-        for code, p in mm.training_pairs(res.trace).items():
-            if code in pairs:
-                pairs[code].append(p)
-        res.trace = None  # type: ignore[attr-defined] - the records stay for the held-out comparison
+    for sc, (run_pairs, res) in zip(scenarios, out, strict=True):
+        for code, p in run_pairs.items():
+            pairs[code].append(p)
         results[sc.name] = res
-        tick(f"simulated {sc.name}")
     return pairs, results
 
 
@@ -496,6 +556,7 @@ def train_surrogates(
     quick: bool = False,
     settings: FitSettings | None = None,
     runs_per_mode: int = 24,
+    runner=None,
 ) -> TrainReport:
     """Generate LUT simulations, fit the mode models of ``modes``, check them on held-out runs, write the file.
 
@@ -520,6 +581,9 @@ def train_surrogates(
         Network sizes and epochs (default :class:`FitSettings`, or :meth:`FitSettings.quick` with ``quick``).
     runs_per_mode : int
         Training simulations per mode.
+    runner : InProcessRunner or DaskRunner, optional
+        Where the LUT simulations run (:func:`evtms.system.sweep.make_runner`; default: this process).
+        The models are the same wherever they run.
 
     Returns
     -------
@@ -554,8 +618,9 @@ def train_surrogates(
 
     codes = {mm.MODE_CODES[m] for m in names}
     t0 = time.perf_counter()
-    train_pairs, train_lut = _collect(des.train, refrigerant, params, codes, tick)
-    held_pairs, held_lut = _collect(des.heldout, refrigerant, params, codes, tick)
+    out = _collect(des.train + des.heldout, refrigerant, params, codes, tick, runner)  # one install of the maps
+    train_pairs, train_lut = _by_mode(des.train, out[: len(des.train)], codes)
+    held_pairs, held_lut = _by_mode(des.heldout, out[len(des.train) :], codes)
     data_time = time.perf_counter() - t0
 
     t0 = time.perf_counter()

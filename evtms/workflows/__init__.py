@@ -15,7 +15,8 @@ its result.
   :class:`~.cycle.CyclePoint`; :func:`~.cycle.sweep_cycle` (``evtms cycle sweep``): the same request ->
   :class:`~.cycle.CycleSweep`, its xarray dataset written as netCDF;
 - :func:`~.simulate.run_simulation` (``evtms simulate``): :class:`~.simulate.SimulationRequest` ->
-  :class:`~.simulate.SimulationRun`;
+  :class:`~.simulate.SimulationRun`; :func:`~.sweep.run_sweep` (``evtms sweep``): :class:`~.sweep.SweepRequest` ->
+  :class:`~.sweep.SweepResult`, its summary table written;
 - :func:`~.compare.run_comparison` (``evtms report compare``): :class:`~.compare.CompareRequest` ->
   :class:`~.compare.Comparison`;
 - :func:`~.train.train_mode_models` (``evtms surrogate train``): :class:`~.train.TrainRequest` ->
@@ -54,6 +55,9 @@ _API = {
     "SimulationRequest": "simulate",
     "SimulationRun": "simulate",
     "run_simulation": "simulate",
+    "SweepRequest": "sweep",
+    "SweepResult": "sweep",
+    "run_sweep": "sweep",
     "CompareRequest": "compare",
     "Comparison": "compare",
     "run_comparison": "compare",

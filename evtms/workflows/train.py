@@ -3,7 +3,9 @@
 :func:`train_mode_models` checks a :class:`TrainRequest` (limits, modes,
 parameter file, LUT folder, output folder) before any LUT or map work,
 builds the cycle LUTs and maps where missing, and trains with
-:func:`evtms.surrogates.train.train_surrogates` (scikit-learn).
+:func:`evtms.surrogates.train.train_surrogates` (scikit-learn), its training
+simulations in this process or on dask workers (:mod:`evtms.system.sweep`, the
+engine of ``evtms sweep``).
 """
 
 from __future__ import annotations
@@ -40,6 +42,11 @@ class TrainRequest:
         Training simulations per mode, 1 to 500.
     quick : bool
         Small design and tiny networks (tests; errors not representative).
+    workers : int, optional
+        Run the training simulations on that many local dask workers (default: in this process).
+    scheduler : str, optional
+        Run them on a dask.distributed scheduler, ``tcp://host:port``. The models are the same
+        wherever the simulations run.
     """
 
     output: Path
@@ -49,6 +56,8 @@ class TrainRequest:
     seed: int = 0
     runs_per_mode: int = 24
     quick: bool = False
+    workers: int | None = None
+    scheduler: str | None = None
 
 
 def train_mode_models(request: TrainRequest, *, notify: Notify | None = None, progress: Progress | None = None):
@@ -76,6 +85,7 @@ def train_mode_models(request: TrainRequest, *, notify: Notify | None = None, pr
     """
     from evtms.surrogates.train import check_modes, train_surrogates
     from evtms.system.params import load_parameter_tree
+    from evtms.system.sweep import check_runner, make_runner
     from evtms.workflows.simulate import cycle_luts, system_refrigerant
 
     r = request
@@ -86,13 +96,18 @@ def train_mode_models(request: TrainRequest, *, notify: Notify | None = None, pr
     parts = r.mode.split(",") if isinstance(r.mode, str) else r.mode
     modes = [m.strip() for m in parts if m.strip()]
     check_modes(modes)  # before any LUT or map work
+    check_runner(r.workers, r.scheduler)
     inputs = params_input(r.params)
     tree = load_parameter_tree(r.params)
     lut_folder, lut_files = cycle_luts(r.luts)
     output_folder(r.output, inputs + lut_files)
     refrigerant = system_refrigerant(r.luts, lut_folder, tree, notify, progress)
     training = None if progress is None else (lambda done, total, message: progress(done, total, "training"))
-    return train_surrogates(
-        refrigerant, modes, r.output, params=tree.system, progress=training, seed=r.seed, quick=r.quick,
-        runs_per_mode=r.runs_per_mode,
-    )  # fmt: skip
+    runner = make_runner(r.workers, r.scheduler)
+    try:
+        return train_surrogates(
+            refrigerant, modes, r.output, params=tree.system, progress=training, seed=r.seed, quick=r.quick,
+            runs_per_mode=r.runs_per_mode, runner=runner,
+        )  # fmt: skip
+    finally:
+        runner.close()
