@@ -129,6 +129,11 @@ def valid(result: dict) -> int:
     return int(np.isin(result["status"], VALID_CYCLE_FLAGS).sum())
 
 
+def per_point(seconds: float) -> str:
+    """A time per point in us below a millisecond, else in ms."""
+    return f"{seconds * 1e6:.1f} us" if seconds < 1e-3 else f"{seconds * 1e3:.2f} ms"
+
+
 def single_points(solver: CycleSolver, points: OperatingPoints) -> tuple[np.ndarray, int]:
     """Each point solved alone: the times [ms] and how many solved."""
     times, ok = [], 0
@@ -181,7 +186,7 @@ def lut_cycle(args, table: Table) -> CycleSolver:
         t0 = time.perf_counter()
         r = solver.solve(points)
         dt_ = time.perf_counter() - t0
-        value = f"{dt_ / n * 1e6:.0f} us a point ({dt_:.2f} s; {valid(r)}/{n} valid)"
+        value = f"{per_point(dt_ / n)} a point ({dt_:.2f} s; {valid(r)}/{n} valid)"
         fields = {"us_per_point": dt_ / n * 1e6, "seconds": dt_, "n": n}
         if n == 10000:
             table.add("lut_10000", value, **fields)
