@@ -16,8 +16,8 @@ timeout that ends it):
   reports every stop of the loop (a physics solve or a reuse) with the step it
   reached; a ``simulate()`` call still running after ``--physics-timeout``
   seconds (set-up not counted) is stopped and reported as "more than" that,
-  with the share of the cycle done and the linear extrapolation of the time to
-  the whole cycle (the solves are not spread evenly over the cycle: the
+  with the share of the cycle done and (from a tenth of the cycle done) the
+  linear extrapolation of the time to the whole cycle (the solves are not spread evenly over the cycle: the
   extrapolation is a rough figure, the bound is the measurement).
 - **simulate_process**: the whole command ``evtms simulate --cycle wltc3b
   --t-amb 30 --luts LUT_FOLDER -o TMP --json`` with the maps cached: one run
@@ -45,6 +45,9 @@ PHYSICS_CASES = {
     "physics_30": (303.15, None, 0.0),
     "physics_40_soaked": (313.15, 313.15, 600.0),
 }
+
+#: The share of the cycle a stopped physics run must have done for its time to be extrapolated.
+MIN_SHARE = 0.1
 
 #: Axis overrides of ``--reduced``: two nodes on speed and on each temperature axis [1, K].
 REDUCED_AXES = {
@@ -219,7 +222,7 @@ def physics_row(key: str, run: dict, table: Table) -> None:
         f"more than {stopped['timeout']:g} s (stopped then: {share:.0%} of the cycle done, "
         f"{stopped['stops']} solver stops"
     )
-    if share > 0:
+    if share >= MIN_SHARE:  # from a smaller share the extrapolation says nothing
         value += f"; about {stopped['s'] / share:.0f} s for the cycle, extrapolated linearly"
     table.add(key, value + ")", seconds=stopped["timeout"], lower_bound=True, share_done=share)
 

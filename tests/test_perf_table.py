@@ -123,6 +123,10 @@ def test_a_physics_run_stopped_at_its_limit_is_a_bound(bench):
     assert row["value"].startswith("more than 60 s (stopped then: 25% of the cycle done, 40 solver stops")
     assert "about 240 s for the cycle, extrapolated linearly" in row["value"]
     assert row["lower_bound"] and row["seconds"] == 60.0 and row["met"] is False
+    lines[-1].update(step=90)  # 5 % of the cycle: too little to extrapolate from
+    system.physics_row("physics_30", {**run, "out": "\n".join(json.dumps(p) for p in lines)}, table)
+    short = "more than 60 s (stopped then: 5% of the cycle done, 40 solver stops)"
+    assert table.targets["physics_30"]["value"] == short
     done = {"summary": {"wall_time_s": 8.0, "physics_solves": 12, "steps": 1800}}
     system.physics_row("physics_40_soaked", {**run, "out": json.dumps(done)}, table)
     row = table.targets["physics_40_soaked"]
