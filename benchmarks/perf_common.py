@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -216,8 +217,12 @@ def run_child(cmd: list[str], env: dict[str, str] | None = None, timeout: float 
             proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
             timed_out = True
-            os.killpg(proc.pid, 9)
+            os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+        except KeyboardInterrupt:  # in its own session the command misses the terminal's Ctrl-C: pass it on
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait()
+            raise
         out.seek(0)
         text = out.read().decode(errors="replace")
         tail = text.strip().splitlines()[-3:]
