@@ -134,8 +134,14 @@ def lut_copy(luts: Path, dest: Path) -> str:
 
 def maps_build(args, table: Table) -> None:
     """Row maps_build: the three cycle maps built into a copy of the LUT folder (child process)."""
+    from evtms.cycle.api import cycle_luts_folder
+
+    folder = cycle_luts_folder(args.luts)  # LUT_FOLDER may be evtms demo's output or luts/ folder
+    if folder is None:
+        table.add("maps_build", f"not run: no cycle LUTs in {args.luts}")
+        return
     with tempfile.TemporaryDirectory(prefix="evtms-perf-maps-") as tmp:
-        how = lut_copy(Path(args.luts), Path(tmp))
+        how = lut_copy(folder, Path(tmp))
         argv = [*_python(), MAPS_CHILD, tmp, "reduced" if args.reduced else "full", json.dumps(REDUCED_AXES)]
         print(f"  (building the cycle maps into {tmp}, LUTs as {how})", flush=True)
         run = run_child(argv)
@@ -156,17 +162,21 @@ def maps_build(args, table: Table) -> None:
 
 def missing_maps(luts: Path) -> list[str]:
     """The simulator's cycle maps of ``luts`` that are not cached (so a run would build them)."""
+    from evtms.cycle.api import cycle_luts_folder
     from evtms.luts.store import KEY_ATTR, LutStore
     from evtms.luts.validate import read_map_lut
     from evtms.system.maps import MAPS, _plan  # _plan: the cache key load_maps looks for
     from evtms.system.params import SystemParams
     from evtms.system.refrigerant import map_settings
 
+    folder = cycle_luts_folder(luts)
+    if folder is None:
+        return list(MAPS)
     settings = map_settings(SystemParams())
-    store = LutStore(luts)
+    store = LutStore(folder)
     missing = []
     for name in MAPS:
-        key = _plan(name, Path(luts), settings).key
+        key = _plan(name, folder, settings).key
         found = False
         for path in store.map_places(name):
             try:
