@@ -16,6 +16,10 @@ the cycle maps are built there on first use. It prints:
   cached (median of 3, wall time of the child); and a ``--sweep N``-scenario
   sweep (N ambients from -20 to 45 degC in one call) per run.
 
+The project's target table (the physics model, the whole command against its
+0.5 s target, FASTSim-3 beside it) is ``perf_table.py``'s; this script's
+figures are the step-size study and the loop's own speed.
+
 ``--write`` puts the performance figures and the machine into
 docs/performance.md, which ``performance_page.py`` writes whole; the step-size
 table is docs/guide/system.md's (``--markdown`` prints both tables). With
