@@ -31,6 +31,7 @@ END = "<!-- end of the module diagram -->"
 LAYERS = (
     ("errors", "_jit"),
     ("paths", "params", "fluid", "luts"),
+    ("fluid_tables",),
     ("hx",),
     ("benches",),
     ("cycle",),
