@@ -415,6 +415,75 @@ def solve_chiller(
     }
 
 
+def solve_chiller_compiled(
+    fluid: Fluid,
+    hx: PlateHXParams,
+    p_in: np.ndarray,
+    h_in: np.ndarray,
+    mdot: np.ndarray,
+    mdot_coolant: np.ndarray,
+    T_coolant_in: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """:func:`solve_chiller` per point in machine code, on tabulated refrigerant properties.
+
+    The kernel (:mod:`evtms.benches._chiller_kernel`) reads the refrigerant
+    tables of :mod:`evtms.fluid_tables` (built once per process from
+    ``fluid``) and the coolant's own tables; points whose states leave the
+    refrigerant tables are solved by :func:`solve_chiller` with ``fluid``
+    itself. Same parameters and outputs as :func:`solve_chiller`; the results
+    equal ``solve_chiller`` fed with those tables
+    (:class:`evtms.fluid_tables_dome.DomeTabulatedFluid`) to round-off and
+    CoolProp's within the tables' tolerance (``Q``, ``h_out`` and ``dp``
+    within 1e-4 relative). Needs numba (:func:`evtms._jit.numba_enabled`).
+    """
+    from evtms.benches import _chiller_kernel as kernel
+
+    p_in, h_in, mdot, m_c, T_c_in = (
+        np.ascontiguousarray(np.asarray(a, float).reshape(-1)) for a in (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
+    )
+    cols = kernel.solve_points(p_in, h_in, mdot, m_c, T_c_in, *_kernel_constants(fluid, hx))
+    out = {name: cols[:, j].copy() for j, name in enumerate(kernel.COLUMNS) if not name.startswith("f_")}
+    out["fractions"] = cols[:, [kernel.COLUMNS.index(f"f_{z}") for z in ("liquid", "two_phase", "vapour")]].copy()
+    masks = ("outside_range", "bad_direction", "bad_dp", "bad_flow", "coolant_freezes", "coolant_outside", "bad_props")
+    for key in (*masks, "outside_tables"):
+        out[key] = out[key] != 0.0
+    rest = np.nonzero(out.pop("outside_tables"))[0]
+    if rest.size:  # states beyond the tables: CoolProp decides them
+        ref = solve_chiller(fluid, hx, p_in[rest], h_in[rest], mdot[rest], m_c[rest], T_c_in[rest])
+        for key, value in out.items():
+            value[rest] = ref[key]
+    return out
+
+
+def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
+    """The compiled chiller's arguments after the inputs: geometry, coolant table, limits, property tables."""
+    from evtms.benches import _chiller_kernel as kernel
+    from evtms.fluid_tables import tables_for
+
+    geo = plate_geometry(hx)
+    values = {
+        **geo,
+        "fouling_ref": hx.fouling_ref,
+        "fouling_coolant": hx.fouling_coolant,
+        "plate_length": hx.plate_length,
+        "chevron_angle": hx.chevron_angle,
+        "port_velocity_heads": plate.PORT_VELOCITY_HEADS,
+        "flux_steps": float(_FLUX_STEPS),
+    }
+    cool = coolant(mass_fraction=hx.coolant_mass_fraction)
+    table = cool.tables()
+    return (
+        np.array([values[k] for k in kernel.GEOMETRY], float),
+        np.ascontiguousarray(np.stack([table[k] for k in kernel.COOLANT_ROWS])),
+        cool.T_freeze,
+        cool.T_max,
+        fluid.p_triple,
+        float(fluid.saturation_curve().p[0]),
+        tables_for(fluid).arrays,
+        (np.ascontiguousarray(tube.GAUSS_NODES), np.ascontiguousarray(tube.GAUSS_WEIGHTS)),
+    )
+
+
 def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
     """Steady-state chiller response over arrays of bench inputs.
 
