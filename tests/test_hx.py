@@ -264,13 +264,14 @@ def test_compiled_searches_equal_the_array_bisections(name, monkeypatch):
     arithmetic: same statuses, every output equal to round-off."""
     import evtms.hx.counterflow as cf
     import evtms.hx.crossflow as xf
-    from evtms.benches import BENCHES
+    from evtms.benches import BENCHES, chiller
     from evtms.benches.parameters import Parameters
     from evtms.fluid import Fluid
     from evtms.hx.crossflow import per_point_searches
 
     if not cf.numba_enabled():
         pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set): only the array path exists")
+    monkeypatch.setattr(chiller, "numba_enabled", lambda: False)  # its own compiled solve: test_chiller.py
     inputs = _KERNEL_CASES[name](np.random.default_rng(7), 300)
     bench, params, fluid = BENCHES[name], Parameters(), Fluid()
     with per_point_searches():  # as the cycle's direct models call the benches

@@ -29,6 +29,13 @@ to 8000, so many points use a correlation outside its range: they are valid
 with status 11 (``valid_correlation_outside_range``), the correlations
 evaluated as published.
 
+Computation: with numba (:func:`evtms._jit.numba_enabled`) the bench solves
+each point in machine code (:func:`solve_chiller_compiled`,
+:mod:`evtms.benches._chiller_kernel`) on tabulated refrigerant properties
+(:mod:`evtms.fluid_tables`), within 1e-4 relative of CoolProp in ``Q``,
+``h_out`` and ``dp``; :func:`solve_chiller`, the same steps over NumPy arrays
+on CoolProp, is its reference and the fallback without numba.
+
 Energy: ``Q = mdot (h_in - h_out) = -mdot_coolant (h_c,in - h_c,out)`` (< 0,
 heat into the refrigerant), both to round-off, in the coolant's tabulated
 enthalpy (:meth:`evtms.fluid.Coolant.enthalpy`). Second law: the
@@ -45,6 +52,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from evtms._jit import numba_enabled
 from evtms.benches.base import (
     COMMON_FLAGS,
     STATUS_OUTSIDE_FLUID_RANGE,
@@ -517,7 +525,9 @@ def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: 
         h_in = fluid.state("PT", p_in, inputs["T_in"], ("H",))["H"]
     # An evaporator needs a saturation state at its inlet pressure.
     inlet_bad = ~np.isfinite(h_in) | ~((p_in > fluid.p_triple) & (p_in < fluid.p_crit))
-    res = solve_chiller(
+    # Compiled on tabulated properties where numba is (the array solve is its reference).
+    solve = solve_chiller_compiled if numba_enabled() else solve_chiller
+    res = solve(
         fluid,
         params.chiller,
         p_in,
