@@ -46,6 +46,7 @@ either).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
@@ -463,8 +464,12 @@ def solve_chiller_compiled(
     return out
 
 
+@functools.lru_cache(maxsize=8)
 def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
-    """The compiled chiller's arguments after the inputs: geometry, coolant table, limits, property tables."""
+    """The compiled chiller's arguments after the inputs: geometry, coolant table, limits, property tables.
+
+    Cached per fluid and geometry: a cycle solver calls the chiller on a point at a time, and
+    stacking the coolant table alone would cost more than the solve."""
     from evtms.benches import _chiller_kernel as kernel
     from evtms.fluid_tables import tables_for
 
