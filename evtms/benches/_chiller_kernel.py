@@ -39,14 +39,13 @@ import numpy as np
 from evtms._jit import jit
 from evtms.fluid_tables import SAT_COLUMNS, ph_temperature, pt_state, saturation
 from evtms.fluid_tables_dome import ph_density
-from evtms.hx._counterflow_kernels import solve_point
-from evtms.hx._kernels import interp, nan_max, nan_min
+from evtms.hx._counterflow_kernels import secondary_outlet_temperature, solve_point, table_interp
+from evtms.hx._kernels import nan_max, nan_min
 from evtms.hx._plate_kernels import (
     equivalent_mass_flux,
     martin_friction_factor,
     martin_nusselt,
     martin_outside_range,
-    yan_lin_boiling_htc,
     yan_lin_friction_factor,
     yan_lin_outside_range,
 )
@@ -94,8 +93,9 @@ GEOMETRY = (
     "port_velocity_heads",
     "flux_steps",
 )
-#: Rows of the coolant table argument (:meth:`evtms.fluid.Coolant.tables`).
-COOLANT_ROWS = ("T", "h", "CP", "D", "MU", "K")
+#: The coolant tables of the kernel's ``cool`` argument, (x, y) columns of :meth:`evtms.fluid.Coolant.tables`
+#: each as an :func:`evtms.hx._counterflow_kernels.bucket_table`.
+COOLANT_TABLES = (("T", "h"), ("T", "CP"), ("T", "D"), ("T", "MU"), ("T", "K"), ("h", "T"))
 
 _T, _HL, _HV, _RHO_L, _RHO_V, _CP_L, _CP_V, _MU_L, _MU_V, _K_L, _K_V = range(len(SAT_COLUMNS))
 _A, _DH, _FLOW_REF, _FLOW_C, _PORT, _R_WALL, _FOUL_REF, _FOUL_C, _LENGTH, _ANGLE, _HEADS, _FLUX = range(len(GEOMETRY))
@@ -125,17 +125,24 @@ def _phase_props(meta, sat, vap, liq, p, T, s, vapour):
 
 
 @jit
-def _yan_lin_mean(G, D_h, s, q, nodes, weights):
-    """Yan and Lin's coefficient [W/(m2 K)] averaged over quality 0..1, and Re_eq at x = 1/2
-    (:func:`evtms.benches.chiller._yan_lin_mean`)."""
+def _yan_lin_factor(G, D_h, s, nodes, weights):
+    """Yan and Lin's coefficient averaged over quality 0..1 (Gauss-Legendre) per ``q^0.3``
+    [W/(m2 K) (W/m2)^-0.3], and Re_eq at x = 1/2, as :func:`evtms.benches.chiller._yan_lin_mean`.
+
+    The coefficient goes as ``Bo_eq^0.3 = q^0.3 (G_eq h_lv)^-0.3`` (Yan and Lin 1999): the mean
+    at flux ``q`` is this factor times ``q^0.3``, so the flux's fixed point needs one power a
+    step, not one average over the nodes."""
     Pr_l = s[_CP_L] * s[_MU_L] / s[_K_L]
     h_lv = s[_HV] - s[_HL]
-    h = 0.0
+    mu_l, rho_l, rho_v = s[_MU_L], s[_RHO_L], s[_RHO_V]
+    Re = G * D_h / mu_l
+    factor = 0.0
     for j in range(nodes.size):
-        x = nodes[j]
-        h += yan_lin_boiling_htc(x, G, D_h, q, h_lv, s[_MU_L], s[_RHO_L], s[_RHO_V], s[_K_L], Pr_l) * weights[j]
-    Re_eq = equivalent_mass_flux(G, 0.5, s[_RHO_L], s[_RHO_V]) * D_h / s[_MU_L]
-    return h, Re_eq
+        G_eq = equivalent_mass_flux(G, nodes[j], rho_l, rho_v)
+        factor += G_eq * D_h / mu_l * (G_eq * h_lv) ** -0.3 * weights[j]
+    factor *= 1.926 * (s[_K_L] / D_h) * Pr_l ** (1.0 / 3.0) * Re**-0.5
+    Re_eq = equivalent_mass_flux(G, 0.5, rho_l, rho_v) * D_h / mu_l
+    return factor, Re_eq
 
 
 @jit
@@ -159,31 +166,31 @@ def _clip01(x: float) -> float:
 
 
 @jit
-def _coolant_pass(T_c_mean, ref, geo, cool, s, gauss):
-    """One pass of :func:`evtms.benches.chiller.solve_chiller`'s coolant loop: the coolant side at
-    ``T_c_mean`` [K], the mean two-phase coefficient at the fixed-point heat flux, the zone
-    resistances and the counter-flow solve (:func:`evtms.hx._counterflow_kernels.solve_point`).
+def _resistances(T_c_mean, ref, geo, cool, s, gauss):
+    """One pass of :func:`evtms.benches.chiller.solve_chiller`'s coolant loop up to the solve: the
+    coolant side at ``T_c_mean`` [K], the mean two-phase coefficient at the fixed-point heat flux
+    and the zone resistances.
 
-    Returns the solve's tuple, the coolant resistance [K/W] and Reynolds number, Re_eq and the
-    three zone resistances [K/W]."""
+    Returns the coolant resistance [K/W] and Reynolds number, Re_eq and the three zone
+    resistances [K/W] (liquid, two-phase, vapour)."""
     mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, h_liq, h_vap, R_fixed, G, G_c, m_c, T_c_in, h_c_in = ref
     nodes, weights = gauss
-    c_T = cool[0]
     A, D_h, angle = geo[_A], geo[_DH], geo[_ANGLE]
-    cp_c = interp(T_c_mean, c_T, cool[2])
-    rho_c, mu_c, k_c = interp(T_c_mean, c_T, cool[3]), interp(T_c_mean, c_T, cool[4]), interp(T_c_mean, c_T, cool[5])
+    cp_c = table_interp(T_c_mean, cool[1])
+    rho_c, mu_c = table_interp(T_c_mean, cool[2]), table_interp(T_c_mean, cool[3])
+    k_c = table_interp(T_c_mean, cool[4])
     h_c, Re_c = _martin_htc(G_c, D_h, rho_c, cp_c, mu_c, k_c, angle)
     R_c = 1.0 / (h_c * A) + geo[_FOUL_C] / A
     C_c = m_c * cp_c
     q = 5000.0  # mean heat flux of an all-two-phase exchanger, by fixed point (Yan and Lin's h ~ q^0.3)
-    h_tp, Re_eq = math.nan, math.nan
+    factor, Re_eq = _yan_lin_factor(G, D_h, s, nodes, weights)
+    h_tp = math.nan
     for _ in range(int(geo[_FLUX])):
-        h_tp, Re_eq = _yan_lin_mean(G, D_h, s, q, nodes, weights)
+        h_tp = factor * q**0.3
         UA = 1.0 / (R_c + R_fixed + 1.0 / (h_tp * A))
         q = nan_max(C_c * -math.expm1(-UA / C_c) * abs(T_c_in - T_sat) / A, 1.0)
     R0, R1, R2 = R_fixed + 1.0 / (h_liq * A), R_fixed + 1.0 / (h_tp * A), R_fixed + 1.0 / (h_vap * A)
-    res = solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, R0, R1, R2, m_c, T_c_in, h_c_in, R_c, cool[1], c_T)
-    return res, R_c, Re_c, Re_eq, R0, R1, R2
+    return R_c, Re_c, Re_eq, R0, R1, R2
 
 
 @jit
@@ -192,7 +199,7 @@ def solve_point_chiller(
 ):
     """One point of :func:`evtms.benches.chiller.solve_chiller` into ``out`` (:data:`COLUMNS`).
 
-    ``geo``: :data:`GEOMETRY`; ``cool``: the coolant table, rows :data:`COOLANT_ROWS`;
+    ``geo``: :data:`GEOMETRY`; ``cool``: the coolant's tables (:data:`COOLANT_TABLES`);
     ``T_freeze``, ``T_max_c``: the coolant's freezing point and table top [K]; ``p_triple``
     [Pa]; ``curve_p_min``: the lowest pressure of the CoolProp path's saturation curve [Pa]
     (below it that path has no outlet state either); ``tables``: ``(meta, sat, vapour,
@@ -232,14 +239,17 @@ def solve_point_chiller(
     rho_vp, cp_vp, mu_vp, k_vp = _phase_props(meta, sat, vap, liq, p_in, 0.5 * (T0_v + T_c_in), s, True)
     h_vap, Re_vap = _martin_htc(G, D_h, rho_vp, cp_vp, mu_vp, k_vp, angle)
     R_fixed = geo[_R_WALL] + geo[_FOUL_REF] / A
-    h_c_in = interp(T_c_in, cool[0], cool[1])
+    h_c_in = table_interp(T_c_in, cool[0])
 
     # --- coolant properties at the inlet, then at the mean temperature ---------------
     ref = (mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, h_liq, h_vap, R_fixed, G, G_c, m_c, T_c_in, h_c_in)
-    first = _coolant_pass(T_c_in, ref, geo, cool, s, gauss)
-    T_c_out = first[0][6]
+    # The first pass needs the coolant's outlet temperature only.
+    R_c, _, _, R0, R1, R2 = _resistances(T_c_in, ref, geo, cool, s, gauss)
+    args = (mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, R0, R1, R2, m_c, T_c_in, h_c_in, R_c, cool[5])
+    T_c_out = secondary_outlet_temperature(*args)
     T_c_mean = 0.5 * (T_c_in + T_c_out) if math.isfinite(T_c_out) else T_c_in
-    res, R_c, Re_c, Re_eq, R0, R1, R2 = _coolant_pass(T_c_mean, ref, geo, cool, s, gauss)
+    R_c, Re_c, Re_eq, R0, R1, R2 = _resistances(T_c_mean, ref, geo, cool, s, gauss)
+    res = solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, R0, R1, R2, m_c, T_c_in, h_c_in, R_c, cool[5])
     Q, f0, f1, f2, h_out, h_c_out, T_c_out, _, capacity_ratio, h_continued, bad_direction = res
 
     # --- pressure drop over the zone lengths, plus the ports -------------------------

@@ -472,6 +472,7 @@ def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
     stacking the coolant table alone would cost more than the solve."""
     from evtms.benches import _chiller_kernel as kernel
     from evtms.fluid_tables import tables_for
+    from evtms.hx._counterflow_kernels import bucket_table
 
     geo = plate_geometry(hx)
     values = {
@@ -487,7 +488,7 @@ def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
     table = cool.tables()
     return (
         np.array([values[k] for k in kernel.GEOMETRY], float),
-        np.ascontiguousarray(np.stack([table[k] for k in kernel.COOLANT_ROWS])),
+        tuple(bucket_table(table[x], table[y]) for x, y in kernel.COOLANT_TABLES),
         cool.T_freeze,
         cool.T_max,
         fluid.p_triple,
