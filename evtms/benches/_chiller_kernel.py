@@ -39,7 +39,7 @@ import numpy as np
 from evtms._jit import jit
 from evtms.fluid_tables import SAT_COLUMNS, ph_temperature, pt_state, saturation
 from evtms.fluid_tables_dome import ph_density
-from evtms.hx._counterflow_kernels import secondary_outlet_temperature, solve_point, table_interp
+from evtms.hx._counterflow_kernels import heat_rate_point, solve_point, table_interp
 from evtms.hx._kernels import nan_max, nan_min
 from evtms.hx._plate_kernels import (
     equivalent_mass_flux,
@@ -246,10 +246,10 @@ def solve_point_chiller(
     # The first pass needs the coolant's outlet temperature only.
     R_c, _, _, R0, R1, R2 = _resistances(T_c_in, ref, geo, cool, s, gauss)
     args = (mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, R0, R1, R2, m_c, T_c_in, h_c_in, R_c, cool[5])
-    T_c_out = secondary_outlet_temperature(*args)
+    Q_first, T_c_out = heat_rate_point(*args)
     T_c_mean = 0.5 * (T_c_in + T_c_out) if math.isfinite(T_c_out) else T_c_in
     R_c, Re_c, Re_eq, R0, R1, R2 = _resistances(T_c_mean, ref, geo, cool, s, gauss)
-    res = solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, R0, R1, R2, m_c, T_c_in, h_c_in, R_c, cool[5])
+    res = solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_c, R0, R1, R2, m_c, T_c_in, h_c_in, R_c, cool[5], Q_first)
     Q, f0, f1, f2, h_out, h_c_out, T_c_out, _, capacity_ratio, h_continued, bad_direction = res
 
     # --- pressure drop over the zone lengths, plus the ports -------------------------

@@ -156,10 +156,13 @@ def _total(Q, args):
 
 #: Regula-falsi steps (Illinois) that narrow the bracket before the bisection is replayed.
 _BRACKET_STEPS = 16
+#: Relative step [1] from a guessed heat rate to the other end of its first bracket (the chiller's
+#: second coolant pass changes its heat rate by a few per cent at most).
+_WARM_STEP = 0.03
 
 
 @jit
-def heat_rate(hi, args):
+def heat_rate(hi, args, guess):
     """The largest heat rate [W] in ``[0, hi]`` whose zones fit the exchanger: exactly the
     :data:`~evtms.hx.counterflow.BISECTION_STEPS`-step bisection of
     :func:`evtms.hx.counterflow._largest_fitting_heat_rate`, with fewer evaluations.
@@ -169,10 +172,27 @@ def heat_rate(hi, args):
     The bracket is narrowed first by the Illinois variant of regula falsi (Dowell and Jarratt
     1971), halving instead where the fraction is infinite (beyond a pinch); the bisection is
     then replayed, evaluating only the midpoints inside the bracket: a few of the 40 instead of
-    all of them, for the same result."""
+    all of them, for the same result. A ``guess`` inside ``(0, hi)`` (the heat rate of a
+    nearby solve) starts the bracket at it and :data:`_WARM_STEP` away; 0 starts from
+    ``[0, hi]``."""
     a, g_a = 0.0, -1.0  # no heat needs no area
-    b = hi
-    g_b = _total(b, args) - 1.0
+    b, g_b = hi, math.nan
+    if 0.0 < guess < hi:  # a bracket about the guess, if it holds the root
+        g = _total(guess, args) - 1.0
+        if g < 0.0:
+            a, g_a = guess, g
+            c = min(guess * (1.0 + _WARM_STEP), hi)
+        else:
+            b, g_b = guess, g
+            c = guess * (1.0 - _WARM_STEP)
+        g_c = _total(c, args) - 1.0
+        if g_c < 0.0:
+            if c > a:
+                a, g_a = c, g_c
+        elif c <= b:
+            b, g_b = c, g_c
+    if g_b != g_b:
+        g_b = _total(b, args) - 1.0
     tol = hi * 2.0 ** -(BISECTION_STEPS - 2)
     side = 0
     for _ in range(_BRACKET_STEPS):
@@ -230,19 +250,18 @@ def _bracket(mdot, h_in, T_in, h_at_s, R0, R1, R2, s_T_in, s_h_in, s_R):
 
 
 @jit
-def secondary_outlet_temperature(
-    mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table
-):
-    """``T_secondary_out`` [K] of :func:`solve_point` alone (the heat rate's search, no more)."""
+def heat_rate_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table):
+    """The heat rate [W] of :func:`solve_point` and ``T_secondary_out`` [K] alone (the search, no more)."""
     args = (mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table)
     _, ok, hi = _bracket(mdot, h_in, T_in, h_at_s, R0, R1, R2, s_T_in, s_h_in, s_R)
-    Q = heat_rate(hi, args) if ok else 0.0
-    return table_interp(s_h_in - Q / s_mdot, table)
+    Q = heat_rate(hi, args, 0.0) if ok else 0.0
+    return Q, table_interp(s_h_in - Q / s_mdot, table)
 
 
 @jit
-def solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table):
-    """One point of :func:`evtms.hx.counterflow.solve_counterflow_evaporator`.
+def solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table, guess):
+    """One point of :func:`evtms.hx.counterflow.solve_counterflow_evaporator` (``guess``: see
+    :func:`heat_rate`).
 
     Returns
     -------
@@ -255,7 +274,7 @@ def solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s
     bad_direction, ok, hi = _bracket(mdot, h_in, T_in, h_at_s, R0, R1, R2, s_T_in, s_h_in, s_R)
     Q = 0.0
     if ok:  # the largest heat rate found to fit (the bound itself may not)
-        Q = heat_rate(hi, args)
+        Q = heat_rate(hi, args, guess)
     f0, f1, f2 = fractions(Q, *args)
     missing = 1.0 - (f0 + f1 + f2)
     if Q > 0 and missing > 0 and math.isfinite(missing):  # the area a pinch leaves over
