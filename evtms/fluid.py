@@ -887,6 +887,11 @@ class Coolant:
         """Temperature [K] at specific enthalpy ``h`` [J/kg], the inverse of :meth:`enthalpy`."""
         return np.interp(h, self.h, self.T, left=np.nan, right=np.nan)
 
+    def tables(self) -> dict[str, np.ndarray]:
+        """The tabulated columns by name, what :meth:`enthalpy`, :meth:`temperature` and
+        :meth:`properties` interpolate: ``T`` [K], ``h`` [J/kg], ``CP``, ``D``, ``MU``, ``K`` (SI)."""
+        return {"T": self.T, "h": self.h, "CP": self._cp_tab, "D": self._rho, "MU": self._mu, "K": self._k}
+
     def properties(self, T: np.ndarray | float) -> dict[str, np.ndarray]:
         """``CP`` [J/(kg K)], ``D`` [kg/m3], ``MU`` [Pa s] and ``K`` [W/(m K)] at ``T`` [K] (NaN outside)."""
         return {

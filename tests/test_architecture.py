@@ -32,6 +32,7 @@ LAYERS = (
     ("errors", "_jit"),
     ("paths", "params", "fluid", "luts"),
     ("fluid_tables",),
+    ("fluid_tables_dome",),
     ("hx",),
     ("benches",),
     ("cycle",),

@@ -230,3 +230,78 @@ def test_tiny_refrigerant_flows_fill_the_plate(fluid, params):
     assert np.max(np.abs(balance) / scale) < 1e-13
     res = solve_chiller(fluid, params.chiller, p, h, m, m_c, T_c)
     np.testing.assert_allclose(res["fractions"].sum(axis=1), 1.0, rtol=0, atol=1e-12)
+
+
+# --- the compiled solve ------------------------------------------------------------------------
+
+#: Outputs of solve_chiller that are masks (compared exactly).
+_MASKS = ("outside_range", "bad_direction", "bad_dp", "bad_flow", "coolant_freezes", "coolant_outside", "bad_props")
+
+
+def _solver_inputs(n, seed=11):
+    """Points over and beyond the cycle envelope (tiny flows, coolant colder than the refrigerant)."""
+    rng = np.random.default_rng(seed)
+    pts = _random_points(n, seed)
+    pts["mdot"] = np.exp(rng.uniform(np.log(1e-5), np.log(0.2), n))
+    return [pts[k] for k in ("p_in", "h_in", "mdot", "mdot_coolant", "T_coolant_in")]
+
+
+@pytest.fixture(scope="module")
+def compiled_and_references(fluid, params):
+    """The compiled solve and solve_chiller on the same tables and on CoolProp, at 400 points."""
+    from evtms._jit import numba_enabled
+    from evtms.benches.chiller import solve_chiller_compiled
+    from evtms.fluid_tables_dome import DomeTabulatedFluid
+
+    if not numba_enabled():
+        pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set): only the array path exists")
+    args = _solver_inputs(400)
+    hx = params.chiller
+    return (
+        solve_chiller_compiled(fluid, hx, *args),
+        solve_chiller(DomeTabulatedFluid(fluid), hx, *args),
+        solve_chiller(fluid, hx, *args),
+    )
+
+
+def _valid(res):
+    return ~np.any([res[k] for k in _MASKS if k != "outside_range"], axis=0)
+
+
+def test_compiled_chiller_is_the_array_solve_on_the_same_tables(compiled_and_references):
+    compiled, tabulated, _ = compiled_and_references
+    for key in _MASKS:
+        np.testing.assert_array_equal(compiled[key], tabulated[key], err_msg=key)
+    valid = _valid(tabulated)
+    assert 0.5 < valid.mean() < 1.0  # valid points and every kind of invalid one
+    assert compiled["bad_direction"].any() and compiled["bad_flow"].sum() == 0
+    for key, value in tabulated.items():
+        if key not in _MASKS:
+            np.testing.assert_allclose(compiled[key][valid], value[valid], rtol=1e-9, atol=0.0, err_msg=key)
+
+
+def test_compiled_chiller_is_coolprop_within_the_tables_tolerance(compiled_and_references):
+    compiled, _, coolprop = compiled_and_references
+    valid = _valid(coolprop)
+    np.testing.assert_array_equal(_valid(compiled), valid)
+    for key in ("Q", "h_out", "dp", "h_out_continued", "T_coolant_out", "UA"):
+        np.testing.assert_allclose(compiled[key][valid], coolprop[key][valid], rtol=1e-4, atol=0.0, err_msg=key)
+    np.testing.assert_allclose(compiled["T_out"][valid], coolprop["T_out"][valid], rtol=0.0, atol=2e-3)
+
+
+def test_compiled_chiller_hands_states_beyond_its_tables_to_coolprop(fluid, params):
+    """Above the tables' 90 % of the critical pressure (and below the critical pressure) the
+    compiled solve gives CoolProp's answer, point by point."""
+    from evtms._jit import numba_enabled
+    from evtms.benches.chiller import solve_chiller_compiled
+
+    if not numba_enabled():
+        pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set): only the array path exists")
+    p = np.array([0.95 * fluid.p_crit, 3.0e5])
+    h, m, m_c, T_c = np.array([300e3, 230e3]), np.full(2, 0.03), np.full(2, 0.15), np.full(2, 363.15)
+    got = solve_chiller_compiled(fluid, params.chiller, p, h, m, m_c, T_c)
+    ref = solve_chiller(fluid, params.chiller, p, h, m, m_c, T_c)
+    assert np.isfinite(ref["Q"][0]) and not ref["bad_props"][0]  # CoolProp has the state
+    for key, value in ref.items():
+        np.testing.assert_allclose(got[key][0], value[0], rtol=1e-12, err_msg=key)
+    np.testing.assert_allclose(got["Q"][1], ref["Q"][1], rtol=1e-4)

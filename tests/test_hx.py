@@ -264,13 +264,14 @@ def test_compiled_searches_equal_the_array_bisections(name, monkeypatch):
     arithmetic: same statuses, every output equal to round-off."""
     import evtms.hx.counterflow as cf
     import evtms.hx.crossflow as xf
-    from evtms.benches import BENCHES
+    from evtms.benches import BENCHES, chiller
     from evtms.benches.parameters import Parameters
     from evtms.fluid import Fluid
     from evtms.hx.crossflow import per_point_searches
 
     if not cf.numba_enabled():
         pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set): only the array path exists")
+    monkeypatch.setattr(chiller, "numba_enabled", lambda: False)  # its own compiled solve: test_chiller.py
     inputs = _KERNEL_CASES[name](np.random.default_rng(7), 300)
     bench, params, fluid = BENCHES[name], Parameters(), Fluid()
     with per_point_searches():  # as the cycle's direct models call the benches
@@ -284,3 +285,31 @@ def test_compiled_searches_equal_the_array_bisections(name, monkeypatch):
         # Q_latent: a small difference of large enthalpy flows, so a few ulp of them relative to it.
         rtol = 1e-11 if key == "Q_latent" else 1e-12
         np.testing.assert_allclose(compiled[key], value, rtol=rtol, atol=0.0, equal_nan=True, err_msg=key)
+
+
+def test_compiled_plate_correlations_equal_the_array_ones():
+    """The scalar twins of evtms.hx.plate (evtms.hx._plate_kernels, the compiled chiller's) give the
+    array functions' numbers on both sides of every branch, NaN where they give NaN."""
+    from evtms.hx import _plate_kernels as pk
+
+    rng = np.random.default_rng(3)
+    Re = np.concatenate([np.exp(rng.uniform(np.log(1.0), np.log(3e4), 200)), [2000.0, 6000.0, np.nan, 0.0]])
+    Pr = rng.uniform(0.7, 60.0, Re.size)
+    for angle in (30.0, 60.0, 85.0):
+        xi = plate.martin_friction_factor(Re, angle)
+        nu = plate.martin_nusselt(Re, Pr, angle)
+        out = plate.martin_outside_range(Re, angle)
+        for i in range(Re.size):
+            np.testing.assert_allclose(pk.martin_friction_factor(Re[i], angle), xi[i], rtol=1e-14, equal_nan=True)
+            np.testing.assert_allclose(pk.martin_nusselt(Re[i], Pr[i], angle), nu[i], rtol=1e-14, equal_nan=True)
+            assert pk.martin_outside_range(Re[i], angle) == out[i]
+    Re_eq = 3.0 * Re
+    f = plate.yan_lin_friction_factor(Re_eq, Re)
+    x, G, q = rng.uniform(0, 1, Re.size), rng.uniform(5, 200, Re.size), rng.uniform(1e2, 3e4, Re.size)
+    h = plate.yan_lin_boiling_htc(x, G, 0.003, q, 1.9e5, 2.5e-4, 1290.0, 14.0, 0.09, 3.5)
+    out = plate.yan_lin_outside_range(Re_eq)
+    for i in range(Re.size):
+        np.testing.assert_allclose(pk.yan_lin_friction_factor(Re_eq[i], Re[i]), f[i], rtol=1e-14, equal_nan=True)
+        got = pk.yan_lin_boiling_htc(x[i], G[i], 0.003, q[i], 1.9e5, 2.5e-4, 1290.0, 14.0, 0.09, 3.5)
+        np.testing.assert_allclose(got, h[i], rtol=1e-14)
+        assert pk.yan_lin_outside_range(Re_eq[i]) == out[i]

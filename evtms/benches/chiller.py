@@ -29,6 +29,13 @@ to 8000, so many points use a correlation outside its range: they are valid
 with status 11 (``valid_correlation_outside_range``), the correlations
 evaluated as published.
 
+Computation: with numba (:func:`evtms._jit.numba_enabled`) the bench solves
+each point in machine code (:func:`solve_chiller_compiled`,
+:mod:`evtms.benches._chiller_kernel`) on tabulated refrigerant properties
+(:mod:`evtms.fluid_tables`), within 1e-4 relative of CoolProp in ``Q``,
+``h_out`` and ``dp``; :func:`solve_chiller`, the same steps over NumPy arrays
+on CoolProp, is its reference and the fallback without numba.
+
 Energy: ``Q = mdot (h_in - h_out) = -mdot_coolant (h_c,in - h_c,out)`` (< 0,
 heat into the refrigerant), both to round-off, in the coolant's tabulated
 enthalpy (:meth:`evtms.fluid.Coolant.enthalpy`). Second law: the
@@ -39,12 +46,14 @@ either).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from evtms._jit import numba_enabled
 from evtms.benches.base import (
     COMMON_FLAGS,
     STATUS_OUTSIDE_FLUID_RANGE,
@@ -415,6 +424,80 @@ def solve_chiller(
     }
 
 
+def solve_chiller_compiled(
+    fluid: Fluid,
+    hx: PlateHXParams,
+    p_in: np.ndarray,
+    h_in: np.ndarray,
+    mdot: np.ndarray,
+    mdot_coolant: np.ndarray,
+    T_coolant_in: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """:func:`solve_chiller` per point in machine code, on tabulated refrigerant properties.
+
+    The kernel (:mod:`evtms.benches._chiller_kernel`) reads the refrigerant
+    tables of :mod:`evtms.fluid_tables` (built once per process from
+    ``fluid``) and the coolant's own tables; points whose states leave the
+    refrigerant tables are solved by :func:`solve_chiller` with ``fluid``
+    itself. Same parameters and outputs as :func:`solve_chiller`; the results
+    equal ``solve_chiller`` fed with those tables
+    (:class:`evtms.fluid_tables_dome.DomeTabulatedFluid`) to round-off and
+    CoolProp's within the tables' tolerance (``Q``, ``h_out`` and ``dp``
+    within 1e-4 relative). Needs numba (:func:`evtms._jit.numba_enabled`).
+    """
+    from evtms.benches import _chiller_kernel as kernel
+
+    p_in, h_in, mdot, m_c, T_c_in = (
+        np.ascontiguousarray(np.asarray(a, float).reshape(-1)) for a in (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
+    )
+    cols = kernel.solve_points(p_in, h_in, mdot, m_c, T_c_in, *_kernel_constants(fluid, hx))
+    out = {name: cols[:, j].copy() for j, name in enumerate(kernel.COLUMNS) if not name.startswith("f_")}
+    out["fractions"] = cols[:, [kernel.COLUMNS.index(f"f_{z}") for z in ("liquid", "two_phase", "vapour")]].copy()
+    masks = ("outside_range", "bad_direction", "bad_dp", "bad_flow", "coolant_freezes", "coolant_outside", "bad_props")
+    for key in (*masks, "outside_tables"):
+        out[key] = out[key] != 0.0
+    rest = np.nonzero(out.pop("outside_tables"))[0]
+    if rest.size:  # states beyond the tables: CoolProp decides them
+        ref = solve_chiller(fluid, hx, p_in[rest], h_in[rest], mdot[rest], m_c[rest], T_c_in[rest])
+        for key, value in out.items():
+            value[rest] = ref[key]
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
+    """The compiled chiller's arguments after the inputs: geometry, coolant table, limits, property tables.
+
+    Cached per fluid and geometry: a cycle solver calls the chiller on a point at a time, and
+    stacking the coolant table alone would cost more than the solve."""
+    from evtms.benches import _chiller_kernel as kernel
+    from evtms.fluid_tables import tables_for
+    from evtms.hx._counterflow_kernels import bucket_table
+
+    geo = plate_geometry(hx)
+    values = {
+        **geo,
+        "fouling_ref": hx.fouling_ref,
+        "fouling_coolant": hx.fouling_coolant,
+        "plate_length": hx.plate_length,
+        "chevron_angle": hx.chevron_angle,
+        "port_velocity_heads": plate.PORT_VELOCITY_HEADS,
+        "flux_steps": float(_FLUX_STEPS),
+    }
+    cool = coolant(mass_fraction=hx.coolant_mass_fraction)
+    table = cool.tables()
+    return (
+        np.array([values[k] for k in kernel.GEOMETRY], float),
+        tuple(bucket_table(table[x], table[y]) for x, y in kernel.COOLANT_TABLES),
+        cool.T_freeze,
+        cool.T_max,
+        fluid.p_triple,
+        float(fluid.saturation_curve().p[0]),
+        tables_for(fluid).arrays,
+        (np.ascontiguousarray(tube.GAUSS_NODES), np.ascontiguousarray(tube.GAUSS_WEIGHTS)),
+    )
+
+
 def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
     """Steady-state chiller response over arrays of bench inputs.
 
@@ -448,7 +531,9 @@ def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: 
         h_in = fluid.state("PT", p_in, inputs["T_in"], ("H",))["H"]
     # An evaporator needs a saturation state at its inlet pressure.
     inlet_bad = ~np.isfinite(h_in) | ~((p_in > fluid.p_triple) & (p_in < fluid.p_crit))
-    res = solve_chiller(
+    # Compiled on tabulated properties where numba is (the array solve is its reference).
+    solve = solve_chiller_compiled if numba_enabled() else solve_chiller
+    res = solve(
         fluid,
         params.chiller,
         p_in,
