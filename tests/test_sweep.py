@@ -290,6 +290,21 @@ def test_a_run_that_raises_is_its_rows_error_and_the_others_run_on(monkeypatch):
     assert rows[4]["message"] == "the loop left finite numbers" and math.isnan(rows[4]["soc_end"])
 
 
+def test_a_worker_that_does_not_see_the_run_folder_sends_the_file_back(tmp_path):
+    """Where the folder's token is not the sweep's (a cluster without the folder) the file's bytes come back."""
+    from evtms.system.sweep import run_batches
+    from evtms.system.sweep_table import RUNS_MARKER, SweepRows, write_run_bytes
+
+    ctx = _context(2)
+    (tmp_path / RUNS_MARKER).write_text("another sweep's token")
+    ctx.reduce = SweepRows(2, str(tmp_path), ctx.token)
+    rows = run_batches(ctx)
+    assert [r["run_file"] for r in rows] == ["run-0000.nc", "run-0001.nc"] and not list(tmp_path.glob("*.nc"))
+    write_run_bytes(tmp_path, rows[1]["run_file"], rows[1].pop("run_bytes"))
+    with netCDF4.Dataset(tmp_path / "run-0001.nc") as ds:
+        assert json.loads(ds.summary)["soc_end"] == rows[1]["soc_end"]
+
+
 def _train(tmp_path, name: str, runner=None):
     from evtms.surrogates import train
     from tests.test_surrogates import synthetic_refrigerant

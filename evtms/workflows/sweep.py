@@ -385,8 +385,7 @@ def run_sweep(request: SweepRequest, *, notify: Notify | None = None, progress: 
         Ctrl-C: nothing is written (the runs' files written so far are kept).
     """
     from evtms.system.simulate import check_model
-    from evtms.system.sweep import SweepContext, make_runner, run_batches
-    from evtms.system.sweep_table import RUNS_MARKER, SweepRows, SweepTable, failed_figures, write_table
+    from evtms.system.sweep import make_runner
     from evtms.workflows.simulate import cycle_luts, surrogate_models
 
     t0 = time.perf_counter()
@@ -407,30 +406,15 @@ def run_sweep(request: SweepRequest, *, notify: Notify | None = None, progress: 
     maps, which = _refrigerants(r, trees, lut_folder, notify, progress)
     for m in maps:
         check_model(r.model, r.mode or "auto", mode_models, m)
-    runs = _runs(grid, which)
-    options = dict(dt=r.dt, output_every=r.output_every, precondition=r.precondition, model=r.model)
-    if r.soak_cabin is not None:
-        options["soak_cabin"] = r.soak_cabin + 273.15
-    context = SweepContext(setups, maps, runs, None, options, mode_models, failed_figures)
-    context.reduce = SweepRows(len(runs), None if r.runs is None else str(r.runs), context.token)
+    context = _context(r, grid, setups, maps, which, mode_models)
     runner = make_runner(r.workers, r.scheduler)
-    t_runs = None
     try:
-        with creating_parents(r.output), _run_folder(r.runs, context.token, RUNS_MARKER):
-            if progress is not None:
-                progress(0, len(runs), "scenarios")
-            t_runs = time.perf_counter()
-            figures = run_batches(
-                context, runner, size=r.batch, progress=None if progress is None else _label(progress)
-            )
-            run_time = time.perf_counter() - t_runs
-            rows = _rows(context, grid, figures, r)
-            table = SweepTable(rows, _attrs(r, runner, run_time))
-            write_table(table, r.output)
+        table, run_time = _execute(r, grid, context, runner, progress)
     except KeyboardInterrupt:
         raise EvtmsInterrupted(f"interrupted: no summary table written to {str(r.output)!r}") from None
     finally:
         runner.close()
+    rows = table.rows
     failed = sum(1 for row in rows if row["status"] == "error")
     if failed:
         first = next(row for row in rows if row["status"] == "error")
@@ -439,6 +423,36 @@ def run_sweep(request: SweepRequest, *, notify: Notify | None = None, progress: 
         table, Path(r.output), r.runs, len(rows), failed, runner.name, runner.workers,
         time.perf_counter() - t0, run_time,
     )  # fmt: skip
+
+
+def _context(r: SweepRequest, grid: _Grid, setups, maps, which, mode_models):
+    """The engine's context: the setups, maps and runs of the grid, a row per run (and its file in ``runs``)."""
+    from evtms.system.sweep import SweepContext
+    from evtms.system.sweep_table import SweepRows, failed_figures
+
+    runs = _runs(grid, which)
+    options = dict(dt=r.dt, output_every=r.output_every, precondition=r.precondition, model=r.model)
+    if r.soak_cabin is not None:
+        options["soak_cabin"] = r.soak_cabin + 273.15
+    context = SweepContext(setups, maps, runs, None, options, mode_models, failed_figures)
+    context.reduce = SweepRows(len(runs), None if r.runs is None else str(r.runs), context.token)
+    return context
+
+
+def _execute(r: SweepRequest, grid: _Grid, context, runner, progress: Progress | None):
+    """(the table written, the runs' time [s]): every run on ``runner``, then the table, atomically."""
+    from evtms.system.sweep import run_batches
+    from evtms.system.sweep_table import RUNS_MARKER, SweepTable, write_table
+
+    with creating_parents(r.output), _run_folder(r.runs, context.token, RUNS_MARKER):
+        if progress is not None:
+            progress(0, len(context.runs), "scenarios")
+        t0 = time.perf_counter()
+        figures = run_batches(context, runner, size=r.batch, progress=None if progress is None else _label(progress))
+        run_time = time.perf_counter() - t0
+        table = SweepTable(_rows(context, grid, figures, r), _attrs(r, runner, run_time))
+        write_table(table, r.output)
+    return table, run_time
 
 
 def _label(progress: Progress):
