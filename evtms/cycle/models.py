@@ -122,6 +122,7 @@ class DirectModels:
         self.params = params
         self.fluid = fluid or Fluid(params.fluid, params.backend)
         self._benches = BENCHES
+        self._flag_codes: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {}
 
     def _run(self, component: str, inputs: dict[str, np.ndarray]) -> Result:
         bench = self._benches[component]
@@ -136,11 +137,19 @@ class DirectModels:
             for code, meaning in bench.flags.items():
                 reasons[bad & (status == code)] = f"{component}: {meaning}"
         result = {k: out[k] for k in COMPONENT_OUTPUTS[component]}
-        result["no_heat_flow"] = in_codes(status, wrong_side_flags(bench.flags))
+        wrong_side, frost = self._codes(component)
+        result["no_heat_flow"] = in_codes(status, wrong_side)
         if component == "evaporator":
-            result["frost_risk"] = in_codes(status, frost_risk_flags(bench.flags)).astype(float)
+            result["frost_risk"] = in_codes(status, frost).astype(float)
         result["reason"] = reasons
         return result
+
+    def _codes(self, component: str) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """The bench's :func:`wrong_side_flags` and :func:`frost_risk_flags` (found once per component)."""
+        if component not in self._flag_codes:
+            flags = self._benches[component].flags
+            self._flag_codes[component] = (wrong_side_flags(flags), frost_risk_flags(flags))
+        return self._flag_codes[component]
 
     def compressor(self, speed, T_in, p_in, pr) -> Result:
         return self._run("compressor", {"speed": speed, "T_in": T_in, "p_in": p_in, "pr": pr})
