@@ -22,13 +22,18 @@ Layout (all SI):
   phase the cubic in ``t`` along the interpolated column is inverted exactly
   (cell by bisection over the nodes, then safeguarded Newton), so
   ``h(p, T(p, h)) = h`` to round-off.
+- ``(p, s) -> h`` (:func:`ps_enthalpy`, a compressor's isentropic
+  discharge): the entropy column inverted the same way, its depth carried to
+  the enthalpy column; inside the dome the mixture's enthalpy at the quality
+  of ``s``.
 
 Tolerance against CoolProp HEOS (``tests/test_fluid_tables.py`` asserts it on
 random states, pressures 0.5-30 bar, liquid down to 220 K and vapour up to
 150 K of superheat and 400 K): saturation temperature within 1e-4 K;
 enthalpy within 0.2 J/kg; density, heat capacity, viscosity and conductivity
 within 1e-4 relative (typically 1e-6; the worst is the heat capacity of
-vapour within a kelvin of saturation near 30 bar); ``T(p, h)`` within 1e-3 K.
+vapour within a kelvin of saturation near 30 bar); ``T(p, h)`` within 1e-3 K;
+entropy within 1e-3 J/(kg K) (typically 1e-4) and ``h(p, s)`` within 0.2 J/kg.
 A state outside the tables (pressure outside ``P_MIN``-``P_MAX``,
 temperature outside ``T_BOTTOM``-``T_TOP``) gives NaN: the compiled coils then
 hand the point to the CoolProp path.
@@ -56,9 +61,9 @@ from evtms.fluid import Fluid
 #: Saturation columns, in the order of :attr:`PropertyTables.sat`.
 SAT_COLUMNS = ("T", "h_l", "h_v", "rho_l", "rho_v", "cp_l", "cp_v", "mu_l", "mu_v", "k_l", "k_v")
 #: Single-phase columns, in the order of the last axis of :attr:`PropertyTables.vapour` and ``liquid``.
-PHASE_COLUMNS = ("h", "rho", "cp", "mu", "k")
+PHASE_COLUMNS = ("h", "rho", "cp", "mu", "k", "s")
 #: The CoolProp outputs of :data:`PHASE_COLUMNS`.
-_PHASE_KEYS = ("H", "D", "CP", "MU", "K")
+_PHASE_KEYS = ("H", "D", "CP", "MU", "K", "S")
 _N_PHASE = len(PHASE_COLUMNS)
 #: Lowest tabulated pressure [Pa] (below the coils' 0.5 bar; the cycle solver searches from 0.25 bar).
 P_MIN = 2e4
@@ -68,13 +73,15 @@ P_MAX_CRIT_FRACTION = 0.9
 #: Temperature [K] the vapour table reaches and the liquid table starts from.
 T_TOP = 450.0
 T_BOTTOM = 200.0
-#: Pressure nodes and nodes of ``t = sqrt(s)`` (0.4 s to build; 1.6 MB).
+#: Pressure nodes and nodes of ``t = sqrt(s)`` (0.5 s to build; 1 MB).
 N_PRESSURES = 160
 N_DEPTH = 64
 
 # Columns of the scalar metadata array the kernels read.
 _U0, _DU, _NU, _NT, _TTOP, _TBOT = range(6)
 _SAT_T, _SAT_HL, _SAT_HV = 0, 1, 2
+# Single-phase columns the inversions read.
+_COL_H, _COL_S = 0, PHASE_COLUMNS.index("s")
 
 
 @dataclass(frozen=True)
@@ -235,26 +242,34 @@ def pt_enthalpy(meta, sat, vapour, liquid, p: float, T: float) -> float:
 def _invert_depth(meta, tab, st, h: float) -> float:
     """The depth ``t`` in [0, 1] where the column's interpolated enthalpy is ``h``; NaN beyond the
     table. The enthalpy is monotonic in ``t`` (rising for vapour, falling for liquid)."""
+    return _invert_column(meta, tab, st, h, _COL_H)
+
+
+@jit
+def _invert_column(meta, tab, st, h: float, c: int) -> float:
+    """The depth ``t`` in [0, 1] where single-phase column ``c`` interpolates to ``h``; NaN beyond
+    the table. Column ``c`` must be monotonic in ``t`` (enthalpy and entropy are: both rise with
+    temperature at constant pressure)."""
     n = int(meta[_NT])
-    h0 = _column_at(tab, st, 0, 0)
-    h1 = _column_at(tab, st, n - 1, 0)
+    h0 = _column_at(tab, st, 0, c)
+    h1 = _column_at(tab, st, n - 1, c)
     sign = 1.0 if h1 > h0 else -1.0
     if not (sign * h0 <= sign * h <= sign * h1):
         return math.nan
     lo, hi = 0, n - 1  # node values bracket h: sign * H[lo] <= sign * h <= sign * H[hi]
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if sign * _column_at(tab, st, mid, 0) <= sign * h:
+        if sign * _column_at(tab, st, mid, c) <= sign * h:
             lo = mid
         else:
             hi = mid
     i = min(max(lo - 1, 0), n - 4)
-    y0 = _column_at(tab, st, i, 0)
-    y1 = _column_at(tab, st, i + 1, 0)
-    y2 = _column_at(tab, st, i + 2, 0)
-    y3 = _column_at(tab, st, i + 3, 0)
+    y0 = _column_at(tab, st, i, c)
+    y1 = _column_at(tab, st, i + 1, c)
+    y2 = _column_at(tab, st, i + 2, c)
+    y3 = _column_at(tab, st, i + 3, c)
     a, b = lo - i, lo - i + 1.0  # the cell in the stencil's coordinate r
-    ya, yb = _column_at(tab, st, lo, 0), _column_at(tab, st, lo + 1, 0)
+    ya, yb = _column_at(tab, st, lo, c), _column_at(tab, st, lo + 1, c)
     r = a + (h - ya) / (yb - ya) if yb != ya else a
     for _ in range(30):  # Newton on the cubic, kept in the cell (bisection where it leaves)
         w0 = -(r - 1.0) * (r - 2.0) * (r - 3.0) / 6.0
@@ -299,6 +314,46 @@ def ph_temperature(meta, sat, vapour, liquid, p: float, h: float) -> float:
         return T_sat + t * t * (meta[_TTOP] - T_sat)
     t = _invert_depth(meta, liquid, st, h)
     return T_sat - t * t * (T_sat - meta[_TBOT])
+
+
+@jit
+def _depth_column(meta, tab, st, t: float, c: int) -> float:
+    """Single-phase column ``c`` at depth ``t`` (one column of :func:`_phase_at`)."""
+    n = int(meta[_NT])
+    j, v0, v1, v2, v3 = _stencil(t * (n - 1), n)
+    return (
+        v0 * _column_at(tab, st, j, c)
+        + v1 * _column_at(tab, st, j + 1, c)
+        + v2 * _column_at(tab, st, j + 2, c)
+        + v3 * _column_at(tab, st, j + 3, c)
+    )
+
+
+@jit
+def ps_enthalpy(meta, sat, vapour, liquid, p: float, s: float) -> float:
+    """Enthalpy [J/kg] at ``(p [Pa], s [J/(kg K)])``: in a single phase the exact inverse of
+    :func:`pt_state`'s entropy carried to its enthalpy; inside the dome the mixture's,
+    ``h = h_l + x (h_v - h_l)`` at ``x = (s - s_l) / (s_v - s_l)`` (the saturated entropies are
+    the single-phase tables' first columns). NaN outside the tables."""
+    st = pressure_stencil(meta, p)
+    if st[0] < 0 or s != s:
+        return math.nan
+    s_l = _column_at(liquid, st, 0, _COL_S)
+    s_v = _column_at(vapour, st, 0, _COL_S)
+    if s_l <= s <= s_v:
+        h_l = sat_column(sat, st, _SAT_HL)
+        return h_l + (s - s_l) / (s_v - s_l) * (sat_column(sat, st, _SAT_HV) - h_l)
+    tab = vapour if s > s_v else liquid
+    t = _invert_column(meta, tab, st, s, _COL_S)
+    if t != t:
+        return math.nan
+    return _depth_column(meta, tab, st, t, _COL_H)
+
+
+@jit
+def _ps_many(meta, sat, vapour, liquid, p, s, out):
+    for n in range(p.size):
+        out[n] = ps_enthalpy(meta, sat, vapour, liquid, p[n], s[n])
 
 
 @jit
@@ -373,14 +428,22 @@ class TabulatedFluid:
     def state(
         self, pair: str, a: np.ndarray | float, b: np.ndarray | float, outputs: tuple[str, ...] = ("T", "H", "D")
     ) -> dict[str, np.ndarray]:
-        """:meth:`evtms.fluid.Fluid.state` for ``"PT"`` (outputs of :data:`_PHASE_KEYS` and ``T``)
-        and ``"PH"`` (outputs ``T`` and those of ``"PT"`` at that temperature)."""
-        if pair not in ("PT", "PH"):
-            raise ValueError(f"input pair {pair!r} is not one of ('PT', 'PH') for tabulated properties")
+        """:meth:`evtms.fluid.Fluid.state` for ``"PT"`` (outputs of :data:`_PHASE_KEYS` and ``T``),
+        ``"PH"`` (outputs ``T`` and those of ``"PT"`` at that temperature) and ``"PS"`` (``H``
+        from :func:`ps_enthalpy`, then as ``"PH"``; inside the dome only ``H`` and ``T`` are
+        the mixture's)."""
+        if pair not in ("PT", "PH", "PS"):
+            raise ValueError(f"input pair {pair!r} is not one of ('PT', 'PH', 'PS') for tabulated properties")
         p, x = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
         shape = p.shape
         p, x = np.ascontiguousarray(p.reshape(-1)), np.ascontiguousarray(x.reshape(-1))
         meta, sat, vap, liq = self.tables.arrays
+        if pair == "PS":  # to the enthalpy, then as "PH"
+            h = np.empty(p.size)
+            _ps_many(meta, sat, vap, liq, p, x, h)
+            if outputs == ("H",):
+                return {"H": h.reshape(shape)}
+            pair, x = "PH", h
         if pair == "PH":
             T = np.empty(p.size)
             _ph_many(meta, sat, vap, liq, p, x, T)

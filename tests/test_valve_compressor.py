@@ -98,8 +98,9 @@ def test_compressor_nominal_point_matches_hand_calculation(fluid, params):
     mdot = 0.9 * rho * 80e-6 * 3600 / 60  # eta_v is 0.9 at the nominal ratio by construction
     W = mdot * (h2s - h1) / 0.65 / 0.95
     assert float(ds["eta_vol"].squeeze()) == pytest.approx(0.9, rel=1e-12)
-    assert float(ds["mdot"].squeeze()) == pytest.approx(mdot, rel=1e-9)
-    assert float(ds["W"].squeeze()) == pytest.approx(W, rel=1e-9)
+    # The bench runs on the tabulated properties (evtms.fluid_tables) where numba is: within 1e-5.
+    assert float(ds["mdot"].squeeze()) == pytest.approx(mdot, rel=1e-5)
+    assert float(ds["W"].squeeze()) == pytest.approx(W, rel=1e-5)
     # The numbers: 0.0606 kg/s and 3.30 kW.
     assert mdot == pytest.approx(0.0606, abs=1e-4) and W == pytest.approx(3298, abs=2)
     assert "p_in" not in ds.data_vars  # given as an axis

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms.benches.base import in_codes
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
 from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, outlet_enthalpy
@@ -91,6 +92,17 @@ def _reasons(n: int) -> np.ndarray:
     return np.full(n, "", dtype=object)
 
 
+def _column(value, n: int) -> np.ndarray:
+    """``value`` as a fresh float array of ``n`` points (a copy: the benches may write into it)."""
+    if type(value) is np.ndarray and value.shape == (n,) and value.dtype == np.float64:
+        return value.copy()
+    return np.broadcast_to(np.asarray(value, float), (n,)).copy()
+
+
+#: Valve flow areas at the nominal opening [m2] by valve parameters, fluid name and backend.
+_VALVE_AREAS: dict[tuple[ExpansionValveParams, str, str], float] = {}
+
+
 class DirectModels:
     """The bench physics, called directly (no LUTs).
 
@@ -110,23 +122,34 @@ class DirectModels:
         self.params = params
         self.fluid = fluid or Fluid(params.fluid, params.backend)
         self._benches = BENCHES
+        self._flag_codes: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {}
 
     def _run(self, component: str, inputs: dict[str, np.ndarray]) -> Result:
         bench = self._benches[component]
         n = len(next(iter(inputs.values())))
-        inputs = {k: np.broadcast_to(np.asarray(v, float), (n,)).copy() for k, v in inputs.items()}
+        inputs = {k: _column(v, n) for k, v in inputs.items()}
         with per_point_searches():  # a cycle solver's calls hold a few points each
             out = bench.evaluate(inputs, self.params, self.fluid)
-        bad = ~np.isin(out["status"], bench.valid_flags)
+        status = out["status"]
+        bad = ~in_codes(status, bench.valid_flags)
         reasons = _reasons(n)
-        for code, meaning in bench.flags.items():
-            reasons[bad & (out["status"] == code)] = f"{component}: {meaning}"
+        if bad.any():  # the solver's calls are mostly valid: no reasons to look up
+            for code, meaning in bench.flags.items():
+                reasons[bad & (status == code)] = f"{component}: {meaning}"
         result = {k: out[k] for k in COMPONENT_OUTPUTS[component]}
-        result["no_heat_flow"] = np.isin(out["status"], wrong_side_flags(bench.flags))
+        wrong_side, frost = self._codes(component)
+        result["no_heat_flow"] = in_codes(status, wrong_side)
         if component == "evaporator":
-            result["frost_risk"] = np.isin(out["status"], frost_risk_flags(bench.flags)).astype(float)
+            result["frost_risk"] = in_codes(status, frost).astype(float)
         result["reason"] = reasons
         return result
+
+    def _codes(self, component: str) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """The bench's :func:`wrong_side_flags` and :func:`frost_risk_flags` (found once per component)."""
+        if component not in self._flag_codes:
+            flags = self._benches[component].flags
+            self._flag_codes[component] = (wrong_side_flags(flags), frost_risk_flags(flags))
+        return self._flag_codes[component]
 
     def compressor(self, speed, T_in, p_in, pr) -> Result:
         return self._run("compressor", {"speed": speed, "T_in": T_in, "p_in": p_in, "pr": pr})
@@ -181,8 +204,14 @@ class DirectModels:
         """The bench functions always return every variable."""
 
     def valve(self) -> tuple[ExpansionValveParams, float]:
-        """The valve's parameters and its flow area at the nominal opening [m2]."""
-        return self.params.expansion_valve, nominal_opening(self.params.expansion_valve, self.fluid)
+        """The valve's parameters and its flow area at the nominal opening [m2] (CoolProp's
+        nominal states, some 2 ms: kept per parameters and fluid for the process, as the
+        solver asks several times a point)."""
+        valve = self.params.expansion_valve
+        key = (valve, self.fluid.name, self.fluid.backend)
+        if key not in _VALVE_AREAS:
+            _VALVE_AREAS[key] = nominal_opening(valve, self.fluid)
+        return valve, _VALVE_AREAS[key]
 
     def limits(self, exclude: tuple[str, ...] = ()) -> dict[str, tuple[float, float]]:
         """Ranges the solver may search: the fluid's saturation range, and pressure
