@@ -25,7 +25,8 @@ any compiled function, the set-up of its compiler (most of it even when the
 machine code comes from the cache). numba imports SciPy's BLAS (for ``np.dot``
 and ``np.linalg`` in compiled code) and cffi during that set-up, which costs
 more than the rest; evtms's kernels use neither, so a program of its own (the
-command line) calls :func:`lean_numba` first and numba is set up without them.
+command line, through :func:`evtms.workflows.common.own_process`) calls
+:func:`lean_numba` first and numba is set up without them.
 """
 
 from __future__ import annotations
