@@ -58,9 +58,11 @@ def load_numba():
         import numba
 
         return numba
+    # Both are optional to numba (it runs where neither is installed): hidden, an import of either
+    # fails and numba leaves that binding out, as it would without them.
     hidden = [m for m in _UNUSED_BY_KERNELS if m not in sys.modules]
     for m in hidden:
-        sys.modules[m] = None  # an import of it fails: numba leaves that binding out
+        sys.modules[m] = None
     try:
         import numba
         import numba.core.typing.cffi_utils  # noqa: F401 - decides cffi support now, cffi hidden
