@@ -25,7 +25,8 @@ any compiled function, the set-up of its compiler (most of it even when the
 machine code comes from the cache). numba imports SciPy's BLAS (for ``np.dot``
 and ``np.linalg`` in compiled code) and cffi during that set-up, which costs
 more than the rest; evtms's kernels use neither, so a program of its own (the
-command line) calls :func:`lean_numba` first and numba is set up without them.
+command line, through :func:`evtms.workflows.common.own_process`) calls
+:func:`lean_numba` first and numba is set up without them.
 """
 
 from __future__ import annotations
@@ -57,9 +58,11 @@ def load_numba():
         import numba
 
         return numba
+    # Both are optional to numba (it runs where neither is installed): hidden, an import of either
+    # fails and numba leaves that binding out, as it would without them.
     hidden = [m for m in _UNUSED_BY_KERNELS if m not in sys.modules]
     for m in hidden:
-        sys.modules[m] = None  # an import of it fails: numba leaves that binding out
+        sys.modules[m] = None
     try:
         import numba
         import numba.core.typing.cffi_utils  # noqa: F401 - decides cffi support now, cffi hidden

@@ -368,3 +368,28 @@ def test_precondition_runs_on_the_grid_before_the_cycle(refrigerant):
     assert parts + s["battery_loss_kWh"] == pytest.approx(s["battery_chemical_kWh"], rel=1e-9)
     with pytest.raises(EvtmsInputError, match="`precondition`"):
         simulate(WLTC, 313.15, refrigerant, precondition=0.5)
+
+
+def test_a_lean_numba_runs_the_loop_and_leaves_scipy_importable():
+    """After evtms._jit.lean_numba the compiled kernels run, numba imported neither SciPy nor cffi,
+    and both still import for whoever needs them."""
+    import subprocess
+    import sys
+
+    from evtms._jit import numba_enabled
+
+    if not numba_enabled():
+        pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set)")
+    code = (
+        "import sys; from evtms._jit import lean_numba, numba_enabled; lean_numba();"
+        "from evtms.system import loop; w = loop.humidity_ratio(303.15, 0.5, 101325.0);"
+        "assert numba_enabled() and hasattr(loop.humidity_ratio, 'py_func');"
+        "before = [m for m in ('scipy', 'cffi') if m in sys.modules];"
+        "import scipy.linalg, cffi;"
+        "print(repr(w), before)"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    value, before = res.stdout.strip().split(" ", 1)
+    assert float(value) == L.humidity_ratio(303.15, 0.5, 101325.0)  # the same machine code's number
+    assert before == "[]"

@@ -81,8 +81,8 @@ _NOT_NEEDED = ("xarray", "scipy", "CoolProp", "matplotlib", "dask", "pandas", "r
 #: module's tests; prints the exit code and the libraries above that got imported.
 _ENTRY_POINT = """
 import dataclasses, json, sys
-from evtms._jit import lean_numba
-lean_numba()  # as evtms.cli.main does first: the patch below imports numba before main runs
+from evtms.workflows.common import own_process
+own_process()  # as evtms.cli.main does first: the patch below imports numba before main runs
 from evtms.system import refrigerant
 full, axes = refrigerant.map_settings, json.loads(sys.argv[1])
 refrigerant.map_settings = lambda p: dataclasses.replace(full(p), axes=axes)

@@ -58,7 +58,7 @@ app.command()(sweep.sweep)
 
 def main() -> None:
     """Console-script entry point."""
-    from evtms._jit import lean_numba
+    from evtms.workflows.common import own_process
 
-    lean_numba()  # a process of its own: numba set up without what no evtms kernel uses (SciPy's BLAS, cffi)
+    own_process()  # a process of its own: numba set up without what no evtms kernel uses (SciPy's BLAS, cffi)
     app()

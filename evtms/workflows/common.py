@@ -22,6 +22,18 @@ def quiet(message: str) -> None:
     """A ``notify`` that drops the note."""
 
 
+def own_process() -> None:
+    """Set up a process that runs evtms alone (the command line): start-up costs only what evtms uses.
+
+    numba, when first imported, leaves out its SciPy BLAS and cffi bindings
+    (:func:`evtms._jit.lean_numba`), which no evtms kernel uses and which cost
+    a short run more than its simulation.
+    """
+    from evtms._jit import lean_numba
+
+    lean_numba()
+
+
 def as_text(value: str | float | Sequence[float] | None) -> str | None:
     """A request value as the command line's text: a number or numbers as ``v1,v2,...``."""
     if value is None or isinstance(value, str):
