@@ -448,7 +448,9 @@ def humid_air_temperature(
     if w_common is not None:
         w_common = np.broadcast_to(np.asarray(w_common, float), h.shape)
         tabulated = ok & (w == w_common)
-        for wc in np.unique(w_common[tabulated]):
+        common = w_common[tabulated]
+        one = common.size and (common == common[0]).all()  # a cycle solver's call: one air state
+        for wc in common[:1] if one else np.unique(common):
             sel = tabulated & (w_common == wc)
             line = _constant_humidity_line(float(p), float(wc))
             out[sel] = np.interp(h[sel], line[1], line[0], left=np.nan, right=np.nan)

@@ -293,7 +293,10 @@ def _air_inlet_arrays(T: np.ndarray, RH: np.ndarray, p: float) -> dict[str, np.n
     The pairs are packed into complex numbers (:func:`evtms.fluid._unique_rows`' way): a
     cycle solver's one-point calls spent 0.1 ms in ``np.unique(axis=0)``."""
     packed = np.asarray(T, float) + 1j * np.asarray(RH, float)
-    uniq, inverse = np.unique(packed, return_inverse=True)
+    if packed.size and (packed == packed[0]).all():  # one air state (a cycle solver's call)
+        uniq, inverse = packed[:1], np.zeros(packed.size, np.intp)
+    else:
+        uniq, inverse = np.unique(packed, return_inverse=True)
     rows = [humid_air_inlet(float(v.real), p, float(v.imag)) for v in uniq]
     if not rows:  # no points: empty arrays with the same keys
         return {key: np.empty(0) for key in ("w", "h", "cp", "rho", "mu", "k", "T_dew", "Pr")}

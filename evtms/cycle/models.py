@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms.benches.base import in_flags
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
 from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, outlet_enthalpy
@@ -117,14 +118,14 @@ class DirectModels:
         inputs = {k: np.broadcast_to(np.asarray(v, float), (n,)).copy() for k, v in inputs.items()}
         with per_point_searches():  # a cycle solver's calls hold a few points each
             out = bench.evaluate(inputs, self.params, self.fluid)
-        bad = ~np.isin(out["status"], bench.valid_flags)
+        bad = ~in_flags(out["status"], bench.valid_flags)
         reasons = _reasons(n)
         for code, meaning in bench.flags.items():
             reasons[bad & (out["status"] == code)] = f"{component}: {meaning}"
         result = {k: out[k] for k in COMPONENT_OUTPUTS[component]}
-        result["no_heat_flow"] = np.isin(out["status"], wrong_side_flags(bench.flags))
+        result["no_heat_flow"] = in_flags(out["status"], wrong_side_flags(bench.flags))
         if component == "evaporator":
-            result["frost_risk"] = np.isin(out["status"], frost_risk_flags(bench.flags)).astype(float)
+            result["frost_risk"] = in_flags(out["status"], frost_risk_flags(bench.flags)).astype(float)
         result["reason"] = reasons
         return result
 
