@@ -72,6 +72,7 @@ MathWorks (2024). Condenser Evaporator (2P-MA), Simscape Fluids reference.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -248,6 +249,7 @@ class CoilGeometry:
     R_wall: float
 
 
+@functools.lru_cache(maxsize=64)
 def coil_geometry(coil: CoilParams) -> CoilGeometry:
     """Derive channel and air-side geometry from the coil parameters.
 
@@ -481,7 +483,9 @@ def _solve_compiled(
     moist = isinstance(side, MoistAirSide)
     air = side.air
     columns = (p_in, h_in, mdot, side.T_in, side.C, side.R, air["h"], air["w"], side.m_da, air["cp"])
-    points = np.ascontiguousarray(np.column_stack([np.asarray(c, float) for c in columns]))
+    points = np.empty((p_in.size, len(columns)))
+    for k, column in enumerate(columns):
+        points[:, k] = column
     tube = np.array(
         [tubes.D_h, tubes.flow_area, tubes.length, tubes.area, tubes.roughness, tubes.nu_laminar, tubes.R_wall]
         + [fluid.p_triple]
