@@ -448,10 +448,11 @@ def humid_air_temperature(
     if w_common is not None:
         w_common = np.broadcast_to(np.asarray(w_common, float), h.shape)
         tabulated = ok & (w == w_common)
-        for wc in np.unique(w_common[tabulated]):
+        common = w_common[tabulated]
+        one = common.size and (common == common[0]).all()  # a cycle solver's call: one air state
+        for wc in common[:1] if one else np.unique(common):
             sel = tabulated & (w_common == wc)
-            line = _constant_humidity_line(float(p), float(wc))
-            out[sel] = np.interp(h[sel], line[1], line[0], left=np.nan, right=np.nan)
+            out[sel] = _constant_humidity_line(float(p), float(wc)).temperature(h[sel])
     rest = ok & ~tabulated
     if rest.any():
         out[rest] = _invert_humid_air_table(h[rest], w[rest], float(p))
@@ -544,11 +545,58 @@ def _compiled_inversion():
     return jit(_invert_points) if numba_enabled() else None
 
 
+#: Nodes [K] of the constant-humidity lines, and the nodes a line computes at a time.
+_LINE_T = np.arange(200.0, 460.0 + 0.025, 0.05)
+_LINE_BLOCK = 100
+
+
+class _HumidityLine:
+    """``HAPropsSI`` enthalpies of moist air at fixed humidity ratio ``w`` on :data:`_LINE_T`,
+    computed a block of nodes at a time where queries land.
+
+    The whole line is 5,201 ``HAPropsSI`` states (some 0.2 s), of which a coil's leaving air
+    needs a few hundred; a cycle solver meets a new line with every entering-air state.
+    :meth:`temperature` interpolates within the computed nodes only where the query lies
+    between two of them, so it gives what ``np.interp`` on the whole line gives.
+    """
+
+    def __init__(self, p: float, w: float) -> None:
+        self.p, self.w = p, w
+        self.h = np.full(_LINE_T.size, np.nan)
+        self.done = np.zeros(-(-_LINE_T.size // _LINE_BLOCK), bool)
+
+    def _fill(self, first: int, last: int) -> None:
+        for b in range(first, last + 1):
+            if not self.done[b]:
+                nodes = slice(b * _LINE_BLOCK, min((b + 1) * _LINE_BLOCK, _LINE_T.size))
+                self.h[nodes] = _haprops("H", "T", _LINE_T[nodes], "W", self.w, "P", self.p)
+                self.done[b] = True
+
+    def temperature(self, h: np.ndarray) -> np.ndarray:
+        """Temperature [K] at enthalpy ``h`` [J/kg dry air] (NaN outside the line, 200-460 K)."""
+        h = np.asarray(h, float)
+        ok = np.isfinite(h)
+        if not ok.any():
+            return np.full(h.shape, np.nan)
+        # First guess of the blocks from ASHRAE's h = 1006 t + w (2.501e6 + 1860 t) (t in degC).
+        t = (h[ok] - 2.501e6 * self.w) / (1006.0 + 1860.0 * self.w) + 273.15
+        last_block = self.done.size - 1
+        lo, hi = (int(np.clip((x - _LINE_T[0]) / 0.05 // _LINE_BLOCK, 0, last_block)) for x in (t.min(), t.max()))
+        while True:
+            self._fill(lo, hi)
+            start, stop = lo * _LINE_BLOCK, min((hi + 1) * _LINE_BLOCK, _LINE_T.size)
+            seg = self.h[start:stop]
+            below = lo > 0 and h[ok].min() < seg[0]
+            above = hi < last_block and h[ok].max() > seg[-1]
+            if not (below or above):
+                return np.interp(h, seg, _LINE_T[start:stop], left=np.nan, right=np.nan)
+            lo, hi = lo - below, hi + above
+
+
 @functools.lru_cache(maxsize=256)
-def _constant_humidity_line(p: float, w: float) -> tuple[np.ndarray, np.ndarray]:
-    """(T, h) of moist air at fixed humidity ratio ``w``, 200-460 K every 0.05 K."""
-    T = np.arange(200.0, 460.0 + 0.025, 0.05)
-    return T, _haprops("H", "T", T, "W", w, "P", p)
+def _constant_humidity_line(p: float, w: float) -> _HumidityLine:
+    """The :class:`_HumidityLine` of moist air at humidity ratio ``w`` and pressure ``p``, kept."""
+    return _HumidityLine(p, w)
 
 
 class SaturatedAir:

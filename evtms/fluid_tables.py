@@ -2,8 +2,9 @@
 
 The coils' compiled marches (:mod:`evtms.hx._coil_kernels`) cannot call
 CoolProp; they read these tables, built once per process from a
-:class:`evtms.fluid.Fluid` (about 0.4 s, some 21,000 CoolProp states) and
-kept in memory (:func:`tables_for`).
+:class:`evtms.fluid.Fluid` on the full equation of state (HEOS, whatever the
+caller's backend; about 0.4 s, some 21,000 CoolProp states) and kept in
+memory (:func:`tables_for`).
 
 Layout (all SI):
 
@@ -137,14 +138,20 @@ def build_tables(fluid: Fluid, n_pressures: int = N_PRESSURES, n_depth: int = N_
     return PropertyTables(meta, np.ascontiguousarray(sat_arr), *phases, p_min=P_MIN, p_max=float(p[-1]))
 
 
-_TABLES: dict[tuple[str, str], PropertyTables] = {}
+_TABLES: dict[str, PropertyTables] = {}
 
 
 def tables_for(fluid: Fluid) -> PropertyTables:
-    """The :class:`PropertyTables` of ``fluid``'s name and backend, built on first use in a process."""
-    key = (fluid.name, fluid.backend)
+    """The :class:`PropertyTables` of ``fluid``'s name, built on first use in a process.
+
+    Tabulated from the full equation of state (HEOS) whatever ``fluid``'s backend: a tabular
+    backend (``BICUBIC&HEOS``) is itself an interpolation, off by up to 0.1 K in the (p, h)
+    temperature of a liquid near saturation, which the cubic here would only carry on.
+    """
+    key = fluid.name
     if key not in _TABLES:
-        _TABLES[key] = build_tables(fluid)
+        source = fluid if fluid.backend == "HEOS" else Fluid(fluid.name, "HEOS")
+        _TABLES[key] = build_tables(source)
     return _TABLES[key]
 
 

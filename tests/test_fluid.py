@@ -198,3 +198,21 @@ def test_compiled_humid_air_inversion_is_the_numpy_one(monkeypatch):
     np.testing.assert_array_equal(compiled, reference)
     assert np.isnan(compiled[:3]).all()
     assert np.abs(compiled[3:] - T[3:]).max() < 1e-4
+
+
+def test_constant_humidity_line_computes_only_where_queries_land():
+    # The leaving air of a coil at its inlet humidity is interpolated on a line of HAPropsSI states
+    # that is computed block by block: the same temperatures as np.interp on the whole line.
+    from evtms import fluid as fluid_module
+
+    w, p = 0.0123, 101325.0
+    T_nodes = np.arange(200.0, 460.0 + 0.025, 0.05)
+    whole = fluid_module._haprops("H", "T", T_nodes, "W", w, "P", p)
+    h = fluid_module.humid_air_enthalpy(np.array([291.3, 300.0, 309.99]), w, p)
+    h = np.r_[h, whole[1000], -1e9, np.nan]  # a node, below the line, not a number
+    got = humid_air_temperature(h, np.full(h.size, w), p, w_common=w)
+    np.testing.assert_array_equal(got, np.interp(h, whole, T_nodes, left=np.nan, right=np.nan))
+    line = fluid_module._constant_humidity_line(p, w)
+    assert line.done.sum() < line.done.size  # not the whole line
+    far = humid_air_temperature(whole[[0, -1]] + np.array([0.0, 1.0]), np.full(2, w), p, w_common=w)
+    assert far[0] == 200.0 and np.isnan(far[1])  # the ends: the first node, and beyond the last

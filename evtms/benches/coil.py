@@ -72,6 +72,7 @@ MathWorks (2024). Condenser Evaporator (2P-MA), Simscape Fluids reference.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -248,6 +249,7 @@ class CoilGeometry:
     R_wall: float
 
 
+@functools.lru_cache(maxsize=64)
 def coil_geometry(coil: CoilParams) -> CoilGeometry:
     """Derive channel and air-side geometry from the coil parameters.
 
@@ -293,7 +295,10 @@ def _air_inlet_arrays(T: np.ndarray, RH: np.ndarray, p: float) -> dict[str, np.n
     The pairs are packed into complex numbers (:func:`evtms.fluid._unique_rows`' way): a
     cycle solver's one-point calls spent 0.1 ms in ``np.unique(axis=0)``."""
     packed = np.asarray(T, float) + 1j * np.asarray(RH, float)
-    uniq, inverse = np.unique(packed, return_inverse=True)
+    if packed.size and (packed == packed[0]).all():  # one air state (a cycle solver's call)
+        uniq, inverse = packed[:1], np.zeros(packed.size, np.intp)
+    else:
+        uniq, inverse = np.unique(packed, return_inverse=True)
     rows = [humid_air_inlet(float(v.real), p, float(v.imag)) for v in uniq]
     if not rows:  # no points: empty arrays with the same keys
         return {key: np.empty(0) for key in ("w", "h", "cp", "rho", "mu", "k", "T_dew", "Pr")}
@@ -478,7 +483,9 @@ def _solve_compiled(
     moist = isinstance(side, MoistAirSide)
     air = side.air
     columns = (p_in, h_in, mdot, side.T_in, side.C, side.R, air["h"], air["w"], side.m_da, air["cp"])
-    points = np.ascontiguousarray(np.column_stack([np.asarray(c, float) for c in columns]))
+    points = np.empty((p_in.size, len(columns)))
+    for k, column in enumerate(columns):
+        points[:, k] = column
     tube = np.array(
         [tubes.D_h, tubes.flow_area, tubes.length, tubes.area, tubes.roughness, tubes.nu_laminar, tubes.R_wall]
         + [fluid.p_triple]

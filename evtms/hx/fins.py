@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,7 +45,11 @@ class LouveredFin:
     fin_thickness: float
 
     def geometry_factor(self) -> float:
-        """The geometric part of :func:`chang_wang_j`, ``j Re_Lp^0.49`` [1]."""
+        """The geometric part of :func:`chang_wang_j`, ``j Re_Lp^0.49`` [1] (kept per geometry:
+        a cycle solver's one-point coil calls each asked for it again)."""
+        return _geometry_factor(self)
+
+    def _geometry_factor(self) -> float:
         Lp = self.louver_pitch
         return (
             (np.degrees(self.louver_angle) / 90.0) ** 0.27
@@ -55,6 +60,11 @@ class LouveredFin:
             * (self.tube_pitch / Lp) ** -0.28
             * (self.fin_thickness / Lp) ** -0.05
         )
+
+
+@functools.lru_cache(maxsize=64)
+def _geometry_factor(fin: LouveredFin) -> float:
+    return fin._geometry_factor()
 
 
 def chang_wang_j(Re_Lp: np.ndarray, fin: LouveredFin) -> np.ndarray:
