@@ -185,7 +185,8 @@ def heat_rate(hi, point, table, guess):
     The total fraction rises with the heat rate, so once a bracket ``a < b`` is known (fitting
     at ``a``, not at ``b``) every bisection midpoint outside it is decided without evaluating it.
     The bracket is narrowed first by the Illinois variant of regula falsi (Dowell and Jarratt
-    1971), halving instead where the fraction is infinite (beyond a pinch); the bisection is
+    1971) in ``s = ln(hi / (hi - Q))``, halving instead where the fraction is infinite (beyond a
+    pinch); the bisection is
     then replayed, evaluating only the midpoints inside the bracket: a few of the 40 instead of
     all of them, for the same result. A ``guess`` inside ``(0, hi)`` (the heat rate of a
     nearby solve) starts the bracket at it and :data:`_WARM_STEP` away; 0 starts from
@@ -206,26 +207,38 @@ def heat_rate(hi, point, table, guess):
                 a, g_a = c, g_c
         elif c <= b:
             b, g_b = c, g_c
-    if g_b != g_b:
-        g_b = _total(b, point, table) - 1.0
+    if g_b != g_b:  # the bound itself: taken as not fitting (the replay never decides by it)
+        g_b = math.inf
+    # Regula falsi in s = ln(hi / (hi - Q)): the fraction grows about linearly in Q far from the
+    # bound and in s near it (where the refrigerant pinches at the secondary inlet temperature the
+    # area diverges logarithmically), so the secant fits both; towards the bound s doubles.
+    s_a = -math.log1p(-a / hi)
+    s_b = -math.log1p(-b / hi) if b < hi else math.inf
     tol = hi * 2.0 ** -(BISECTION_STEPS - 2)
     side = 0
     for _ in range(_BRACKET_STEPS):
         if not (b - a > tol) or not g_b >= 0.0:
             break
-        c = 0.5 * (a + b)
-        if math.isfinite(g_b):
-            r = a - g_a * (b - a) / (g_b - g_a)
-            if a < r < b:
-                c = r
+        if s_b == math.inf:
+            r = max(2.0 * s_a, 1.0)
+        elif math.isfinite(g_b):
+            r = s_a - g_a * (s_b - s_a) / (g_b - g_a)
+            if not s_a < r < s_b:
+                r = 0.5 * (s_a + s_b)
+        else:
+            r = 0.5 * (s_a + s_b)
+        c = -hi * math.expm1(-r)
+        if not a < c < b:
+            c = 0.5 * (a + b)
+            r = -math.log1p(-c / hi)
         g_c = _total(c, point, table) - 1.0
         if g_c < 0.0:
-            a, g_a = c, g_c
+            a, g_a, s_a = c, g_c, r
             if side == -1 and math.isfinite(g_b):
                 g_b *= 0.5
             side = -1
         else:
-            b, g_b = c, g_c
+            b, g_b, s_b = c, g_c, r
             if side == 1:
                 g_a *= 0.5
             side = 1
