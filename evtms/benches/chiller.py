@@ -464,19 +464,13 @@ def solve_chiller_compiled(
     return out
 
 
-@functools.lru_cache(maxsize=8)
 def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
-    """The compiled chiller's arguments after the inputs: geometry, coolant table, limits, property tables.
-
-    Cached per fluid and geometry: a cycle solver calls the chiller on a point at a time, and
-    stacking the coolant table alone would cost more than the solve."""
+    """The compiled chiller's arguments after the inputs: geometry, coolant tables, limits, property tables."""
     from evtms.benches import _chiller_kernel as kernel
     from evtms.fluid_tables import tables_for
-    from evtms.hx._counterflow_kernels import bucket_table
 
-    geo = plate_geometry(hx)
     values = {
-        **geo,
+        **_geometry(hx),
         "fouling_ref": hx.fouling_ref,
         "fouling_coolant": hx.fouling_coolant,
         "plate_length": hx.plate_length,
@@ -484,18 +478,33 @@ def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
         "port_velocity_heads": plate.PORT_VELOCITY_HEADS,
         "flux_steps": float(_FLUX_STEPS),
     }
-    cool = coolant(mass_fraction=hx.coolant_mass_fraction)
-    table = cool.tables()
     return (
         np.array([values[k] for k in kernel.GEOMETRY], float),
-        tuple(bucket_table(table[x], table[y]) for x, y in kernel.COOLANT_TABLES),
-        cool.T_freeze,
-        cool.T_max,
+        *_coolant_tables(hx.coolant_mass_fraction),
         fluid.p_triple,
         float(fluid.saturation_curve().p[0]),
         tables_for(fluid).arrays,
         (np.ascontiguousarray(tube.GAUSS_NODES), np.ascontiguousarray(tube.GAUSS_WEIGHTS)),
     )
+
+
+@functools.lru_cache(maxsize=16)
+def _geometry(hx: PlateHXParams) -> dict[str, float]:
+    """:func:`plate_geometry`, kept per geometry (a cycle solver calls the chiller a point at a time)."""
+    return plate_geometry(hx)
+
+
+@functools.lru_cache(maxsize=4)
+def _coolant_tables(mass_fraction: float) -> tuple:
+    """The coolant's tables as the compiled chiller reads them, its freezing point and table top [K].
+
+    Kept per glycol fraction: indexing the tables costs more than a one-point solve."""
+    from evtms.benches import _chiller_kernel as kernel
+    from evtms.hx._counterflow_kernels import bucket_table
+
+    cool = coolant(mass_fraction=mass_fraction)
+    table = cool.tables()
+    return tuple(bucket_table(table[x], table[y]) for x, y in kernel.COOLANT_TABLES), cool.T_freeze, cool.T_max
 
 
 def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
