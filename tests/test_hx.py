@@ -313,3 +313,23 @@ def test_compiled_plate_correlations_equal_the_array_ones():
         got = pk.yan_lin_boiling_htc(x[i], G[i], 0.003, q[i], 1.9e5, 2.5e-4, 1290.0, 14.0, 0.09, 3.5)
         np.testing.assert_allclose(got, h[i], rtol=1e-14)
         assert pk.yan_lin_outside_range(Re_eq[i]) == out[i]
+
+
+def test_bucket_table_interpolates_as_numpy():
+    """The compiled cores' table look-up (evtms.hx._counterflow_kernels.table_interp) is np.interp
+    with NaN outside: at the nodes, both ends, between, beyond and at NaN, to the last bit."""
+    from evtms.hx._counterflow_kernels import bucket_table, table_interp
+
+    c = coolant()
+    rng = np.random.default_rng(5)
+    for xp, fp in ((c.h, c.T), (c.T, c.h)):
+        table = bucket_table(xp, fp)
+        x = np.concatenate(
+            [rng.uniform(xp[0] - 0.01 * np.ptp(xp), xp[-1] + 0.01 * np.ptp(xp), 2000), xp[::97], xp[[0, -1]]]
+        )
+        x = np.concatenate([x, np.nextafter(xp[[0, -1]], [-np.inf, np.inf]), [np.nan]])
+        want = np.interp(x, xp, fp, left=np.nan, right=np.nan)
+        got = np.array([table_interp(v, table) for v in x])
+        np.testing.assert_array_equal(got, want)
+    with pytest.raises(ValueError, match="strictly rising"):
+        bucket_table(np.array([0.0, 1.0, 1.0]), np.zeros(3))

@@ -451,8 +451,9 @@ def solve_chiller_compiled(
         np.ascontiguousarray(np.asarray(a, float).reshape(-1)) for a in (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
     )
     cols = kernel.solve_points(p_in, h_in, mdot, m_c, T_c_in, *_kernel_constants(fluid, hx))
-    out = {name: cols[:, j].copy() for j, name in enumerate(kernel.COLUMNS) if not name.startswith("f_")}
-    out["fractions"] = cols[:, [kernel.COLUMNS.index(f"f_{z}") for z in ("liquid", "two_phase", "vapour")]].copy()
+    rows = cols.T.copy()  # one copy; each output a contiguous row of it
+    out = {name: rows[j] for j, name in enumerate(kernel.COLUMNS) if not name.startswith("f_")}
+    out["fractions"] = cols[:, [kernel.COLUMNS.index(f"f_{z}") for z in ("liquid", "two_phase", "vapour")]]
     masks = ("outside_range", "bad_direction", "bad_dp", "bad_flow", "coolant_freezes", "coolant_outside", "bad_props")
     for key in (*masks, "outside_tables"):
         out[key] = out[key] != 0.0
@@ -464,19 +465,32 @@ def solve_chiller_compiled(
     return out
 
 
-@functools.lru_cache(maxsize=8)
 def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
-    """The compiled chiller's arguments after the inputs: geometry, coolant table, limits, property tables.
-
-    Cached per fluid and geometry: a cycle solver calls the chiller on a point at a time, and
-    stacking the coolant table alone would cost more than the solve."""
-    from evtms.benches import _chiller_kernel as kernel
+    """The compiled chiller's arguments after the inputs: geometry, coolant tables, limits, property tables."""
     from evtms.fluid_tables import tables_for
-    from evtms.hx._counterflow_kernels import bucket_table
 
-    geo = plate_geometry(hx)
+    return (
+        _geometry(hx),
+        *_coolant_tables(hx.coolant_mass_fraction),
+        fluid.p_triple,
+        float(fluid.saturation_curve().p[0]),
+        tables_for(fluid).arrays,
+        _GAUSS,
+    )
+
+
+#: Gauss-Legendre nodes and weights on [0, 1] (:mod:`evtms.hx.tube`), as the kernel reads them.
+_GAUSS = (np.ascontiguousarray(tube.GAUSS_NODES), np.ascontiguousarray(tube.GAUSS_WEIGHTS))
+
+
+@functools.lru_cache(maxsize=16)
+def _geometry(hx: PlateHXParams) -> np.ndarray:
+    """The kernel's geometry argument (:data:`evtms.benches._chiller_kernel.GEOMETRY`), kept per
+    geometry: a cycle solver calls the chiller a point at a time."""
+    from evtms.benches import _chiller_kernel as kernel
+
     values = {
-        **geo,
+        **plate_geometry(hx),
         "fouling_ref": hx.fouling_ref,
         "fouling_coolant": hx.fouling_coolant,
         "plate_length": hx.plate_length,
@@ -484,18 +498,22 @@ def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
         "port_velocity_heads": plate.PORT_VELOCITY_HEADS,
         "flux_steps": float(_FLUX_STEPS),
     }
-    cool = coolant(mass_fraction=hx.coolant_mass_fraction)
+    geo = np.array([values[k] for k in kernel.GEOMETRY], float)
+    geo.flags.writeable = False
+    return geo
+
+
+@functools.lru_cache(maxsize=4)
+def _coolant_tables(mass_fraction: float) -> tuple:
+    """The coolant's tables as the compiled chiller reads them, its freezing point and table top [K].
+
+    Kept per glycol fraction: indexing the tables costs more than a one-point solve."""
+    from evtms.benches import _chiller_kernel as kernel
+    from evtms.hx._counterflow_kernels import bucket_table
+
+    cool = coolant(mass_fraction=mass_fraction)
     table = cool.tables()
-    return (
-        np.array([values[k] for k in kernel.GEOMETRY], float),
-        tuple(bucket_table(table[x], table[y]) for x, y in kernel.COOLANT_TABLES),
-        cool.T_freeze,
-        cool.T_max,
-        fluid.p_triple,
-        float(fluid.saturation_curve().p[0]),
-        tables_for(fluid).arrays,
-        (np.ascontiguousarray(tube.GAUSS_NODES), np.ascontiguousarray(tube.GAUSS_WEIGHTS)),
-    )
+    return tuple(bucket_table(table[x], table[y]) for x, y in kernel.COOLANT_TABLES), cool.T_freeze, cool.T_max
 
 
 def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:

@@ -89,7 +89,7 @@ def _log_mean(a, b):
     if abs(e) < 1e-6:
         lm = a * (1.0 + e / 2.0 - e * e / 12.0)
     else:
-        lm = divide(b - a, math.log(r))
+        lm = (b - a) / math.log(r)  # |r - 1| >= 1e-6 here: the logarithm is not 0
     return lm
 
 
@@ -103,12 +103,10 @@ def _zone(Q_z, R, dT_a, dT_b):
 
 
 @jit
-def fractions(Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table):
-    """The three zone fractions [1] of :func:`evtms.hx.counterflow._fractions` at trial heat rate
-    ``Q`` [W] (liquid, two-phase, vapour; inf where infeasible), with its arithmetic: the secondary
-    temperature at each zone boundary from the balance ``h_s = h_s,out + mdot (h - h_in) / mdot_s``,
-    the refrigerant's linear (secant) in each zone."""
-    # The refrigerant's secant slopes (counterflow._refrigerant_temperature), once per call.
+def prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R):
+    """A point's constants for :func:`fractions_of`: the inputs, each zone's resistance with the
+    secondary's, the refrigerant's secant slopes (``counterflow._refrigerant_temperature``) and the
+    flow ratio, worked out once for every trial heat rate."""
     reachable = s_T_in > T_sat
     h_end_l = h_l if reachable else h_at_s
     T_end_l = T_sat if reachable else s_T_in
@@ -117,7 +115,17 @@ def fractions(Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, 
     h0_v = h_in if vapour_in else h_v
     T0_v = T_in if vapour_in else T_sat
     slope_v = divide(s_T_in - T0_v, h_at_s - h0_v)
+    R0s, R1s, R2s = R0 + s_R, R1 + s_R, R2 + s_R
+    return (mdot, h_in, T_in, T_sat, h_l, h_v, R0s, R1s, R2s, s_mdot, s_T_in, s_h_in, slope_l, h0_v, T0_v, slope_v)
 
+
+@jit
+def fractions_of(Q, point, table):
+    """The three zone fractions [1] of :func:`evtms.hx.counterflow._fractions` at trial heat rate
+    ``Q`` [W] (liquid, two-phase, vapour; inf where infeasible) of a :func:`prepare`-d point, with
+    its arithmetic: the secondary temperature at each zone boundary from the balance
+    ``h_s = h_s,out + mdot (h - h_in) / mdot_s``, the refrigerant's linear (secant) in each zone."""
+    mdot, h_in, T_in, T_sat, h_l, h_v, R0s, R1s, R2s, s_mdot, s_T_in, s_h_in, slope_l, h0_v, T0_v, slope_v = point
     h_out = h_in + Q / mdot
     h_s_out = s_h_in - Q / s_mdot
     ratio = mdot / s_mdot
@@ -130,27 +138,34 @@ def fractions(Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, 
         dT2 = T_s2 - _refrigerant_temperature(b2, h_in, T_in, T_sat, h_l, h_v, slope_l, h0_v, T0_v, slope_v)
         if Q2 > 0:
             T_r3 = _refrigerant_temperature(h_out, h_in, T_in, T_sat, h_l, h_v, slope_l, h0_v, T0_v, slope_v)
-            f2 = _zone(Q2, R2 + s_R, dT2, s_T_in - T_r3)
+            f2 = _zone(Q2, R2s, dT2, s_T_in - T_r3)
         if Q1 > 0 or Q0 > 0:
             T_s1 = table_interp(h_s_out + ratio * (b1 - h_in), table)
             dT1 = T_s1 - _refrigerant_temperature(b1, h_in, T_in, T_sat, h_l, h_v, slope_l, h0_v, T0_v, slope_v)
-            f1 = _zone(Q1, R1 + s_R, dT1, dT2)
+            f1 = _zone(Q1, R1s, dT1, dT2)
             if Q0 > 0:
                 T_s0 = table_interp(h_s_out + ratio * (h_in - h_in), table)
                 dT0 = T_s0 - _refrigerant_temperature(h_in, h_in, T_in, T_sat, h_l, h_v, slope_l, h0_v, T0_v, slope_v)
-                f0 = _zone(Q0, R0 + s_R, dT0, dT1)
+                f0 = _zone(Q0, R0s, dT0, dT1)
     elif Q0 > 0:
         T_s1 = table_interp(h_s_out + ratio * (b1 - h_in), table)
         dT1 = T_s1 - _refrigerant_temperature(b1, h_in, T_in, T_sat, h_l, h_v, slope_l, h0_v, T0_v, slope_v)
         T_s0 = table_interp(h_s_out + ratio * (h_in - h_in), table)
         dT0 = T_s0 - _refrigerant_temperature(h_in, h_in, T_in, T_sat, h_l, h_v, slope_l, h0_v, T0_v, slope_v)
-        f0 = _zone(Q0, R0 + s_R, dT0, dT1)
+        f0 = _zone(Q0, R0s, dT0, dT1)
     return f0, f1, f2
 
 
 @jit
-def _total(Q, args):
-    f0, f1, f2 = fractions(Q, *args)
+def fractions(Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table):
+    """:func:`fractions_of` of one point given by its inputs (see the module notes)."""
+    point = prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R)
+    return fractions_of(Q, point, table)
+
+
+@jit
+def _total(Q, point, table):
+    f0, f1, f2 = fractions_of(Q, point, table)
     return f0 + f1 + f2
 
 
@@ -162,7 +177,7 @@ _WARM_STEP = 0.03
 
 
 @jit
-def heat_rate(hi, args, guess):
+def heat_rate(hi, point, table, guess):
     """The largest heat rate [W] in ``[0, hi]`` whose zones fit the exchanger: exactly the
     :data:`~evtms.hx.counterflow.BISECTION_STEPS`-step bisection of
     :func:`evtms.hx.counterflow._largest_fitting_heat_rate`, with fewer evaluations.
@@ -170,7 +185,8 @@ def heat_rate(hi, args, guess):
     The total fraction rises with the heat rate, so once a bracket ``a < b`` is known (fitting
     at ``a``, not at ``b``) every bisection midpoint outside it is decided without evaluating it.
     The bracket is narrowed first by the Illinois variant of regula falsi (Dowell and Jarratt
-    1971), halving instead where the fraction is infinite (beyond a pinch); the bisection is
+    1971) in ``s = ln(hi / (hi - Q))``, halving instead where the fraction is infinite (beyond a
+    pinch); the bisection is
     then replayed, evaluating only the midpoints inside the bracket: a few of the 40 instead of
     all of them, for the same result. A ``guess`` inside ``(0, hi)`` (the heat rate of a
     nearby solve) starts the bracket at it and :data:`_WARM_STEP` away; 0 starts from
@@ -178,39 +194,51 @@ def heat_rate(hi, args, guess):
     a, g_a = 0.0, -1.0  # no heat needs no area
     b, g_b = hi, math.nan
     if 0.0 < guess < hi:  # a bracket about the guess, if it holds the root
-        g = _total(guess, args) - 1.0
+        g = _total(guess, point, table) - 1.0
         if g < 0.0:
             a, g_a = guess, g
             c = min(guess * (1.0 + _WARM_STEP), hi)
         else:
             b, g_b = guess, g
             c = guess * (1.0 - _WARM_STEP)
-        g_c = _total(c, args) - 1.0
+        g_c = _total(c, point, table) - 1.0
         if g_c < 0.0:
             if c > a:
                 a, g_a = c, g_c
         elif c <= b:
             b, g_b = c, g_c
-    if g_b != g_b:
-        g_b = _total(b, args) - 1.0
+    if g_b != g_b:  # the bound itself: taken as not fitting (the replay never decides by it)
+        g_b = math.inf
+    # Regula falsi in s = ln(hi / (hi - Q)): the fraction grows about linearly in Q far from the
+    # bound and in s near it (where the refrigerant pinches at the secondary inlet temperature the
+    # area diverges logarithmically), so the secant fits both; towards the bound s doubles.
+    s_a = -math.log1p(-a / hi)
+    s_b = -math.log1p(-b / hi) if b < hi else math.inf
     tol = hi * 2.0 ** -(BISECTION_STEPS - 2)
     side = 0
     for _ in range(_BRACKET_STEPS):
         if not (b - a > tol) or not g_b >= 0.0:
             break
-        c = 0.5 * (a + b)
-        if math.isfinite(g_b):
-            r = a - g_a * (b - a) / (g_b - g_a)
-            if a < r < b:
-                c = r
-        g_c = _total(c, args) - 1.0
+        if s_b == math.inf:
+            r = max(2.0 * s_a, 1.0)
+        elif math.isfinite(g_b):
+            r = s_a - g_a * (s_b - s_a) / (g_b - g_a)
+            if not s_a < r < s_b:
+                r = 0.5 * (s_a + s_b)
+        else:
+            r = 0.5 * (s_a + s_b)
+        c = -hi * math.expm1(-r)
+        if not a < c < b:
+            c = 0.5 * (a + b)
+            r = -math.log1p(-c / hi)
+        g_c = _total(c, point, table) - 1.0
         if g_c < 0.0:
-            a, g_a = c, g_c
+            a, g_a, s_a = c, g_c, r
             if side == -1 and math.isfinite(g_b):
                 g_b *= 0.5
             side = -1
         else:
-            b, g_b = c, g_c
+            b, g_b, s_b = c, g_c, r
             if side == 1:
                 g_a *= 0.5
             side = 1
@@ -222,7 +250,7 @@ def heat_rate(hi, args, guess):
         elif mid >= b and g_b >= 0.0:
             fits = False
         else:
-            fits = _total(mid, args) < 1.0
+            fits = _total(mid, point, table) < 1.0
         if fits:
             lo = mid
         else:
@@ -252,9 +280,9 @@ def _bracket(mdot, h_in, T_in, h_at_s, R0, R1, R2, s_T_in, s_h_in, s_R):
 @jit
 def heat_rate_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table):
     """The heat rate [W] of :func:`solve_point` and ``T_secondary_out`` [K] alone (the search, no more)."""
-    args = (mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table)
+    point = prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R)
     _, ok, hi = _bracket(mdot, h_in, T_in, h_at_s, R0, R1, R2, s_T_in, s_h_in, s_R)
-    Q = heat_rate(hi, args, 0.0) if ok else 0.0
+    Q = heat_rate(hi, point, table, 0.0) if ok else 0.0
     return Q, table_interp(s_h_in - Q / s_mdot, table)
 
 
@@ -270,15 +298,15 @@ def solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s
         ``T_secondary_out`` [K], ``f_needed``, ``capacity_ratio`` [1], ``h_out_continued``
         [J/kg] and ``bad_direction`` (a float, 1.0 or 0.0), as the array solve's fields.
     """
-    args = (mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table)
+    point = prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R)
     bad_direction, ok, hi = _bracket(mdot, h_in, T_in, h_at_s, R0, R1, R2, s_T_in, s_h_in, s_R)
     Q = 0.0
     if ok:  # the largest heat rate found to fit (the bound itself may not)
-        Q = heat_rate(hi, args, guess)
-    f0, f1, f2 = fractions(Q, *args)
+        Q = heat_rate(hi, point, table, guess)
+    f0, f1, f2 = fractions_of(Q, point, table)
     missing = 1.0 - (f0 + f1 + f2)
     if Q > 0 and missing > 0 and math.isfinite(missing):  # the area a pinch leaves over
-        g0, g1, g2 = fractions(Q * (1.0 - _PINCH_STEP), *args)
+        g0, g1, g2 = fractions_of(Q * (1.0 - _PINCH_STEP), point, table)
         d0, d1, d2 = _growth(f0, g0), _growth(f1, g1), _growth(f2, g2)
         total = d0 + d1 + d2
         if total > 0:
@@ -290,7 +318,7 @@ def solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s
     Q_v = mdot * max(h_v - h_in, 0.0)
     f_needed = math.inf
     if reachable:
-        n0, n1, n2 = fractions(Q_v, *args)
+        n0, n1, n2 = fractions_of(Q_v, point, table)
         f_needed = n0 + n1 + n2
     if ok and h_in >= h_v:
         f_needed = 0.0
@@ -298,7 +326,7 @@ def solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s
     h_continued = h_out
     if reachable and math.isfinite(f_needed) and f_needed > 1.0:
         dQ = mdot * _CONTINUATION_STEP
-        p0, p1, p2 = fractions(Q_v + dQ, *args)
+        p0, p1, p2 = fractions_of(Q_v + dQ, point, table)
         rate = divide(dQ, (p0 + p1 + p2) - f_needed)
         if not (math.isfinite(rate) and rate > 0):
             rate = (s_T_in - T_sat) / (R2 + s_R)
