@@ -104,9 +104,11 @@ def test_the_scan_sees_raise_warn_and_fstring_texts():
 
 
 def _options(*path: str) -> set[str]:
+    import click
+
     command = typer.main.get_command(app)
-    for name in path:
-        command = command.commands[name]
+    for name in path:  # get_command: a group may make its commands when first asked (evtms bench)
+        command = command.get_command(click.Context(command), name)
     return {opt for p in command.params for opt in p.opts if opt.startswith("--")}
 
 
