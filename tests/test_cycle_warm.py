@@ -120,3 +120,23 @@ def test_a_failed_point_leaves_no_warm_start(params, fluid):
     res = solver.solve(OperatingPoints(speed=0.5, T_amb=303.15, T_cabin=200.0))
     assert res.status[0] != STATUS_CONVERGED
     assert np.isnan(solver.warm_start.t_A[0]) and np.isnan(solver.warm_start.p_B[0])
+
+
+def test_parallel_branches_warm_start_the_split(params, fluid):
+    """Cabin and chiller in parallel: warm from the previous point, the same roots and flow split
+    as cold (the split to its closure's tolerance), in a fraction of the branch calls."""
+    sat = SaturationCurve(fluid)
+    models = _Counted(params, fluid)
+    solver = CycleSolver(models, sat, "cabin+chiller")
+    near = {"fan": 0.5, "blower": 0.6, "T_amb": 303.15, "mdot_coolant": 0.15}
+    solver.solve(OperatingPoints(speed=0.5, T_cabin=300.15, T_coolant_in=303.15, **near))
+    point = OperatingPoints(speed=0.53, T_cabin=300.0, T_coolant_in=303.0, **near)
+    start, models.calls = solver.warm_start, 0
+    warm = solver.solve(point, warm=start)
+    warm_calls, models.calls = models.calls, 0
+    cold = solver.solve(point)
+    assert warm.status.tolist() == cold.status.tolist() == [STATUS_CONVERGED]
+    for k in ("p_A", "p_B"):
+        assert warm[k] == pytest.approx(cold[k], rel=1e-5)
+    assert warm["mdot_chiller"] == pytest.approx(cold["mdot_chiller"], rel=1e-4)
+    assert warm_calls < 0.5 * models.calls

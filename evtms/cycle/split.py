@@ -180,6 +180,8 @@ def parallel(
     ``final`` (at the suction root), the stored split and drops are used as
     they are (the last iterate's).
     """
+    if not final and state.warm:
+        _extrapolate(ctx, state, p_A, idx)
     sp = _setup(ctx, state, ops, mdot, p_A, h_D, idx, h_set)
     if not final:
         _iterate_drops(sp)
@@ -188,10 +190,39 @@ def parallel(
             state.dp_branch[c][idx] = np.where(np.isfinite(drop), drop, state.dp_branch[c][idx])
         state.split[idx] = np.where(np.isfinite(sp.share), sp.share, state.split[idx])
         state.clamped[idx] = sp.clamped
+        if state.warm:
+            _remember(ctx, state, p_A, idx, np.isfinite(sp.share))
     else:
         sp.clamped = state.clamped[idx]
         _split_at_the_root(sp)
     return _mixed_outlet(sp, final)
+
+
+def _extrapolate(ctx: SolveContext, state: SolveState, p_A: np.ndarray, idx: np.ndarray) -> None:
+    """A warm closure's split and drops to start a suction iterate from (``state`` in place): linear
+    in the suction saturation temperature through the two latest iterates' (``state.par_pairs``),
+    where there are two; the split within [0, 1], the drops not below 0."""
+    pairs = state.par_pairs[:, :, idx]
+    t = ctx.sat.temperature(p_A)
+    (t1, *y1), (t0, *y0) = pairs[0], pairs[1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = (t - t1) / (t1 - t0)
+    use = np.isfinite(w) & np.all(np.isfinite(pairs), axis=(0, 1)) & (np.abs(t1 - t0) > 1e-9)
+    if not use.any():
+        return
+    k = idx[use]
+    guess = [a[use] + w[use] * (a[use] - b[use]) for a, b in zip(y1, y0, strict=True)]
+    state.split[k] = np.clip(guess[0], 0.0, 1.0)
+    for c, g in zip(ctx.names, guess[1:], strict=True):
+        state.dp_branch[c][k] = np.maximum(g, 0.0)
+
+
+def _remember(ctx: SolveContext, state: SolveState, p_A: np.ndarray, idx: np.ndarray, ok: np.ndarray) -> None:
+    """This suction iterate's split and drops as the latest of ``state.par_pairs`` (where ``ok``)."""
+    k = idx[ok]
+    state.par_pairs[1, :, k] = state.par_pairs[0, :, k]
+    rows = [ctx.sat.temperature(p_A)[ok], state.split[k], *(state.dp_branch[c][k] for c in ctx.names)]
+    state.par_pairs[0, :, k] = np.stack(rows, axis=-1)
 
 
 def _setup(ctx: SolveContext, state: SolveState, ops: Ops, mdot, p_A, h_D, idx, h_set) -> _Split:
@@ -348,7 +379,7 @@ def _secant_bracket(sp: _Split, todo: np.ndarray, prev: np.ndarray, warm: np.nda
     k = np.nonzero(warm & (slope < 0))[0]
     if k.size == 0:
         return done
-    x1 = prev[k]
+    x1 = np.clip(prev[k], lo[k], hi[k])
     f1, _ = sp.residual(x1, todo[k])
     hit = np.isfinite(f1) & (np.abs(f1) < INNER_FTOL)
     found[k[hit]], lo[k[hit]], hi[k[hit]], f_lo[k[hit]], f_hi[k[hit]] = True, x1[hit], x1[hit], f1[hit], f1[hit]
@@ -358,21 +389,36 @@ def _secant_bracket(sp: _Split, todo: np.ndarray, prev: np.ndarray, warm: np.nda
     if k.size == 0:
         return done
     x2 = np.clip(x1 - WARM_OVERSHOOT * f1 / slope[k] + np.sign(f1) * 1e-6, lo[k], hi[k])
-    f2, _ = sp.residual(x2, todo[k])
-    hit = np.isfinite(f2) & (np.abs(f2) < INNER_FTOL)
-    found[k[hit]], lo[k[hit]], hi[k[hit]], f_lo[k[hit]], f_hi[k[hit]] = True, x2[hit], x2[hit], f2[hit], f2[hit]
-    done[k[hit]] = True
-    up = ~hit & np.isfinite(f2) & (f1 > 0) & (f2 <= 0)  # root between x1 < x2
-    down = ~hit & np.isfinite(f2) & (f1 <= 0) & (f2 > 0)  # root between x2 < x1
-    for m, a, b, fa, fb in ((up, x1, x2, f1, f2), (down, x2, x1, f2, f1)):
-        j = k[m]
-        lo[j], hi[j], f_lo[j], f_hi[j] = a[m], b[m], fa[m], fb[m]
-        done[j] = True
+    f2 = _secant_trial(sp, todo, k, x1, f1, x2, ends, found, done)
+    # Where the measured slope fell short: one more step, along the chord of both trials, overshot.
     with np.errstate(invalid="ignore", divide="ignore"):
         chord = (f2 - f1) / (x2 - x1)
     ok = np.isfinite(chord) & (chord < 0)
     sp.state.split_slope[sp.idx[todo[k[ok]]]] = chord[ok]
+    short = ok & ~done[k]
+    if short.any():
+        k, x2, f2, chord = k[short], x2[short], f2[short], chord[short]
+        x3 = np.clip(x2 - 1.5 * f2 / chord + np.sign(f2) * 1e-6, lo[k], hi[k])
+        _secant_trial(sp, todo, k, x2, f2, x3, ends, found, done)
     return done
+
+
+def _secant_trial(sp: _Split, todo, k, x1, f1, x2, ends: tuple, found, done) -> np.ndarray:
+    """The split's residual of the points ``todo[k]`` at ``x2``: found where within the tolerance,
+    bracketed with the trial ``x1`` (residual ``f1``) where the sign changed (``ends``, ``found``,
+    ``done`` in place); returns the residuals."""
+    lo, hi, f_lo, f_hi = ends
+    f2, _ = sp.residual(x2, todo[k])
+    hit = np.isfinite(f2) & (np.abs(f2) < INNER_FTOL)
+    found[k[hit]], lo[k[hit]], hi[k[hit]], f_lo[k[hit]], f_hi[k[hit]] = True, x2[hit], x2[hit], f2[hit], f2[hit]
+    done[k[hit]] = True
+    up = ~hit & np.isfinite(f2) & (f1 > 0) & (f2 <= 0) & (x1 < x2)  # root between x1 < x2
+    down = ~hit & np.isfinite(f2) & (f1 <= 0) & (f2 > 0) & (x2 < x1)  # root between x2 < x1
+    for m, a, b, fa, fb in ((up, x1, x2, f1, f2), (down, x2, x1, f2, f1)):
+        j = k[m]
+        lo[j], hi[j], f_lo[j], f_hi[j] = a[m], b[m], fa[m], fb[m]
+        done[j] = True
+    return f2
 
 
 def _clamp_to_least_flow(sp: _Split, todo, no_root, lo, hi, f_lo, f_hi, w_lo, w_hi) -> None:

@@ -214,6 +214,10 @@ class SolveState:
     split_slope : numpy.ndarray
         Slope of the flow split's residual in the share [about K] measured by
         its latest bracket (NaN: none yet), for a warm closure's secant step.
+    par_pairs : numpy.ndarray
+        ``(2, 2 + branches, n)``: of the two latest suction iterates of a warm
+        closure (row 0 the latest), the suction saturation temperature [K], the
+        split [1] and each parallel branch's drop [Pa], to extrapolate from.
     """
 
     p_discharge: tuple[float, float]
@@ -230,6 +234,7 @@ class SolveState:
     warm: bool = False
     t_pairs: np.ndarray = field(default_factory=lambda: np.zeros((2, 2, 0)))
     split_slope: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    par_pairs: np.ndarray = field(default_factory=lambda: np.zeros((2, 4, 0)))
 
     @classmethod
     def start(
@@ -261,6 +266,7 @@ class SolveState:
             warm=warm is not None,
             t_pairs=np.full((2, 2, n), np.nan),
             split_slope=np.full(n, np.nan),
+            par_pairs=np.full((2, 2 + len(branches), n), np.nan),
         )
         if warm is not None:
             warm.seed(state)
