@@ -218,7 +218,8 @@ def _float_saturated(
             if solution is not None:
                 fl.mode[:] = np.where(np.isfinite(fl.superheat), floats, -1)
                 solution.superheat[idx] = fl.superheat
-                solution.floating = solution.floating or WarmStart.blank(len(solution))
+                if solution.floating is None:
+                    solution.floating = WarmStart.blank(len(solution))
                 solution.floating.put(idx, fl)
         saturated |= floating
     return saturated

@@ -267,7 +267,8 @@ def _single_valve_limit(
     if idx.size:
         floating = float_superheat(ctx, ops, res, idx, warm=None if warm is None else warm.take(idx))
         solution.superheat[idx] = floating.superheat
-        solution.floating = solution.floating or WarmStart.blank(len(solution))
+        if solution.floating is None:
+            solution.floating = WarmStart.blank(len(solution))
         solution.floating.put(idx, floating)
     return ValveLimits.none(saturated)
 
