@@ -32,9 +32,12 @@ from evtms.cycle.state import (
     OUTER_FTOL,
     SECOND_CLOSED,
     SECOND_FLOATS,
+    SLOPE_SPAN,
+    WARM_OVERSHOOT,
     Ops,
     SolveContext,
     SolveState,
+    WarmStart,
     take,
 )
 from evtms.cycle.status import (
@@ -216,23 +219,62 @@ def solve_discharge(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndar
     known = np.isfinite(state.p_B[idx])
     t_guess = np.where(known, sat.temperature(state.p_B[idx]), ops["T_amb"] + 13.0)
     slope = np.where(known & (state.slope[idx] < 0), state.slope[idx], INNER_SLOPE)
-    br = bracket(sat, residual, sat.temperature(lo), sat.temperature(hi), t_guess, slope, 10.0)
+    if state.warm:
+        t_guess = _extrapolated_discharge(state, sat.temperature(p_A), idx, t_guess)
+    br = bracket(
+        sat,
+        residual,
+        sat.temperature(lo),
+        sat.temperature(hi),
+        t_guess,
+        slope,
+        10.0,
+        WARM_OVERSHOOT if state.warm else 1.5,
+        INNER_FTOL if state.warm else None,
+    )
     state.slope[idx] = np.where(br.slope < 0, br.slope, state.slope[idx])
     status, reason = range_status(
         br, lo, lo_axis, hi, hi_axis, STATUS_CONDENSER_NO_ROOT, _CONDENSER_LOW, _CONDENSER_HIGH
     )
     status[~np.isfinite(p_A)] = STATUS_OUTSIDE_ENVELOPE
     p_B = np.full(n, np.nan)
-    todo = np.nonzero(status == STATUS_CONVERGED)[0]
+    todo = _found_at_a_guess(sat, br, status, p_B)
     if todo.size:
         p_B[todo] = pressure_root(sat, residual, br, todo, INNER_FTOL, status, reason, "discharge-pressure")
     failed = status != STATUS_CONVERGED
     p_B[failed] = np.nan
+    if state.warm:
+        ok = idx[~failed]
+        state.t_pairs[1, :, ok] = state.t_pairs[0, :, ok]
+        state.t_pairs[0, 0, ok], state.t_pairs[0, 1, ok] = sat.temperature(p_A[~failed]), sat.temperature(p_B[~failed])
     if last.data is None:  # nothing evaluated (no valid suction pressure)
         side = discharge_side(ctx, ops, p_A, p_B)
     else:  # each converged point's last evaluation was at its root
         side = last.result(failed, reason)
     return DischargeRoot(p_B, status, reason, side)
+
+
+def _found_at_a_guess(sat, br: Bracket, status: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The roots [Pa] a bracket's guess points hit within the tolerance, into ``p``; returns the
+    converged points left to search."""
+    todo = np.nonzero(status == STATUS_CONVERGED)[0]
+    if br.found is None or not br.found[todo].any():
+        return todo
+    hit = todo[br.found[todo]]
+    p[hit] = sat.pressure(br.lo[hit])
+    return todo[~br.found[todo]]
+
+
+def _extrapolated_discharge(state: SolveState, t_A: np.ndarray, idx: np.ndarray, t_guess: np.ndarray) -> np.ndarray:
+    """First guess of the discharge saturation temperature [K] at suction saturation ``t_A`` [K]:
+    linear in ``t_A`` through the two latest suction iterates' roots (``state.t_pairs``), by at
+    most 2 K from the latest; ``t_guess`` where there are not two."""
+    (a1, b1), (a0, b0) = state.t_pairs[0][:, idx], state.t_pairs[1][:, idx]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slope = (b1 - b0) / (a1 - a0)
+        t = b1 + np.clip(slope * (t_A - a1), -2.0, 2.0)
+    use = np.isfinite(t) & (np.abs(a1 - a0) > 1e-9)
+    return np.where(use, t, t_guess)
 
 
 def _discharge_range(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndarray) -> tuple:
@@ -373,6 +415,7 @@ def solve_at(
     p_B_guess: np.ndarray | None = None,
     dp_guess: np.ndarray | None = None,
     outer_slope: np.ndarray | float = OUTER_SLOPE,
+    warm: WarmStart | None = None,
 ) -> tuple[dict[str, np.ndarray], SolveState]:
     """The cycle with the evaporator-outlet superheat at ``ops["superheat"]`` (the valve not limited).
 
@@ -382,6 +425,10 @@ def solve_at(
     ambient air) and ``dp_guess`` [Pa] that of the evaporator's pressure
     drop (default 0; its fixed point takes one pass per suction iterate,
     so a warm start whose root takes few iterates needs a good one).
+    ``warm``, a previous solve's solution at nearby points, replaces
+    these guesses where it has one (and gives the closures' slopes and a
+    parallel split to start from); the roots are the same to within the
+    closures' tolerances, only found in fewer iterates.
     Returns the working arrays of :func:`collect` (statuses 0-4 and 8, no
     flags; ``valve_opening`` the opening that passes the cycle's flow,
     whatever its maximum) and the solve's state after its last iterate.
@@ -390,29 +437,52 @@ def solve_at(
     limits = ctx.models.limits()
     T_sec = secondary_temperature(ctx, ops)
     lo, lo_axis, hi, hi_axis = _suction_range(ctx, ops, limits, T_sec)
-    state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess)
+    state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess, warm)
     ctx.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
     # The status each failure reason came with (the discharge side's own: a condenser that
     # cannot reach its outlet at any discharge pressure is not the end of a model's envelope).
     failure_status: dict[str, int] = {}
 
+    # Each point's latest suction iterate, for the closure's local slope (state.outer_slope).
+    latest_t, latest_f = np.full(n, np.nan), np.full(n, np.nan)
+
     def residual(pa, i):
         r = suction_side(ctx, state, take(ops, i), pa, i)
         failed = (r.status != STATUS_CONVERGED) & (r.reason != "")
         failure_status.update(zip(r.reason[failed], r.status[failed].tolist(), strict=True))
+        t = ctx.sat.temperature(pa)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slope = (r.residual - latest_f[i]) / (t - latest_t[i])
+        moved = np.isfinite(slope) & (slope < 0) & (np.abs(t - latest_t[i]) > SLOPE_SPAN)
+        state.outer_slope[i[moved]] = slope[moved]
+        seen = np.isfinite(r.residual)
+        latest_t[i[seen]], latest_f[i[seen]] = t[seen], r.residual[seen]
         return r.residual, r.reason
 
     # First guess: evaporating 23 K below the cabin air, the middle of the default
     # circuit's envelope; the superheat falls about 4 K per kelvin above it.
     t_guess = T_sec - 23.0 if t_guess is None else np.where(np.isfinite(t_guess), t_guess, T_sec - 23.0)
     slopes = np.broadcast_to(np.asarray(outer_slope, float), (n,))
-    br = bracket(ctx.sat, residual, ctx.sat.temperature(lo), ctx.sat.temperature(hi), t_guess, slopes, 15.0)
+    if warm is not None:  # the previous root and the closure's local slope there
+        t_guess = np.where(np.isfinite(warm.t_A), warm.t_A, t_guess)
+        slopes = np.where(warm.outer_slope < 0, warm.outer_slope, slopes)
+    br = bracket(
+        ctx.sat,
+        residual,
+        ctx.sat.temperature(lo),
+        ctx.sat.temperature(hi),
+        t_guess,
+        slopes,
+        15.0,
+        WARM_OVERSHOOT if state.warm else 1.5,
+        OUTER_FTOL if state.warm else None,
+    )
     status, reason = range_status(
         br, lo, lo_axis, hi, hi_axis, STATUS_EVAPORATOR_NO_ROOT, _SUPERHEAT_LOW, _SUPERHEAT_HIGH
     )
     _tell_no_root_apart(ctx, state, ops, br, lo, status, reason, failure_status)
     p_A = np.full(n, np.nan)
-    idx = np.nonzero(status == STATUS_CONVERGED)[0]
+    idx = _found_at_a_guess(ctx.sat, br, status, p_A)
     if idx.size:
         p_A[idx] = pressure_root(
             ctx.sat, residual, br, idx, OUTER_FTOL, status, reason, "suction-pressure", failure_status

@@ -79,6 +79,7 @@ from evtms.cycle.state import (
     Ops,
     SolveContext,
     SolveState,
+    WarmStart,
     take,
 )
 from evtms.cycle.status import (
@@ -120,18 +121,28 @@ class ValveLimits:
         return cls(saturated, np.full(n, "", dtype=object), np.full(n, "", dtype=object))
 
 
-def parallel_limits(ctx: SolveContext, ops: Ops, res: dict, first: SolveState) -> ValveLimits:
+def parallel_limits(
+    ctx: SolveContext,
+    ops: Ops,
+    res: dict,
+    first: SolveState,
+    warm: WarmStart | None = None,
+    solution: WarmStart | None = None,
+) -> ValveLimits:
     """Parallel branches at their valves' limits, solved again (``ops``, ``res`` in place).
 
     ``res`` are the working arrays of the first solve, with both valves
     holding their setpoint, and ``first`` its state after its last suction
     iterate (where its split stopped at a branch's least flow, and which
-    points stayed above the setpoint up to the top of the search).
+    points stayed above the setpoint up to the top of the search). A valve
+    that floats starts from the floating solution of the previous solve
+    ``warm`` where the same valve floated there; the floating solutions go
+    into ``solution``.
     """
     closed_cause = np.full(ops["branch_mode"].size, "", dtype=object)
     _close_least_flow(ctx, ops, res, first.clamped.copy())
     _close_capped(ctx, ops, res, first.above_top.copy(), closed_cause)
-    saturated = _float_saturated(ctx, ops, res)
+    saturated = _float_saturated(ctx, ops, res, warm, solution)
     _close_beside_saturated(ctx, ops, res, saturated)
     _mark_second_saturation(ctx, ops, res)
     return ValveLimits(saturated, closed_cause, _closed_notes(ctx, ops, res))
@@ -174,9 +185,12 @@ def _close_capped(ctx: SolveContext, ops: Ops, res: dict, above_top: np.ndarray,
     solve_again(ctx, ops, res, capped, np.where(colder == 0, FIRST_CLOSED, SECOND_CLOSED))
 
 
-def _float_saturated(ctx: SolveContext, ops: Ops, res: dict) -> np.ndarray:
+def _float_saturated(
+    ctx: SolveContext, ops: Ops, res: dict, warm: WarmStart | None = None, solution: WarmStart | None = None
+) -> np.ndarray:
     """Saturated valves: one floats, the other holds its setpoint (both beyond their maximum: not
-    modelled, status 9). Returns the points floating."""
+    modelled, status 9), from ``warm``'s floating solution of the same valve. Returns the points
+    floating; their floating solutions go into ``solution``."""
     mode, max_opening = ops["branch_mode"], ctx.max_opening
     ok = res["status"] == STATUS_CONVERGED
     over = [ok & (res[key] > max_opening) for key in _OPENINGS]
@@ -198,9 +212,27 @@ def _float_saturated(ctx: SolveContext, ops: Ops, res: dict) -> np.ndarray:
         idx = np.nonzero(floating)[0]
         if idx.size:
             flow = res["mdot_evap" if b == 0 else "mdot_chiller"][idx]
-            float_superheat(ctx, ops, res, idx, key, share=flow / res["mdot"][idx])
+            floats = FIRST_FLOATS if b == 0 else SECOND_FLOATS
+            start = _same_float(warm, idx, floats)
+            fl = float_superheat(ctx, ops, res, idx, key, share=flow / res["mdot"][idx], warm=start)
+            if solution is not None:
+                fl.mode[:] = np.where(np.isfinite(fl.superheat), floats, -1)
+                solution.superheat[idx] = fl.superheat
+                if solution.floating is None:
+                    solution.floating = WarmStart.blank(len(solution))
+                solution.floating.put(idx, fl)
         saturated |= floating
     return saturated
+
+
+def _same_float(warm: WarmStart | None, idx: np.ndarray, floats: int) -> WarmStart | None:
+    """``warm`` of the points ``idx``, its floating solution kept where the same valve floated."""
+    if warm is None or warm.floating is None:
+        return None
+    start = warm.take(idx)
+    other = start.floating.mode != floats
+    start.floating.superheat[other] = np.nan
+    return start
 
 
 def _close_beside_saturated(ctx: SolveContext, ops: Ops, res: dict, saturated: np.ndarray) -> None:

@@ -196,6 +196,10 @@ class Bracket:
         True where that end is the range's own end (an end from a guess point
         always has the sign of its side, so a residual of the wrong sign there
         means that the range holds no root).
+    found : numpy.ndarray
+        True where a guess point's residual is already within the tolerance
+        (``bracket``'s ``ftol``): the root is that point, ``lo = hi``, and its
+        evaluation there was the point's last.
     """
 
     lo: np.ndarray
@@ -207,6 +211,7 @@ class Bracket:
     slope: np.ndarray
     lo_is_end: np.ndarray
     hi_is_end: np.ndarray
+    found: np.ndarray | None = None
 
 
 def bracket(
@@ -217,17 +222,22 @@ def bracket(
     t_guess: np.ndarray,
     slope: np.ndarray,
     max_step: float,
+    overshoot: float = 1.5,
+    ftol: float | None = None,
 ) -> Bracket:
     """Bracket the root of a residual that falls with the saturation temperature.
 
     ``residual(p, i)`` gives the residuals and reasons of the points ``i``
     at pressures ``p`` [Pa]. Where ``t_guess`` [K] lies inside ``(t_lo, t_hi)``
     the residual is evaluated there and after one secant step with the
-    estimated ``slope`` [1/K] (< 0), overshot 1.5 times and by 0.01 K and
+    estimated ``slope`` [1/K] (< 0), overshot ``overshoot`` times (1.5 for a
+    typical slope; less for a slope measured near the root) and by 0.01 K and
     at most ``max_step`` [K], so that it usually changes sign between the
     two: that pair is the bracket. Elsewhere, and where it does not change
     sign, the bracket is ``[t_lo, t_hi]`` narrowed by what the evaluated
-    points showed, and its remaining ends are evaluated.
+    points showed, and its remaining ends are evaluated. With ``ftol``, a
+    guess point whose residual is within it is the root (``found``; a point
+    found at its guess is not evaluated again).
     """
     n = t_lo.size
     a, b = t_lo.copy(), t_hi.copy()
@@ -235,17 +245,24 @@ def bracket(
     wa, wb = _empty_reasons(n), _empty_reasons(n)
     need_a, need_b = np.ones(n, bool), np.ones(n, bool)
     new_slope = np.full(n, np.nan)
+    found = np.zeros(n, bool)
     g = np.nonzero(np.isfinite(t_guess) & (t_guess > t_lo) & (t_guess < t_hi))[0]
     if g.size:
-        trials = _guess_and_secant(sat, residual, g, t_guess[g], slope[g], max_step, t_lo[g], t_hi[g])
+        trials = _guess_and_secant(sat, residual, g, t_guess[g], slope[g], max_step, t_lo[g], t_hi[g], overshoot, ftol)
+        if ftol is not None:
+            for t, f, _ in trials:
+                hit = np.isfinite(f) & (np.abs(f) < ftol) & ~found[g]
+                k = g[hit]
+                found[k], a[k], b[k], fa[k], fb[k] = True, t[hit], t[hit], f[hit], f[hit]
+                need_a[k] = need_b[k] = False
         for t, f, w in trials:
-            above = np.isfinite(f) & (f > 0) & (t > a[g])  # the root lies above t
+            above = np.isfinite(f) & (f > 0) & (t > a[g]) & ~found[g]  # the root lies above t
             k = g[above]
             a[k], fa[k], wa[k], need_a[k] = t[above], f[above], w[above], False
-            below = np.isfinite(f) & (f <= 0) & (t < b[g])
+            below = np.isfinite(f) & (f <= 0) & (t < b[g]) & ~found[g]
             k = g[below]
             b[k], fb[k], wb[k], need_b[k] = t[below], f[below], w[below], False
-        (t_g, f_g, _), (t_2, f_2, _) = trials
+        (t_g, f_g, _), (t_2, f_2, _) = trials[:2]
         with np.errstate(invalid="ignore", divide="ignore"):
             new_slope[g] = (f_2 - f_g) / (t_2 - t_g)
     lo_is_end, hi_is_end = need_a.copy(), need_b.copy()
@@ -253,18 +270,39 @@ def bracket(
         k = np.arange(n)[need]
         if k.size:
             f[k], w[k] = residual(sat.pressure(t[k]), k)
-    return Bracket(a, b, fa, fb, wa, wb, new_slope, lo_is_end, hi_is_end)
+    return Bracket(a, b, fa, fb, wa, wb, new_slope, lo_is_end, hi_is_end, found)
 
 
-def _guess_and_secant(sat: SaturationCurve, residual: Residual, g, t_g, slope, max_step, t_lo, t_hi) -> list:
+def _guess_and_secant(
+    sat: SaturationCurve, residual: Residual, g, t_g, slope, max_step, t_lo, t_hi, overshoot=1.5, ftol=None
+) -> list:
     """The residual of the points ``g`` at their guess ``t_g`` [K] and after one overshot secant
-    step from it within ``[t_lo, t_hi]``: ``[(t, f, why)]`` of both."""
+    step from it within ``[t_lo, t_hi]``: ``[(t, f, why)]`` of both (the second NaN where the
+    guess is within ``ftol`` of the root: not evaluated)."""
     f_g, w_g = residual(sat.pressure(t_g), g)
     with np.errstate(invalid="ignore", divide="ignore"):
-        step = -1.5 * f_g / slope + np.sign(f_g) * 0.01
+        step = -overshoot * f_g / slope + np.sign(f_g) * 0.01
     t_2 = np.clip(t_g + np.clip(np.nan_to_num(step), -max_step, max_step), t_lo, t_hi)
-    f_2, w_2 = residual(sat.pressure(t_2), g)
-    return [(t_g, f_g, w_g), (t_2, f_2, w_2)]
+    if ftol is None:
+        f_2, w_2 = residual(sat.pressure(t_2), g)
+        return [(t_g, f_g, w_g), (t_2, f_2, w_2)]
+    f_2, w_2 = np.full(g.size, np.nan), _empty_reasons(g.size)
+    go = ~(np.isfinite(f_g) & (np.abs(f_g) < ftol))
+    if go.any():
+        f_2[go], w_2[go] = residual(sat.pressure(t_2[go]), g[go])
+    trials = [(t_g, f_g, w_g), (t_2, f_2, w_2)]
+    # The tighter step of a measured slope falls short where the slope changed: one more secant
+    # step through both trials (overshot 1.5 times), before the whole range.
+    short = go & np.isfinite(f_2) & (np.abs(f_2) >= ftol) & (np.sign(f_2) == np.sign(f_g)) & (t_2 != t_g)
+    if short.any():
+        with np.errstate(invalid="ignore", divide="ignore"):
+            chord = (f_2 - f_g) / (t_2 - t_g)
+            step = -1.5 * f_2 / np.where(chord < 0, chord, slope) + np.sign(f_2) * 0.01
+        t_3 = np.clip(t_2 + np.clip(np.nan_to_num(step), -max_step, max_step), t_lo, t_hi)
+        f_3, w_3 = np.full(g.size, np.nan), _empty_reasons(g.size)
+        f_3[short], w_3[short] = residual(sat.pressure(t_3[short]), g[short])
+        trials.append((t_3, f_3, w_3))
+    return trials
 
 
 def pressure_root(

@@ -54,7 +54,7 @@ import numpy as np
 
 from evtms.cycle.closure import solve_at
 from evtms.cycle.roots import bracketed_root
-from evtms.cycle.state import Ops, SolveContext, take
+from evtms.cycle.state import Ops, SolveContext, WarmStart, take
 from evtms.cycle.status import STATUS_CONVERGED, STATUS_NOT_CONVERGED, STATUS_OUTSIDE_ENVELOPE
 
 #: The first step's estimates are linear in g0 = ln(opening needed at the setpoint over the maximum) [1],
@@ -84,6 +84,9 @@ _SH_MAX_STEP = 25.0
 _SH_BRACKET_STEPS = 4
 _SH_XTOL = 1e-4
 _SH_FTOL = 1e-4
+#: A warm start's second trial goes this far [K] beyond the root its secant predicts (a fifth of the
+#: tolerance in g at the typical slope), so that it brackets the root where it does not land on it.
+_SH_WARM_BEYOND = 2e-3
 
 
 @dataclass
@@ -107,6 +110,10 @@ class _FloatingCycles:
     seen: np.ndarray
     known: dict[str, np.ndarray]
     fail: np.ndarray
+    slopes: dict[str, np.ndarray]
+    warm: bool = False
+    split: np.ndarray | None = None
+    dp_branch: dict[str, np.ndarray] | None = None
 
     def guess(self, sh: np.ndarray, i: np.ndarray) -> dict[str, np.ndarray]:
         """Warm start of the points ``i`` at superheat ``sh`` [K]: ``t`` [K], ``p_B`` and ``dp`` [Pa]."""
@@ -133,9 +140,20 @@ class _FloatingCycles:
         ops_i = take(self.ops, i)
         ops_i["superheat"] = sh
         g = self.guess(sh, i)
-        r, _ = solve_at(
-            self.ctx, ops_i, t_guess=g["t"], p_B_guess=g["p_B"], dp_guess=g["dp"], outer_slope=_SH_OUTER_SLOPE
-        )
+        # A warm search's trials start from the closure's slope measured at its latest trial.
+        outer = np.where(self.warm & (self.slopes["outer"][i] < 0), self.slopes["outer"][i], _SH_OUTER_SLOPE)
+        if self.warm:  # the solve warm-started: so are its trial cycles, from the guesses
+            drops = {c: v[i] for c, v in self.dp_branch.items()}
+            start = WarmStart(g["t"], outer, g["p_B"], self.slopes["inner"][i], g["dp"], drops, self.split[i])
+            r, state = solve_at(self.ctx, ops_i, warm=start)
+            ok = r["status"] == STATUS_CONVERGED
+            self.split[i[ok]] = state.split[ok]
+            for c, v in state.dp_branch.items():
+                self.dp_branch.setdefault(c, np.full(self.split.size, np.nan))[i[ok]] = v[ok]
+        else:
+            r, state = solve_at(
+                self.ctx, ops_i, t_guess=g["t"], p_B_guess=g["p_B"], dp_guess=g["dp"], outer_slope=outer
+            )
         for k, v in r.items():
             self.store[k][i] = v
         ok = r["status"] == STATUS_CONVERGED
@@ -146,6 +164,8 @@ class _FloatingCycles:
         new = {"t": self.ctx.sat.temperature(r["p_A"]), "p_B": r["p_B"], "dp": r["p_D"] - r["p_A"]}
         for name, v in self.known.items():
             v[1, k], v[0, k] = v[0, k], new[name][ok]
+        for name, v in (("outer", state.outer_slope), ("inner", state.slope)):
+            self.slopes[name][k] = np.where(v[ok] < 0, v[ok], self.slopes[name][k])
         self.fail[i[~ok]] = r["status"][~ok]
         return f, np.where(ok, "", r["reason"])
 
@@ -194,8 +214,14 @@ class _Search:
 
 
 def float_superheat(
-    ctx: SolveContext, ops: Ops, res: dict, idx: np.ndarray, key: str = "valve_opening", share=None
-) -> None:
+    ctx: SolveContext,
+    ops: Ops,
+    res: dict,
+    idx: np.ndarray,
+    key: str = "valve_opening",
+    share=None,
+    warm: WarmStart | None = None,
+) -> WarmStart:
     """Cycle of the points ``idx`` with the valve at its maximum opening; written into ``res``.
 
     ``res`` are the working arrays of the solve with the valve holding the
@@ -207,6 +233,14 @@ def float_superheat(
     branch's share of the flow at the setpoint [1] (default 1): the mixture's
     superheat moves that share of the branch's, so the typical changes per
     kelvin of the first step are divided by it.
+
+    ``warm`` (of the points ``idx``), a previous solve's solution at nearby
+    points: where its ``superheat`` floated above this setpoint, the first
+    step goes there, and the cycle solves extrapolate from the setpoint's
+    solution towards its ``floating`` one (the root is the same, to within
+    the search's tolerance). Returns the floating solution of the points
+    ``idx`` with its ``superheat``, for the next solve to start from (NaN
+    where a point failed).
     """
     log_max = np.log(ctx.max_opening)
     m = idx.size
@@ -230,22 +264,117 @@ def float_superheat(
             )
         },
         fail=np.full(m, STATUS_OUTSIDE_ENVELOPE, np.int8),
+        slopes={"outer": np.full(m, np.nan), "inner": np.full(m, np.nan)},
+        warm=warm is not None,
+        split=np.full(m, np.nan),
+        dp_branch={},
     )
     slope = (_SH_FIRST_SLOPE[0] + _SH_FIRST_SLOPE[1] * cycles.g0) / cycles.share
     search = _Search.at_setpoint(ops["superheat"][idx].copy(), f_set, slope)
-    rising = _step_up(cycles, search)
+    first = _warm_first_step(cycles, search, warm)
+    still = _warm_trials(cycles, search, first)
+    cold = np.nonzero(~np.isfinite(first))[0]
+    rising = _step_up(cycles, search, cold, still)
     _quadratic_steps(cycles, search)
     _regula_falsi(cycles, search)
     _write_back(ctx, cycles, search, rising, res, idx)
+    return _floating_solution(ctx, cycles, search, res, idx)
 
 
-def _step_up(cycles: _FloatingCycles, s: _Search) -> np.ndarray:
-    """Bracket: secant steps up from the setpoint, plus 0.5 K; returns the points still rising
-    (``g`` > 0 after every step)."""
-    going = np.arange(s.lo.size)
-    for step in range(_SH_BRACKET_STEPS):
+def _warm_first_step(cycles: _FloatingCycles, s: _Search, warm: WarmStart | None) -> np.ndarray:
+    """The first trial superheat [K] per point from a previous solve's floating solution (NaN where
+    there is none above this setpoint): its superheat, shifted by the change of ``g`` at the
+    setpoint over its slope there (the curve ``g`` moves about as a whole between nearby points).
+    That solution becomes the older of the two known cycles the trials' warm starts extrapolate
+    from, with its closures' slopes, and its slope of ``g`` the search's."""
+    first = np.full(s.lo.size, np.nan)
+    if warm is None or warm.floating is None:
+        return first
+    fl = warm.floating
+    use = np.isfinite(fl.superheat) & (fl.superheat > s.lo + 0.02) & np.isfinite(fl.t_A) & np.isfinite(fl.p_B)
+    slope = np.where(fl.opening_slope < 0, fl.opening_slope, s.slope)
+    with np.errstate(invalid="ignore"):
+        shift = np.nan_to_num((cycles.g0 - fl.opening_excess) / -slope)
+    first[use] = np.clip(fl.superheat + shift, s.lo + 0.02, s.lo + _SH_MAX_STEP)[use]
+    s.slope[use] = slope[use]
+    cycles.seen[1, use] = fl.superheat[use]
+    for name, v in (("t", fl.t_A), ("p_B", fl.p_B), ("dp", fl.dp)):
+        cycles.known[name][1, use] = v[use]
+    cycles.slopes["outer"][use] = fl.outer_slope[use]
+    cycles.slopes["inner"][use] = fl.inner_slope[use]
+    cycles.split[use] = fl.split[use]
+    for c, v in fl.dp_branch.items():
+        cycles.dp_branch.setdefault(c, np.full(use.size, np.nan))[use] = v[use]
+    return first
+
+
+def _warm_trials(cycles: _FloatingCycles, s: _Search, first: np.ndarray) -> np.ndarray:
+    """The points with a warm first trial ``first`` [K]: that trial, then the secant step along the
+    slope of ``g`` measured at the previous root, up or down, and :data:`_SH_WARM_BEYOND` further
+    (``g`` is nearly linear over such a step: the second trial lands within the tolerance, or just
+    beyond the root, in most points). Returns the points left rising (both trials below the
+    root), for the steps up."""
+    going = np.nonzero(np.isfinite(first))[0]
+    x = first[going]
+    for trial in range(2):
         if going.size == 0:
             break
+        f, why = cycles.residual(x, going)
+        s.record(going, x, f)
+        done = np.isfinite(f) & (np.abs(f) < _SH_FTOL)
+        s.state[going[done]] = 1
+        up = np.isfinite(f) & (f > 0) & ~done
+        down = ~(np.isfinite(f) & (f > 0)) & ~done
+        s.lo[going[up]], s.f_lo[going[up]] = x[up], f[up]
+        k = going[down]
+        tighter = ~(s.hi[k] <= x[down])  # the tighter upper end (NaN: none yet)
+        j = k[tighter]
+        s.hi[j], s.f_hi[j], s.why_hi[j] = x[down][tighter], f[down][tighter], why[down][tighter]
+        if trial == 1:
+            return going[up & ~np.isfinite(s.hi[going])]
+        keep = np.isfinite(f) & ~done
+        going, f, x = going[keep], f[keep], x[keep]
+        step = -f / s.slope[going] + np.sign(f) * _SH_WARM_BEYOND
+        x = np.maximum(x + np.clip(step, -_SH_MAX_STEP, _SH_MAX_STEP), s.lo[going] + 0.01)
+    return going[:0]
+
+
+def _floating_solution(ctx: SolveContext, cycles: _FloatingCycles, s: _Search, res: dict, idx) -> WarmStart:
+    """The floating cycles of the points ``idx`` as a warm start (NaN where a point failed)."""
+    ok = s.state == 1
+    p_A, p_B = np.where(ok, res["p_A"][idx], np.nan), np.where(ok, res["p_B"][idx], np.nan)
+    # The slope of g near the root: the secant of the two latest trials, else the search's.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        chord = (s.pf[0] - s.pf[1]) / (s.px[0] - s.px[1])
+    slope = np.where(np.isfinite(chord) & (chord < 0), chord, s.slope)
+    with np.errstate(invalid="ignore"):
+        t_A = ctx.sat.temperature(p_A)
+    return WarmStart(
+        t_A=t_A,
+        outer_slope=np.where(ok, cycles.slopes["outer"], np.nan),
+        p_B=p_B,
+        inner_slope=np.where(ok, cycles.slopes["inner"], np.nan),
+        dp=np.where(ok, res["p_D"][idx] - res["p_A"][idx], np.nan),
+        dp_branch={c: np.where(ok, v, np.nan) for c, v in cycles.dp_branch.items()},
+        split=np.where(ok, cycles.split, np.nan),
+        superheat=np.where(ok, cycles.seen[0], np.nan),
+        opening_excess=np.where(ok, cycles.g0, np.nan),
+        opening_slope=np.where(ok, slope, np.nan),
+    )
+
+
+def _step_up(cycles: _FloatingCycles, s: _Search, cold: np.ndarray, warm: np.ndarray) -> np.ndarray:
+    """Bracket: secant steps up from the setpoint, plus 0.5 K, of the points ``cold`` and, from
+    their third step on, of ``warm`` (their warm trials were the first two); returns the points
+    still rising (``g`` > 0 after every step)."""
+    going = cold
+    for step in range(_SH_BRACKET_STEPS):
+        if step == 2:
+            going = np.union1d(going, warm)
+        if going.size == 0:
+            if step >= 2:
+                break
+            continue
         # The first step goes most of the way the estimate from g0 gives (a step far beyond
         # the root may leave the models' envelope, and such points cost many evaluations);
         # the second follows the secant slope measured, which overshoots a little; later

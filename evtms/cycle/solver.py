@@ -117,6 +117,7 @@ from evtms.cycle.state import (
     OperatingPoints,
     Ops,
     SolveContext,
+    WarmStart,
 )
 from evtms.cycle.status import (
     CYCLE_FLAGS,
@@ -190,8 +191,21 @@ class CycleSolver:
         self.sat = saturation
         self.circuit = topology(circuit)
 
-    def solve(self, points: OperatingPoints) -> CycleResult:
+    #: The solution of the last solve, per point (:class:`~evtms.cycle.state.WarmStart`), set by solve.
+    warm_start: WarmStart | None = None
+
+    def solve(self, points: OperatingPoints, warm: WarmStart | None = None) -> CycleResult:
         """Solve every operating point.
+
+        ``warm``, the :attr:`warm_start` a solve of nearby points left (as many
+        points, in the same order), starts the closures from that solution:
+        a time step whose inputs moved little needs few iterates. The roots
+        are the same as without it to within the closures' tolerances (the
+        suction closure's step :data:`~evtms.cycle.state.XTOL` or residual
+        :data:`~evtms.cycle.state.OUTER_FTOL`, the condenser's
+        :data:`~evtms.cycle.state.INNER_FTOL`; a floating superheat's, about
+        0.01 K); a point whose warm bracket holds no root is searched over its
+        whole range, as without a warm start.
 
         First with the valve holding the superheat setpoint; where that needs
         more than the valve's maximum opening, the valve stays at its maximum
@@ -218,6 +232,8 @@ class CycleSolver:
             what its flags mean; empty when converged without a flag); each
             branch's own figures also as its :class:`BranchResult`.
         """
+        if warm is not None and len(warm) != len(points):
+            raise ValueError(f"a warm start of {len(warm)} points for {len(points)} points")
         ctx = SolveContext(self.models, self.sat, self.circuit)
         ops = points.subset(np.arange(len(points)))
         if ctx.parallel:
@@ -226,9 +242,13 @@ class CycleSolver:
         # Operating inputs beyond a LUT's axes (a cabin at -20 degC against an evaporator LUT from
         # 10 degC): no refrigerant state helps; said up front, not as whichever bound the search met.
         outside = _outside_axes(ctx, ops)
-        res, first = solve_at(ctx, ops)
+        res, first = solve_at(ctx, ops, warm=warm)
+        self.warm_start = WarmStart.of(ctx.sat, res, first)
         self.max_opening = ctx.max_opening
-        limits = parallel_limits(ctx, ops, res, first) if ctx.parallel else _single_valve_limit(ctx, ops, res)
+        if ctx.parallel:
+            limits = parallel_limits(ctx, ops, res, first, warm, self.warm_start)
+        else:
+            limits = _single_valve_limit(ctx, ops, res, self.warm_start, warm)
         _check_suction_closure(ctx, res, limits.saturated)
         _flag(ctx, res, ops, limits)
         off = outside != ""
@@ -236,12 +256,20 @@ class CycleSolver:
         return CycleResult.from_arrays(res, ctx.circuit)
 
 
-def _single_valve_limit(ctx: SolveContext, ops: Ops, res: dict) -> ValveLimits:
-    """A single branch's valve beyond its maximum opening: its superheat floats (``res`` in place)."""
+def _single_valve_limit(
+    ctx: SolveContext, ops: Ops, res: dict, solution: WarmStart, warm: WarmStart | None
+) -> ValveLimits:
+    """A single branch's valve beyond its maximum opening: its superheat floats (``res`` in place),
+    from the floating superheat of the previous solve ``warm`` where it had one; the floating
+    solution goes into ``solution``."""
     saturated = (res["status"] == STATUS_CONVERGED) & (res["valve_opening"] > ctx.max_opening)
     idx = np.nonzero(saturated)[0]
     if idx.size:
-        float_superheat(ctx, ops, res, idx)
+        floating = float_superheat(ctx, ops, res, idx, warm=None if warm is None else warm.take(idx))
+        solution.superheat[idx] = floating.superheat
+        if solution.floating is None:
+            solution.floating = WarmStart.blank(len(solution))
+        solution.floating.put(idx, floating)
     return ValveLimits.none(saturated)
 
 

@@ -54,6 +54,7 @@ from evtms.cycle.state import (
     INNER_FTOL,
     SECOND_CLOSED,
     SECOND_FLOATS,
+    WARM_OVERSHOOT,
     XTOL,
     Ops,
     SolveContext,
@@ -120,14 +121,31 @@ class _Split:
     reason: np.ndarray
     share: np.ndarray
     clamped: np.ndarray
+    state: SolveState | None = None
+    idx: np.ndarray | None = None
+    _last: tuple | None = None
 
     def evaluate(self, share: np.ndarray, i: np.ndarray) -> tuple[dict, dict]:
-        """Both branches of the points ``i`` at the second branch's ``share`` of the flow."""
+        """Both branches of the points ``i`` at the second branch's ``share`` of the flow.
+
+        The latest evaluation is kept: the drops' pass at the split found asks again for the
+        split search's last trial (same points, share and inlets), which it returns as it was."""
         names = self.ctx.names
+        share = np.asarray(share, float)
+        inlets = [self.inlets[c][i] for c in names]
+        last = self._last
+        if (
+            last is not None
+            and np.array_equal(last[0], i)
+            and np.array_equal(last[1], share)
+            and all(np.array_equal(a, b) for a, b in zip(last[2], inlets, strict=True))
+        ):
+            return last[3], last[4]
         o, m = take(self.ops, i), self.mdot[i]
         open1, open2 = self.mode[i] != FIRST_CLOSED, self.mode[i] != SECOND_CLOSED
-        r1 = run_branch(self.ctx, names[0], o, m * (1.0 - share), self.inlets[names[0]][i], self.h_D[i], open1)
-        r2 = run_branch(self.ctx, names[1], o, m * share, self.inlets[names[1]][i], self.h_D[i], open2)
+        r1 = run_branch(self.ctx, names[0], o, m * (1.0 - share), inlets[0], self.h_D[i], open1)
+        r2 = run_branch(self.ctx, names[1], o, m * share, inlets[1], self.h_D[i], open2)
+        self._last = (np.array(i, copy=True), share.copy(), [a.copy() for a in inlets], r1, r2)
         return r1, r2
 
     def residual(self, share: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -162,6 +180,8 @@ def parallel(
     ``final`` (at the suction root), the stored split and drops are used as
     they are (the last iterate's).
     """
+    if not final and state.warm:
+        _extrapolate(ctx, state, p_A, idx)
     sp = _setup(ctx, state, ops, mdot, p_A, h_D, idx, h_set)
     if not final:
         _iterate_drops(sp)
@@ -170,10 +190,39 @@ def parallel(
             state.dp_branch[c][idx] = np.where(np.isfinite(drop), drop, state.dp_branch[c][idx])
         state.split[idx] = np.where(np.isfinite(sp.share), sp.share, state.split[idx])
         state.clamped[idx] = sp.clamped
+        if state.warm:
+            _remember(ctx, state, p_A, idx, np.isfinite(sp.share))
     else:
         sp.clamped = state.clamped[idx]
         _split_at_the_root(sp)
     return _mixed_outlet(sp, final)
+
+
+def _extrapolate(ctx: SolveContext, state: SolveState, p_A: np.ndarray, idx: np.ndarray) -> None:
+    """A warm closure's split and drops to start a suction iterate from (``state`` in place): linear
+    in the suction saturation temperature through the two latest iterates' (``state.par_pairs``),
+    where there are two; the split within [0, 1], the drops not below 0."""
+    pairs = state.par_pairs[:, :, idx]
+    t = ctx.sat.temperature(p_A)
+    (t1, *y1), (t0, *y0) = pairs[0], pairs[1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = (t - t1) / (t1 - t0)
+    use = np.isfinite(w) & np.all(np.isfinite(pairs), axis=(0, 1)) & (np.abs(t1 - t0) > 1e-9)
+    if not use.any():
+        return
+    k = idx[use]
+    guess = [a[use] + w[use] * (a[use] - b[use]) for a, b in zip(y1, y0, strict=True)]
+    state.split[k] = np.clip(guess[0], 0.0, 1.0)
+    for c, g in zip(ctx.names, guess[1:], strict=True):
+        state.dp_branch[c][k] = np.maximum(g, 0.0)
+
+
+def _remember(ctx: SolveContext, state: SolveState, p_A: np.ndarray, idx: np.ndarray, ok: np.ndarray) -> None:
+    """This suction iterate's split and drops as the latest of ``state.par_pairs`` (where ``ok``)."""
+    k = idx[ok]
+    state.par_pairs[1, :, k] = state.par_pairs[0, :, k]
+    rows = [ctx.sat.temperature(p_A)[ok], state.split[k], *(state.dp_branch[c][k] for c in ctx.names)]
+    state.par_pairs[0, :, k] = np.stack(rows, axis=-1)
 
 
 def _setup(ctx: SolveContext, state: SolveState, ops: Ops, mdot, p_A, h_D, idx, h_set) -> _Split:
@@ -222,6 +271,8 @@ def _setup(ctx: SolveContext, state: SolveState, ops: Ops, mdot, p_A, h_D, idx, 
         reason=reason,
         share=share,
         clamped=np.zeros(n, np.int8),
+        state=state,
+        idx=idx,
     )
 
 
@@ -264,12 +315,14 @@ def _split_at_the_root(sp: _Split) -> None:
 
 def _solve_split(sp: _Split, todo: np.ndarray) -> None:
     """The split of the points ``todo`` at the present branch inlets, into ``sp.share``."""
-    lo, hi, f_lo, f_hi, w_lo, w_hi = _bracket_split(sp, todo)
+    lo, hi, f_lo, f_hi, w_lo, w_hi, found = _bracket_split(sp, todo)
     no_root = ~((f_lo > 0) | ~np.isfinite(f_lo)) | ~((f_hi <= 0) | ~np.isfinite(f_hi))
     no_root |= ~np.isfinite(f_lo) & ~np.isfinite(f_hi)
+    no_root &= ~found
     sp.share[todo] = np.nan
     _clamp_to_least_flow(sp, todo, no_root, lo, hi, f_lo, f_hi, w_lo, w_hi)
-    go = np.nonzero(~no_root)[0]
+    sp.share[todo[found]] = lo[found]
+    go = np.nonzero(~no_root & ~found)[0]
     if go.size:
         x, state, why = bracketed_root(
             sp.residual, lo[go], hi[go], f_lo[go], f_hi[go], todo[go], XTOL, INNER_FTOL, why_lo=w_lo[go]
@@ -282,12 +335,19 @@ def _solve_split(sp: _Split, todo: np.ndarray) -> None:
 
 def _bracket_split(sp: _Split, todo: np.ndarray) -> tuple[np.ndarray, ...]:
     """Bracket of the split of the points ``todo``: a narrow one around the previous split where
-    it holds the root (warm start), else the whole range of shares; ``(lo, hi, f_lo, f_hi, w_lo, w_hi)``."""
+    it holds the root (warm start), else the whole range of shares; ``(lo, hi, f_lo, f_hi, w_lo,
+    w_hi, found)``, ``found`` where a trial is the root within the tolerance (``lo`` = ``hi``).
+    A warm-started closure first tries the secant from the previous split along the slope its
+    last bracket measured (:func:`_secant_bracket`)."""
     lo, hi = sp.s_lo[todo].copy(), sp.s_hi[todo].copy()
     f_lo, f_hi = np.full(todo.size, np.nan), np.full(todo.size, np.nan)
     w_lo, w_hi = np.full(todo.size, "", dtype=object), np.full(todo.size, "", dtype=object)
+    found = np.zeros(todo.size, bool)
     prev = sp.share[todo]
     warm = np.isfinite(prev)
+    if sp.state is not None and sp.state.warm:
+        done = _secant_bracket(sp, todo, prev, warm, (lo, hi, f_lo, f_hi), found)
+        warm &= ~done
     if warm.any():
         k = np.nonzero(warm)[0]
         a = np.maximum(prev[k] - 0.03, lo[k])
@@ -297,12 +357,68 @@ def _bracket_split(sp: _Split, todo: np.ndarray) -> tuple[np.ndarray, ...]:
         good = np.isfinite(fa) & np.isfinite(fb) & (fa > 0) & (fb <= 0)
         g = k[good]
         lo[g], hi[g], f_lo[g], f_hi[g] = a[good], b[good], fa[good], fb[good]
+        if sp.state is not None:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                sp.state.split_slope[sp.idx[todo[g]]] = (fb[good] - fa[good]) / (b[good] - a[good])
         warm[k[~good]] = False
-    cold = np.nonzero(~warm)[0]
+    cold = np.nonzero(~warm & ~found & ~np.isfinite(f_lo))[0]
     if cold.size:
         f_lo[cold], w_lo[cold] = sp.residual(lo[cold], todo[cold])
         f_hi[cold], w_hi[cold] = sp.residual(hi[cold], todo[cold])
-    return lo, hi, f_lo, f_hi, w_lo, w_hi
+    return lo, hi, f_lo, f_hi, w_lo, w_hi, found
+
+
+def _secant_bracket(sp: _Split, todo: np.ndarray, prev: np.ndarray, warm: np.ndarray, ends: tuple, found) -> np.ndarray:
+    """Warm bracket of the points ``todo`` with a previous split ``prev`` and a measured slope: the
+    residual there, then the secant step along that slope overshot :data:`WARM_OVERSHOOT` times and
+    by 1e-6; ``ends`` (lo, hi, f_lo, f_hi) and ``found`` in place. Returns the points done (found,
+    or bracketed by the two trials)."""
+    lo, hi, f_lo, f_hi = ends
+    slope = sp.state.split_slope[sp.idx[todo]]
+    done = np.zeros(todo.size, bool)
+    k = np.nonzero(warm & (slope < 0))[0]
+    if k.size == 0:
+        return done
+    x1 = np.clip(prev[k], lo[k], hi[k])
+    f1, _ = sp.residual(x1, todo[k])
+    hit = np.isfinite(f1) & (np.abs(f1) < INNER_FTOL)
+    found[k[hit]], lo[k[hit]], hi[k[hit]], f_lo[k[hit]], f_hi[k[hit]] = True, x1[hit], x1[hit], f1[hit], f1[hit]
+    done[k[hit]] = True
+    go = np.isfinite(f1) & ~hit
+    k, x1, f1 = k[go], x1[go], f1[go]
+    if k.size == 0:
+        return done
+    x2 = np.clip(x1 - WARM_OVERSHOOT * f1 / slope[k] + np.sign(f1) * 1e-6, lo[k], hi[k])
+    f2 = _secant_trial(sp, todo, k, x1, f1, x2, ends, found, done)
+    # Where the measured slope fell short: one more step, along the chord of both trials, overshot.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        chord = (f2 - f1) / (x2 - x1)
+    ok = np.isfinite(chord) & (chord < 0)
+    sp.state.split_slope[sp.idx[todo[k[ok]]]] = chord[ok]
+    short = ok & ~done[k]
+    if short.any():
+        k, x2, f2, chord = k[short], x2[short], f2[short], chord[short]
+        x3 = np.clip(x2 - 1.5 * f2 / chord + np.sign(f2) * 1e-6, lo[k], hi[k])
+        _secant_trial(sp, todo, k, x2, f2, x3, ends, found, done)
+    return done
+
+
+def _secant_trial(sp: _Split, todo, k, x1, f1, x2, ends: tuple, found, done) -> np.ndarray:
+    """The split's residual of the points ``todo[k]`` at ``x2``: found where within the tolerance,
+    bracketed with the trial ``x1`` (residual ``f1``) where the sign changed (``ends``, ``found``,
+    ``done`` in place); returns the residuals."""
+    lo, hi, f_lo, f_hi = ends
+    f2, _ = sp.residual(x2, todo[k])
+    hit = np.isfinite(f2) & (np.abs(f2) < INNER_FTOL)
+    found[k[hit]], lo[k[hit]], hi[k[hit]], f_lo[k[hit]], f_hi[k[hit]] = True, x2[hit], x2[hit], f2[hit], f2[hit]
+    done[k[hit]] = True
+    up = ~hit & np.isfinite(f2) & (f1 > 0) & (f2 <= 0) & (x1 < x2)  # root between x1 < x2
+    down = ~hit & np.isfinite(f2) & (f1 <= 0) & (f2 > 0) & (x2 < x1)  # root between x2 < x1
+    for m, a, b, fa, fb in ((up, x1, x2, f1, f2), (down, x2, x1, f2, f1)):
+        j = k[m]
+        lo[j], hi[j], f_lo[j], f_hi[j] = a[m], b[m], fa[m], fb[m]
+        done[j] = True
+    return f2
 
 
 def _clamp_to_least_flow(sp: _Split, todo, no_root, lo, hi, f_lo, f_hi, w_lo, w_hi) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,9 +26,12 @@ from evtms.system.maps import (
     map_interp,
     map_values,
     operating_inputs,
-    solve_nodes,
 )
 from evtms.system.params import SystemParams
+
+if TYPE_CHECKING:
+    from evtms.cycle.results import CycleResult
+    from evtms.cycle.solver import CycleSolver
 
 #: Map names by the loop's map id.
 MAP_NAMES = {L.MAP_AC: "ac", L.MAP_CHILLER: "chiller", L.MAP_ACCH: "ac+chiller"}
@@ -82,8 +86,10 @@ class Refrigerant:
     folder: Path | None = None
     fan_flow_max: float = field(default_factory=lambda: _bench_default("condenser", "fan_flow_max"))
     blower_flow_max: float = field(default_factory=lambda: _bench_default("evaporator", "fan_flow_max"))
-    #: Direct-physics solves by map id, reused across runs: a list of (inputs, targets, fallback); and under
-    #: ``"lut_parameters"`` the outcome of :meth:`check_physics` (the LUT headers are read once per object).
+    #: Direct-physics solves by map id, reused across runs: a list of (inputs, targets, fallback); under
+    #: ``"lut_parameters"`` the outcome of :meth:`check_physics` (the LUT headers are read once per object);
+    #: under ``("solver", circuit)`` the physics' cycle solver and under ``("warm", map name)`` the map's
+    #: last solution, which the next solve of that map starts from.
     memo: dict = field(default_factory=dict, compare=False, repr=False)
 
     def packed(self) -> tuple[np.ndarray, ...]:
@@ -132,7 +138,7 @@ class Refrigerant:
             if np.all(np.abs(xs - x) <= tol):
                 return ys, fb, False
         inputs = operating_inputs(name, {a: np.array([v]) for a, v in zip(axes, x, strict=True)}, self.settings)
-        values, valid, _ = map_values(solve_nodes(None, MAPS[name].topology, inputs, params=self.physics_parameters()))
+        values, valid, _ = map_values(self._physics_solve(name, inputs))
         y = values[0].copy()
         fallback = not bool(valid[0])
         if fallback:
@@ -140,6 +146,36 @@ class Refrigerant:
             map_interp(*self.maps[name].packed(), x, y)
         self.memo.setdefault(map_id, []).append((x.copy(), y, fallback))
         return y, fallback, True
+
+    def _physics_solve(self, name: str, inputs: dict[str, np.ndarray]) -> CycleResult:
+        """Map ``name``'s cycle at one point on the bench physics, warm-started from its previous solve.
+
+        The solver (its models and saturation curve) is made once per map and
+        object; each solve starts its closures from the last valid solution of
+        the same map (:class:`~evtms.cycle.state.WarmStart`), which the loop's
+        next point lies near.
+        """
+        from evtms.cycle.solver import OperatingPoints
+
+        solver = self._physics_solver(MAPS[name].topology)
+        warm = self.memo.get(("warm", name))
+        res = solver.solve(OperatingPoints(**inputs), warm=warm)
+        if np.isfinite(solver.warm_start.t_A).all():
+            self.memo[("warm", name)] = solver.warm_start
+        return res
+
+    def _physics_solver(self, circuit: str) -> CycleSolver:
+        """The direct-physics cycle solver of ``circuit``, made once per object."""
+        key = ("solver", circuit)
+        if key not in self.memo:
+            from evtms.cycle.models import DirectModels
+            from evtms.cycle.solver import CycleSolver
+            from evtms.fluid import Fluid, SaturationCurve
+
+            params = self.physics_parameters()
+            fluid = Fluid(params.fluid, params.backend)
+            self.memo[key] = CycleSolver(DirectModels(params, fluid), SaturationCurve(fluid), circuit)
+        return self.memo[key]
 
 
 def lut_parameters(luts: dict, folder: Path):
