@@ -19,6 +19,7 @@ from evtms.errors import EvtmsInputError
 from evtms.surrogates import design as D  # noqa: N812
 from evtms.surrogates.io import FILE_NAME, load_mode_models, save_mode_models
 from evtms.surrogates.train import FitSettings, compose_linear_skip, fit_network, train_surrogates
+from evtms.system import loop as L  # noqa: N812
 from evtms.system import mode_model as mm
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.params import system_params_from_dict
@@ -264,6 +265,51 @@ def test_training_pairs_split_by_mode(refrigerant):
     z = r.trace["states"][:, list(mm.STATE_COLUMNS)]
     np.testing.assert_allclose(pairs[code0][3][0], (z[1] - z[0]) / r.trace["dts"][0], rtol=1e-12)
     assert pairs[code0][0][0, mm.POWER_FEATURES.index("T_amb")] == 303.15
+
+
+def _constant_rate_models(rates: dict[str, float]) -> mm.ModeModels:
+    """Mode models for every mode whose dynamics head predicts the constant rates ``rates`` [unit s-1] (zero
+    weights: the output is ``y_mean``) and whose power head predicts 0 W; every feature range is wide."""
+
+    def net(n_in: int, y: np.ndarray) -> mm.Network:
+        return mm.Network(
+            "relu",
+            [np.zeros((n_in, 4)), np.zeros((4, y.size))],
+            [np.zeros(4), np.zeros(y.size)],
+            x_mean=np.zeros(n_in),
+            x_scale=np.ones(n_in),
+            y_mean=y,
+            y_scale=np.ones(y.size),
+            x_min=np.full(n_in, -1e9),
+            x_max=np.full(n_in, 1e9),
+        )
+
+    y_dyn = np.array([rates.get(name, 0.0) for name in mm.STATE_NAMES])
+    codes = list(mm.MODE_CODES.values())
+    return mm.ModeModels(
+        power={c: net(len(mm.POWER_FEATURES), np.zeros(1)) for c in codes},
+        dynamics={c: net(len(mm.DYNAMICS_FEATURES), y_dyn) for c in codes},
+        attrs={"scenarios": {}, "metrics": {}},
+    )
+
+
+def test_a_mode_model_that_runs_away_ends_the_run_with_its_reason(refrigerant):
+    """A cabin model cooling at 3 K/s leaves -100 degC after about 43 s: the run ends there with termination
+    surrogate_out_of_bounds, every recorded state finite and physical (it used to go on to about -243 degC,
+    where the cabin humidity's saturation pressure is 0 and the compiled loop raised ZeroDivisionError)."""
+    models = _constant_rate_models({"T_cabin": -3.0})
+    p = system_params_from_dict({})
+    r = simulate(_trip(300), 303.15, refrigerant, p, model="surrogate", mode_models=models, keep_trace=True)
+    assert r.summary["termination"] == r.attrs["termination"] == "surrogate_out_of_bounds"
+    states = r.trace["states"]
+    assert 40 <= r.summary["steps"] == states.shape[0] - 1 <= 45
+    ta = states[:, L.S_TA]
+    assert np.all(np.isfinite(ta)) and ta.min() >= L.T_STATE_MIN and ta[-1] < L.T_STATE_MIN + 3.5
+    assert math.isfinite(r.summary["T_cabin_end_degC"]) and math.isfinite(r.summary["soc_end"])
+    # the same models held to a physical rate finish the trip
+    calm = _constant_rate_models({"T_cabin": -0.01})
+    r = simulate(_trip(300), 303.15, refrigerant, p, model="surrogate", mode_models=calm)
+    assert r.summary["termination"] == "end of cycle" and r.summary["steps"] == 300
 
 
 # --- design ------------------------------------------------------------------------------------------------------
