@@ -11,6 +11,7 @@ import math
 import os
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -396,6 +397,34 @@ def test_a_fit_that_runs_away_in_closed_loop_is_refit_and_the_best_kept(refriger
     # inf (diverged), then above the limit, then within it: three fits with three seeds, the last kept.
     assert bc.fit_attempts == 3 and bc.train_rollout_rmse_K == 0.5 * train_module.STABLE_ROLLOUT_K
     assert seeds == [7, 7, 1007, 1007, 2007, 2007]
+
+
+def test_a_rollout_the_model_cut_short_counts_as_diverged(refrigerant, monkeypatch):
+    """The training's closed-loop check: a rollout ended by a state leaving the physical range is inf, not the
+    RMSE of the steps before it (which would let a model that ran away pass as merely inaccurate)."""
+    from evtms.surrogates import train as train_module
+
+    p = system_params_from_dict({})
+    lut = simulate(_trip(120), 303.15, refrigerant, p, mode="off")
+    runs = {}
+
+    def run(sc, refrigerant, params, keep_trace, mode_models):
+        runs[sc.name] = simulate(
+            _trip(120), 303.15, refrigerant, p, mode="off", model="surrogate", mode_models=mode_models
+        )
+        return runs[sc.name]
+
+    monkeypatch.setattr(train_module, "run_scenario", run)
+    code = mm.MODE_CODES["off"]
+    for rate, expected in ((-3.0, math.inf), (0.0, None)):
+        models = _constant_rate_models({"T_cabin": rate})
+        err = train_module._training_rollout_error(
+            code, models.power[code], models.dynamics[code], [SimpleNamespace(name="s")], {"s": lut}, refrigerant, p
+        )
+        if expected is None:
+            assert runs["s"].summary["termination"] == "end of cycle" and math.isfinite(err)
+        else:
+            assert runs["s"].summary["termination"] == "surrogate_out_of_bounds" and err == expected
 
 
 def test_train_refuses_bad_input(refrigerant, tmp_path):
