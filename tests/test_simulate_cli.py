@@ -231,6 +231,31 @@ def test_train_surrogates_then_simulate_and_compare_with_them(luts, tmp_path):
     assert (tmp_path / "cmp" / "index.html").is_file() and (tmp_path / "cmp" / "compare.csv").is_file()
 
 
+def test_a_surrogate_that_runs_away_ends_the_run_without_a_traceback(luts, tmp_path):
+    """Mode models whose cabin cools at 3 K/s: the command finishes (exit 0), the JSON and the file say the run
+    ended when the cabin left the physical range, and the text line says so too."""
+    pytest.importorskip("sklearn")
+    from evtms.surrogates.io import FILE_NAME, save_mode_models
+    from tests.test_surrogates import _constant_rate_models
+
+    models = tmp_path / "models"
+    models.mkdir()
+    save_mode_models(_constant_rate_models({"T_cabin": -3.0}), models / FILE_NAME)
+    trace = _short_trace(tmp_path, 120)
+    cmd = ("simulate", "--cycle", trace, "--t-amb", "30", "--luts", luts, "--model", "surrogate", "--surrogates",
+           models, "-o", tmp_path / "s.nc")  # fmt: skip
+    r = run(*cmd, "--json")
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s["termination"] == "surrogate_out_of_bounds" and 40 <= s["steps"] < 120
+    assert -100.0 <= s["T_cabin_end_degC"] < -96.0
+    with xr.open_dataset(tmp_path / "s.nc") as ds:
+        assert ds.attrs["termination"] == "surrogate_out_of_bounds"
+    r = run(*cmd)
+    assert r.exit_code == 0 and "Traceback" not in r.output
+    assert f"ended: surrogate_out_of_bounds at {s['duration_s']:.0f} s" in r.stdout
+
+
 @pytest.mark.parametrize(
     "args, message",
     [

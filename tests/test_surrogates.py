@@ -11,6 +11,7 @@ import math
 import os
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from evtms.errors import EvtmsInputError
 from evtms.surrogates import design as D  # noqa: N812
 from evtms.surrogates.io import FILE_NAME, load_mode_models, save_mode_models
 from evtms.surrogates.train import FitSettings, compose_linear_skip, fit_network, train_surrogates
+from evtms.system import loop as L  # noqa: N812
 from evtms.system import mode_model as mm
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.params import system_params_from_dict
@@ -271,6 +273,51 @@ def test_training_pairs_split_by_mode(refrigerant):
     assert pairs[code0][0][0, mm.POWER_FEATURES.index("T_amb")] == 303.15
 
 
+def _constant_rate_models(rates: dict[str, float]) -> mm.ModeModels:
+    """Mode models for every mode whose dynamics head predicts the constant rates ``rates`` [unit s-1] (zero
+    weights: the output is ``y_mean``) and whose power head predicts 0 W; every feature range is wide."""
+
+    def net(n_in: int, y: np.ndarray) -> mm.Network:
+        return mm.Network(
+            "relu",
+            [np.zeros((n_in, 4)), np.zeros((4, y.size))],
+            [np.zeros(4), np.zeros(y.size)],
+            x_mean=np.zeros(n_in),
+            x_scale=np.ones(n_in),
+            y_mean=y,
+            y_scale=np.ones(y.size),
+            x_min=np.full(n_in, -1e9),
+            x_max=np.full(n_in, 1e9),
+        )
+
+    y_dyn = np.array([rates.get(name, 0.0) for name in mm.STATE_NAMES])
+    codes = list(mm.MODE_CODES.values())
+    return mm.ModeModels(
+        power={c: net(len(mm.POWER_FEATURES), np.zeros(1)) for c in codes},
+        dynamics={c: net(len(mm.DYNAMICS_FEATURES), y_dyn) for c in codes},
+        attrs={"scenarios": {}, "metrics": {}},
+    )
+
+
+def test_a_mode_model_that_runs_away_ends_the_run_with_its_reason(refrigerant):
+    """A cabin model cooling at 3 K/s leaves -100 degC after about 43 s: the run ends there with termination
+    surrogate_out_of_bounds, every recorded state finite and physical (it used to go on to about -243 degC,
+    where the cabin humidity's saturation pressure is 0 and the compiled loop raised ZeroDivisionError)."""
+    models = _constant_rate_models({"T_cabin": -3.0})
+    p = system_params_from_dict({})
+    r = simulate(_trip(300), 303.15, refrigerant, p, model="surrogate", mode_models=models, keep_trace=True)
+    assert r.summary["termination"] == r.attrs["termination"] == "surrogate_out_of_bounds"
+    states = r.trace["states"]
+    assert 40 <= r.summary["steps"] == states.shape[0] - 1 <= 45
+    ta = states[:, L.S_TA]
+    assert np.all(np.isfinite(ta)) and ta.min() >= L.T_STATE_MIN and ta[-1] < L.T_STATE_MIN + 3.5
+    assert math.isfinite(r.summary["T_cabin_end_degC"]) and math.isfinite(r.summary["soc_end"])
+    # the same models held to a physical rate finish the trip
+    calm = _constant_rate_models({"T_cabin": -0.01})
+    r = simulate(_trip(300), 303.15, refrigerant, p, model="surrogate", mode_models=calm)
+    assert r.summary["termination"] == "end of cycle" and r.summary["steps"] == 300
+
+
 # --- design ------------------------------------------------------------------------------------------------------
 
 
@@ -355,6 +402,34 @@ def test_a_fit_that_runs_away_in_closed_loop_is_refit_and_the_best_kept(refriger
     # inf (diverged), then above the limit, then within it: three fits with three seeds, the last kept.
     assert bc.fit_attempts == 3 and bc.train_rollout_rmse_K == 0.5 * train_module.STABLE_ROLLOUT_K
     assert seeds == [7, 7, 1007, 1007, 2007, 2007]
+
+
+def test_a_rollout_the_model_cut_short_counts_as_diverged(refrigerant, monkeypatch):
+    """The training's closed-loop check: a rollout ended by a state leaving the physical range is inf, not the
+    RMSE of the steps before it (which would let a model that ran away pass as merely inaccurate)."""
+    from evtms.surrogates import train as train_module
+
+    p = system_params_from_dict({})
+    lut = simulate(_trip(120), 303.15, refrigerant, p, mode="off")
+    runs = {}
+
+    def run(sc, refrigerant, params, keep_trace, mode_models):
+        runs[sc.name] = simulate(
+            _trip(120), 303.15, refrigerant, p, mode="off", model="surrogate", mode_models=mode_models
+        )
+        return runs[sc.name]
+
+    monkeypatch.setattr(train_module, "run_scenario", run)
+    code = mm.MODE_CODES["off"]
+    for rate, expected in ((-3.0, math.inf), (0.0, None)):
+        models = _constant_rate_models({"T_cabin": rate})
+        err = train_module._training_rollout_error(
+            code, models.power[code], models.dynamics[code], [SimpleNamespace(name="s")], {"s": lut}, refrigerant, p
+        )
+        if expected is None:
+            assert runs["s"].summary["termination"] == "end of cycle" and math.isfinite(err)
+        else:
+            assert runs["s"].summary["termination"] == "surrogate_out_of_bounds" and err == expected
 
 
 def test_train_refuses_bad_input(refrigerant, tmp_path):

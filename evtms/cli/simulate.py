@@ -154,6 +154,7 @@ def simulate(
             f"{s['T_amb_degC']:6.1f} degC  {s['distance_km']:.2f} km  battery {s['battery_energy_kWh']:.3f} kWh "
             f"(HVAC {s['hvac_energy_kWh']:.3f})  SOC {s['soc_end']:.4f}  cabin {s['T_cabin_end_degC']:.1f} degC  "
             f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
+            + ("" if s["termination"] == "end of cycle" else f"  ended: {s['termination']} at {s['duration_s']:.0f} s")
         )
     typer.echo(f"wrote {output} ({run.wall_time_s:.2f} s)")
 

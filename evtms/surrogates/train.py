@@ -500,13 +500,17 @@ def _training_rollout_error(
     refrigerant: Refrigerant,
     params: SystemParams | None,
 ) -> float:
-    """Worst RMSE [K] of T_battery, T_cabin, T_coolant of the fitted mode against its LUT runs (inf: non-finite)."""
+    """Worst RMSE [K] of T_battery, T_cabin, T_coolant of the fitted mode against its LUT runs (inf: non-finite, or
+    a run the model ended by leaving the physical range)."""
     if not scenarios:
         return math.nan
     models = mm.ModeModels({code: power}, {code: dyn})
     worst = 0.0
     for sc in scenarios:
         sur = run_scenario(sc, refrigerant, params, keep_trace=False, mode_models=models)
+        # Compared over its shorter length, a run cut short would hide how far the model ran away.
+        if sur.summary["termination"] == L.STOP_NAMES[L.STOP_SURROGATE_RANGE]:
+            return math.inf
         for v in ("T_battery", "T_cabin", "T_coolant"):
             a, b = np.asarray(lut[sc.name].records[v], float), np.asarray(sur.records[v], float)
             n = min(a.size, b.size)

@@ -122,9 +122,14 @@ N_H = H_FALLBACK + 1
     M_T_COOL, M_T_HEAT, M_CLR_COOL, M_CLR_HEAT, M_TCAB_F, M_TVS_F, M_I_VENT, M_SAT_UP, M_SAT_DN,
     M_COMP_ON, M_T_COMP, M_I_EV, M_FROST_OK, M_CH_FROST_OK, M_I_CH, M_I_PTC, M_I_PTCW, M_I_BLEND,
     M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
-    M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3,
+    M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3, M_STOP,
     N_M,
-) = range(43)  # fmt: skip
+) = range(44)  # fmt: skip
+
+# Why a run ended before its last step (``mem[M_STOP]``): not at all, SOC at its floor, or a mode model's state
+# left the physical range (the step that would have put it there is not done).
+STOP_NONE, STOP_SOC_MIN, STOP_SURROGATE_RANGE = 0, 1, 2
+STOP_NAMES = ("end of cycle", "soc_min", "surrogate_out_of_bounds")
 
 # Map output slots (evtms.system.maps.MAP_OUTPUTS order).
 Y_PS, Y_PD, Y_MDOT, Y_QEVAP, Y_QLAT, Y_QCH, Y_QCOND, Y_W, Y_WFLUID = range(9)
@@ -189,6 +194,9 @@ SURROGATE_STATES = (
     S_YF + Y_QCH,
 )
 _MLP_WIDTH = 512  # widest network layer the kernel evaluates
+# The temperatures a mode model's states may take [K]: -100 to +200 degC, far beyond any trained state. Below
+# -243 degC the Magnus saturation pressure of the humidity lookups is 0 and the loop would divide by it.
+T_STATE_MIN, T_STATE_MAX = 173.15, 473.15
 
 _H_FG = 2.45e6  # latent heat of condensing water at cabin conditions [J/kg]
 _CP_AIR = 1006.0  # dry air [J/(kg K)]
@@ -405,13 +413,27 @@ def _filter(y, yf, s1, dt, tau):
 
 
 @jit
+def surrogate_state_ok(s) -> bool:
+    """Whether the mode-model states in the state row ``s`` are physical: finite, every temperature within
+    ``T_STATE_MIN`` to ``T_STATE_MAX`` [K]."""
+    for k in SURROGATE_STATES:
+        if not math.isfinite(s[k]):
+            return False
+    for k in (S_TB, S_TC, S_TA, S_TGLASS, S_TDOORS, S_TROOF, S_TINT):
+        if not T_STATE_MIN <= s[k] <= T_STATE_MAX:
+            return False
+    return True
+
+
+@jit
 def run_loop(
     par, dts, p_motor_el, soc_ocv, cell_T, cell_ocv, cell_r0, sat_T, sat_p,
     ac_knots, ac_starts, ac_table, ch_knots, ch_starts, ch_table, acch_knots, acch_starts, acch_table,
     states, out, modes, flags, ext, start, source, mem, held, tol, net, net_index,
 ):  # fmt: skip
     """Run the loop from step ``start`` to ``dts.size``; returns the number of steps done (fewer when SOC hits
-    its floor), or ``-(n + 1)`` when step ``n`` needs a refrigerant point solved (``source`` SRC_HELD).
+    its floor or a mode model leaves the physical range, the reason in ``mem[M_STOP]``), or ``-(n + 1)`` when
+    step ``n`` needs a refrigerant point solved (``source`` SRC_HELD).
 
     ``states`` (steps + 1, N_S) holds the initial state in row 0 and is filled
     row by row; ``out`` (steps, N_O), ``modes`` and ``flags`` (steps) per step.
@@ -1038,6 +1060,11 @@ def run_loop(
             # Physical bounds the networks do not know: humidity, pressure and the loop's cooling flows are >= 0.
             for k in (S_W, S_YF + Y_PS, S_YF + Y_QEVAP, S_YF + Y_QCH):
                 s1[k] = max(s1[k], 0.0)
+            if not surrogate_state_ok(s1):
+                # A model that ran away: the next step's controls would take its state as real (and divide by
+                # a saturation pressure of 0). The run ends before this step, with the reason in ``mem``.
+                mem[M_STOP] = STOP_SURROGATE_RANGE
+                return n
             if at < 0:
                 flag |= F_SURROGATE_OOR
             # Filtered suction pressure and heat flows: the step's mean of the model's states.
@@ -1168,5 +1195,6 @@ def run_loop(
         flags[n] = flag
         n += 1
         if s1[S_SOC] < par[P_SOC_MIN]:
+            mem[M_STOP] = STOP_SOC_MIN
             return n
     return n_steps

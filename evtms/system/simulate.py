@@ -454,9 +454,9 @@ def simulate(
         refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), states, out, modes, flags, ext,
     )  # fmt: skip
     loop0 = time.perf_counter()
-    done, solves = _run_loop(args, model, refrigerant, mode_models)
+    done, solves, stop = _run_loop(args, model, refrigerant, mode_models)
     loop_time = time.perf_counter() - loop0
-    termination = "end of cycle" if done == n else "soc_min"
+    termination = L.STOP_NAMES[stop]
     edges, dts = edges[: done + 1], dts[:done]
     states, out, modes, flags = states[: done + 1], out[:done], modes[:done], flags[:done]
     regen = out[:, L.O_REGEN] > 0.5
@@ -573,8 +573,11 @@ def climate_metrics(
     return res
 
 
-def _run_loop(args: tuple, model: str, refrigerant: Refrigerant, mode_models: ModeModels | None) -> tuple[int, int]:
-    """Run the compiled loop for ``model``; returns the steps done and the number of direct-physics solves.
+def _run_loop(
+    args: tuple, model: str, refrigerant: Refrigerant, mode_models: ModeModels | None
+) -> tuple[int, int, int]:
+    """Run the compiled loop for ``model``; returns the steps done, the number of direct-physics solves and why
+    the run stopped early (:data:`evtms.system.loop.STOP_NAMES` index; ``STOP_NONE``: it did not).
 
     With ``physics`` the loop stops wherever the refrigerant's inputs left the
     tolerance of the point it holds; the cycle is solved there (or a nearby
@@ -592,7 +595,7 @@ def _run_loop(args: tuple, model: str, refrigerant: Refrigerant, mode_models: Mo
     while True:
         done = L.run_loop(*args, start, source, mem, held, tol, net, index)
         if done >= 0:
-            return done, solves
+            return done, solves, int(mem[L.M_STOP])
         start = -done - 1
         y, fallback, solved = refrigerant.solve_direct(int(held[L.H_MAP]), held[L.H_X : L.H_X + L.N_MAP_X])
         held[L.H_Y : L.H_Y + L.N_Y] = y
