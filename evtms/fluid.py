@@ -502,7 +502,8 @@ def _invert_humid_air_table(h: np.ndarray, w: np.ndarray, p: float) -> np.ndarra
         lo = np.where(below, mid, lo)
         hi = np.where(below, hi, mid)
     h_lo, h_hi = line(lo), line(hi)
-    T = _TABLE_T[lo] + (target - h_lo) / (h_hi - h_lo) * (_TABLE_T[hi] - _TABLE_T[lo])
+    with np.errstate(divide="ignore", invalid="ignore"):  # targets beyond the table: NaN just below
+        T = _TABLE_T[lo] + (target - h_lo) / (h_hi - h_lo) * (_TABLE_T[hi] - _TABLE_T[lo])
     inside = (target >= line(np.zeros_like(lo))) & (target <= line(np.full_like(lo, _TABLE_T.size - 1)))
     out[ok] = np.where(inside, T, np.nan)
     return out
