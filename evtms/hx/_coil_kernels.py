@@ -26,7 +26,7 @@ import numpy as np
 
 from evtms._jit import jit
 from evtms.fluid_tables import ph_temperature, pt_state, saturation
-from evtms.hx._kernels import divide, dry_rate, interp, nan_max, nan_min, zone_rate
+from evtms.hx._kernels import air_rate, divide, interp, nan_max, nan_min, zone_rate
 from evtms.hx.crossflow import _BISECTION_STEPS, _F_SEARCH_MAX, _F_SLOPE, CAPACITY_RATIO_MAX
 from evtms.hx.tube import GAUSS_NODES, GAUSS_WEIGHTS, RE_LAMINAR, RE_TURBULENT
 
@@ -244,20 +244,6 @@ def _condensate(f, q_air, moist, sat_T, sat_h, sat_w) -> tuple[float, float, flo
 
 
 @jit
-def _air_rate(f, dry, wet) -> float:
-    """:meth:`evtms.hx.crossflow.ZoneHeatRate.air_rate` (``wet[0]`` NaN: dry air)."""
-    q = dry_rate(f, dry[0], dry[1], dry[2], dry[3])
-    if wet[0] == wet[0]:
-        x = wet[4]
-        if x == x:
-            q = dry_rate(f, dry[0], divide(dry[1], x), dry[2], dry[3])
-            q = q + dry_rate(f, wet[0], divide(wet[1], 1.0 - x), wet[2], wet[3])
-        else:
-            q = nan_max(q, dry_rate(f, wet[0], wet[1], wet[2], wet[3]))
-    return q
-
-
-@jit
 def _bisect(target, hi, rate_hi, dry, wet, moist, sat_T, sat_h, sat_w) -> float:
     """:func:`evtms.hx.crossflow.bisect` on the zone's rate for one point, from its root.
 
@@ -455,7 +441,7 @@ def march_point(pt, tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_
         if f_z > 0:
             T_surface_min = nan_min(T_surface_min, T_wall)
         if moist_air:
-            m_w, T_s_eff, H_w = _condensate(f_z, _air_rate(f_z, dry, wet), moist, sat_T, sat_h, sat_w)
+            m_w, T_s_eff, H_w = _condensate(f_z, air_rate(f_z, dry, wet), moist, sat_T, sat_h, sat_w)
             m_cond += m_w
             cond_enthalpy += H_w
             if m_w > 0:

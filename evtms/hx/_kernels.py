@@ -130,6 +130,20 @@ def condensate_enthalpy(f, q_air, air_h, air_w, m_air, decay, wet_h, wets, sat_T
 
 
 @jit
+def air_rate(f, dry, wet) -> float:
+    """One point of :meth:`evtms.hx.crossflow.ZoneHeatRate.air_rate` (``dry``, ``wet``: as :func:`zone_rate`'s)."""
+    q = dry_rate(f, dry[0], dry[1], dry[2], dry[3])
+    if wet[0] == wet[0]:
+        x = wet[4]
+        if x == x:
+            q = dry_rate(f, dry[0], divide(dry[1], x), dry[2], dry[3])
+            q = q + dry_rate(f, wet[0], divide(wet[1], 1.0 - x), wet[2], wet[3])
+        else:
+            q = nan_max(q, dry_rate(f, wet[0], wet[1], wet[2], wet[3]))
+    return q
+
+
+@jit
 def zone_rate(f, dry, wet, moist, sat_T, sat_h, sat_w):
     """One point of :meth:`evtms.hx.crossflow.ZoneHeatRate.rate`.
 
@@ -139,14 +153,7 @@ def zone_rate(f, dry, wet, moist, sat_T, sat_h, sat_w):
     ``moist`` is ``(air_h, air_w, m_air, decay, wet_h, wets)`` (``moist[0]``
     NaN: no moisture).
     """
-    q = dry_rate(f, dry[0], dry[1], dry[2], dry[3])
-    if wet[0] == wet[0]:
-        x = wet[4]
-        if x == x:
-            q = dry_rate(f, dry[0], divide(dry[1], x), dry[2], dry[3])
-            q = q + dry_rate(f, wet[0], divide(wet[1], 1.0 - x), wet[2], wet[3])
-        else:
-            q = nan_max(q, dry_rate(f, wet[0], wet[1], wet[2], wet[3]))
+    q = air_rate(f, dry, wet)
     if moist[0] == moist[0]:
         H_w = condensate_enthalpy(f, q, moist[0], moist[1], moist[2], moist[3], moist[4], moist[5], sat_T, sat_h, sat_w)
         q = q - (H_w if math.isfinite(H_w) else 0.0)
