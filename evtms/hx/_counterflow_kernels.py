@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from evtms._jit import jit
-from evtms.hx._kernels import divide
+from evtms.hx._kernels import counterflow_secants, divide
 from evtms.hx.counterflow import _CONTINUATION_STEP, _PINCH_STEP, BISECTION_STEPS, CAPACITY_RATIO_MAX
 
 
@@ -107,14 +107,7 @@ def prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_i
     """A point's constants for :func:`fractions_of`: the inputs, each zone's resistance with the
     secondary's, the refrigerant's secant slopes (``counterflow._refrigerant_temperature``) and the
     flow ratio, worked out once for every trial heat rate."""
-    reachable = s_T_in > T_sat
-    h_end_l = h_l if reachable else h_at_s
-    T_end_l = T_sat if reachable else s_T_in
-    slope_l = divide(T_end_l - T_in, h_end_l - h_in) if h_in < h_l else 0.0
-    vapour_in = h_in >= h_v
-    h0_v = h_in if vapour_in else h_v
-    T0_v = T_in if vapour_in else T_sat
-    slope_v = divide(s_T_in - T0_v, h_at_s - h0_v)
+    slope_l, h0_v, T0_v, slope_v = counterflow_secants(h_in, T_in, T_sat, h_l, h_v, h_at_s, s_T_in)
     R0s, R1s, R2s = R0 + s_R, R1 + s_R, R2 + s_R
     return (mdot, h_in, T_in, T_sat, h_l, h_v, R0s, R1s, R2s, s_mdot, s_T_in, s_h_in, slope_l, h0_v, T0_v, slope_v)
 

@@ -180,8 +180,10 @@ def bisect_zone_fraction(target, hi, dry, wet, moist, sat_T, sat_h, sat_w, steps
 
 
 @jit
-def counterflow_refrigerant_temperature(h, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
-    """One point of :func:`evtms.hx.counterflow._refrigerant_temperature` at enthalpy ``h``."""
+def counterflow_secants(h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
+    """The secant lines of :func:`evtms.hx.counterflow._refrigerant_temperature` for one point:
+    ``(slope_l, h0_v, T0_v, slope_v)``, the liquid zone's slope [K kg/J] and the vapour zone's
+    start enthalpy [J/kg], start temperature [K] and slope [K kg/J]."""
     reachable = T_sec_in > T_sat
     h_end_l = h_l if reachable else h_at_secondary
     T_end_l = T_sat if reachable else T_sec_in
@@ -190,6 +192,13 @@ def counterflow_refrigerant_temperature(h, h_in, T_in, T_sat, h_l, h_v, h_at_sec
     h0_v = h_in if vapour_in else h_v
     T0_v = T_in if vapour_in else T_sat
     slope_v = divide(T_sec_in - T0_v, h_at_secondary - h0_v)
+    return slope_l, h0_v, T0_v, slope_v
+
+
+@jit
+def counterflow_refrigerant_temperature(h, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
+    """One point of :func:`evtms.hx.counterflow._refrigerant_temperature` at enthalpy ``h``."""
+    slope_l, h0_v, T0_v, slope_v = counterflow_secants(h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in)
     if h < h_l:
         return T_in + (h - h_in) * slope_l
     if h <= h_v:
