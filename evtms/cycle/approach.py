@@ -78,7 +78,7 @@ def outlet_enthalpy(
             args = [np.array(np.broadcast_to(np.asarray(a, np.float64), shape)).reshape(-1) for a in args]
         out = np.empty(shape)
         table = (vapour.log_p0, vapour.dlog_p, vapour.T, vapour.h_v, vapour.step, vapour.dh)
-        _kernel()(*(a.reshape(-1) for a in args), *table, SUPERHEAT_MIN, out.reshape(-1))
+        compiled_outlet_kernel()(*(a.reshape(-1) for a in args), *table, SUPERHEAT_MIN, out.reshape(-1))
         return out
     h_v, span = vapour.rise_to(p_out, T_sec, SUPERHEAT_MIN)
     return h_v + span * (1.0 - np.exp(log_psi))
@@ -116,8 +116,10 @@ def _outlet_enthalpy_points(log_psi, p_out, T_sec, log_p0, dlog_p, T, h_v, step,
 _COMPILED = []
 
 
-def _kernel():
-    # Compiled on first use: importing this module (and so the cycle) does not load numba.
+def compiled_outlet_kernel():
+    """:func:`outlet_enthalpy`'s point-by-point loop, compiled on first use (importing this module,
+    and so the cycle, does not load numba); the one compiled copy, which
+    :mod:`evtms.cycle._component_kernel` calls as well."""
     if not _COMPILED:
         _COMPILED.append(jit(_outlet_enthalpy_points))
     return _COMPILED[0]

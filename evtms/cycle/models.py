@@ -19,7 +19,7 @@ import numpy as np
 from evtms.benches.base import in_codes
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
-from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, outlet_enthalpy
+from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, SUPERHEAT_MIN, outlet_enthalpy
 from evtms.cycle.tables import cycle_lut, made_with, values_made_at, vapour_table
 from evtms.errors import EvtmsInputError
 from evtms.fluid import Fluid
@@ -86,6 +86,11 @@ COMPONENT_OUTPUTS = {
     "evaporator": ("Q_latent", "h_out_continued", "p_out"),
     "chiller": ("h_out_continued", "p_out"),
 }
+
+
+#: Empty stand-ins for the kernel's unused table arguments.
+_NONE = np.empty(0)
+_NONE2 = np.empty((2, 2))
 
 
 def _reasons(n: int) -> np.ndarray:
@@ -300,13 +305,19 @@ class _LutComponent:
             partial(lut.indicator, "no_heat_flow", self.no_heat_codes, compiled) if self.no_heat_codes else None
         )
         self._no_heat = None
+        self._kernel = None
         self.detailed = False
         self.ranges = {d: (float(lut.axes[d][0]), float(lut.axes[d][-1])) for d in self.dims}
         self.fixed = values_made_at(lut.attrs)
+        # Inputs a query may give that the LUT holds fixed (checked against their value).
+        self._fixed_axes = {a for a, v in self.fixed.items() if a not in self.dims and v is not None}
 
     def __call__(self, query: dict[str, np.ndarray]) -> Result:
         # The solver calls this some ninety times per operating point and iteration, mostly
         # with every value inside the axes: the reasons are worked out only where one is not.
+        itp = self.subcooled if (self.needs_subcooled or self.detailed) else self.fast
+        if not self.detailed and self._kernel_for(itp) is not None:
+            return self._call_kernel(query, itp)
         n = len(next(iter(query.values())))
         cols = {}
         outside = []  # (mask, message per point) in the order of the axes: the first one wins
@@ -322,20 +333,7 @@ class _LutComponent:
             if off.any():
                 outside.append((off, lambda i, d=d, x=x, lo=lo, hi=hi: _outside_axis(self.component, d, x[i], lo, hi)))
             cols[d] = x
-        for axis, fixed in self.fixed.items():
-            if axis in query and axis not in self.dims and fixed is not None:
-                x = np.broadcast_to(np.asarray(query[axis], float), (n,))
-                off = ~(np.abs(x - fixed) <= 1e-9 * max(abs(fixed), 1.0))
-                if off.any():
-                    outside.append(
-                        (
-                            off,
-                            lambda i, axis=axis, x=x, fixed=fixed: (
-                                f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
-                            ),
-                        )
-                    )
-        itp = self.subcooled if (self.needs_subcooled or self.detailed) else self.fast
+        outside += self._fixed_off(query, n)
         out = itp(cols)
         if self.secondary is not None:
             T_sec = np.broadcast_to(np.asarray(query[self.secondary], float), (n,))
@@ -352,6 +350,30 @@ class _LutComponent:
         if outside:
             for v in out.values():
                 v[bad] = np.nan
+        return self._flag_nan(out, reasons, bad, itp, lambda k: {d: c[k] for d, c in cols.items()})
+
+    def _fixed_off(self, query: dict[str, np.ndarray], n: int) -> list:
+        """(mask, message per point) of the inputs the query gives that the LUT holds fixed and that are off."""
+        outside = []
+        for axis, fixed in self.fixed.items():
+            if axis in query and axis not in self.dims and fixed is not None:
+                x = np.broadcast_to(np.asarray(query[axis], float), (n,))
+                off = ~(np.abs(x - fixed) <= 1e-9 * max(abs(fixed), 1.0))
+                if off.any():
+                    outside.append(
+                        (
+                            off,
+                            lambda i, axis=axis, x=x, fixed=fixed: (
+                                f"{self.component} LUT has no {axis} axis (fixed at {fixed:g}); asked {x[i]:.6g}"
+                            ),
+                        )
+                    )
+        return outside
+
+    def _flag_nan(self, out: Result, reasons: np.ndarray, bad: np.ndarray, itp, columns) -> Result:
+        """``out`` with ``no_heat_flow`` and ``reason``: a NaN cell's reason, or no heat where its NaN
+        nodes are the refrigerant on the wrong side of the secondary (``columns(k)``: the query of points k)."""
+        n = reasons.size
         nan = ~bad & ~np.isfinite(out[OUTLET if self.secondary else itp.variables[0]])
         if self._no_heat_table is not None:
             # Always present (as from DirectModels): the solver gathers results of several calls.
@@ -360,7 +382,7 @@ class _LutComponent:
                 k = np.nonzero(nan)[0]
                 if self._no_heat is None:
                     self._no_heat = self._no_heat_table()
-                share = self._no_heat({d: c[k] for d, c in cols.items()})["no_heat_flow"]
+                share = self._no_heat(columns(k))["no_heat_flow"]
                 none[k[share > 0]] = True  # NaN shares (other invalid nodes) compare False
                 nan &= ~none
             out["no_heat_flow"] = none
@@ -368,6 +390,70 @@ class _LutComponent:
             reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
         out["reason"] = reasons
         return out
+
+    def _kernel_for(self, itp):
+        """The compiled evaluation (:mod:`evtms.cycle._component_kernel`) where ``itp`` is compiled
+        with the 'nan' policy, else None (the path above)."""
+        if not (itp.compiled and itp.out_of_range == "nan"):
+            return None
+        if self._kernel is None:
+            from evtms.cycle import _component_kernel
+
+            self._kernel = _component_kernel
+            self._lo = np.array([self.ranges[d][0] for d in self.dims])
+            self._hi = np.array([self.ranges[d][1] for d in self.dims])
+            v = self.vapour
+            self._vapour_args = (
+                ((v.log_p0, v.dlog_p, v.T, v.h_v, v.step), v.dh)
+                if v is not None
+                else ((0.0, 1.0, _NONE, _NONE, 1.0), _NONE2)
+            )
+        return self._kernel
+
+    def _call_kernel(self, query: dict[str, np.ndarray], itp) -> Result:
+        """:meth:`__call__` in one compiled call (the same numbers, the same reasons)."""
+        n = len(next(iter(query.values())))
+        dims = self.dims
+        pts = np.empty((len(dims), n))
+        for j, d in enumerate(dims):
+            # T_res: no effect in steady state; any grid value will do.
+            pts[j] = self._lo[j] if (d == "T_res" and d not in query) else query[d]
+        out = np.empty((len(itp.variables), n))
+        first = np.empty(n, np.int64)
+        rows, t_sec = (-1, -1), _NONE
+        if self.secondary is not None:
+            rows = (itp.variables.index(APPROACH), itp.variables.index("p_out"))
+            t_sec = (
+                pts[dims.index(self.secondary)]
+                if self.secondary in dims
+                else np.broadcast_to(np.asarray(query[self.secondary], float), (n,)).copy()
+            )
+        vapour, dh = self._vapour_args
+        check = rows[0] if self.secondary is not None else 0
+        args = (self._lo, self._hi, itp._floats, itp._ints, itp._kernel_values, out, first, check, *rows)
+        flags = self._kernel.evaluate(pts, *args, t_sec, vapour, dh, SUPERHEAT_MIN)
+        res = {v: out[k] for k, v in enumerate(itp.variables)}
+        if self.secondary is not None:
+            res[OUTLET] = res.pop(APPROACH)
+        fixed = self._fixed_off(query, n) if self._fixed_axes else []
+        if not flags and not fixed:  # the usual call: every point inside the axes, every cell valid
+            if self._no_heat_table is not None:
+                res["no_heat_flow"] = np.zeros(n, bool)
+            res["reason"] = _reasons(n)
+            return res
+        reasons = _reasons(n)
+        if flags & 1:
+            for i in np.nonzero(first >= 0)[0]:
+                d = dims[first[i]]
+                reasons[i] = _outside_axis(self.component, d, pts[first[i], i], *self.ranges[d])
+        for off, message in fixed:
+            for i in np.nonzero(off & (reasons == ""))[0]:
+                reasons[i] = message(i)
+        bad = reasons != ""
+        if fixed:
+            for v in res.values():
+                v[bad] = np.nan
+        return self._flag_nan(res, reasons, bad, itp, lambda k: {d: pts[j][k] for j, d in enumerate(dims)})
 
 
 class LutModels:
