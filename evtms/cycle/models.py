@@ -343,13 +343,7 @@ class _LutComponent:
         if self.detailed and self.frost is not None:
             out.update(self.frost(cols))
         reasons = _reasons(n)
-        for off, message in outside:
-            for i in np.nonzero(off & (reasons == ""))[0]:
-                reasons[i] = message(i)
-        bad = reasons != ""
-        if outside:
-            for v in out.values():
-                v[bad] = np.nan
+        bad = _blank_outside(out, reasons, outside)
         return self._flag_nan(out, reasons, bad, itp, lambda k: {d: c[k] for d, c in cols.items()})
 
     def _fixed_off(self, query: dict[str, np.ndarray], n: int) -> list:
@@ -446,14 +440,22 @@ class _LutComponent:
             for i in np.nonzero(first >= 0)[0]:
                 d = dims[first[i]]
                 reasons[i] = _outside_axis(self.component, d, pts[first[i], i], *self.ranges[d])
-        for off, message in fixed:
-            for i in np.nonzero(off & (reasons == ""))[0]:
-                reasons[i] = message(i)
-        bad = reasons != ""
-        if fixed:
-            for v in res.values():
-                v[bad] = np.nan
+        bad = _blank_outside(res, reasons, fixed)
         return self._flag_nan(res, reasons, bad, itp, lambda k: {d: pts[j][k] for j, d in enumerate(dims)})
+
+
+def _blank_outside(out: Result, reasons: np.ndarray, outside: list) -> np.ndarray:
+    """Each point's first reason of ``outside`` ((mask, message per point), in order) into
+    ``reasons`` where it has none; where any is given, the points with a reason get NaN in
+    ``out`` (in place). Returns the points with a reason."""
+    for off, message in outside:
+        for i in np.nonzero(off & (reasons == ""))[0]:
+            reasons[i] = message(i)
+    bad = reasons != ""
+    if outside:
+        for v in out.values():
+            v[bad] = np.nan
+    return bad
 
 
 class LutModels:
