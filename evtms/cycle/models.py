@@ -310,7 +310,7 @@ class _LutComponent:
         self.ranges = {d: (float(lut.axes[d][0]), float(lut.axes[d][-1])) for d in self.dims}
         self.fixed = values_made_at(lut.attrs)
         # Inputs a query may give that the LUT holds fixed (checked against their value).
-        self._fixed_axes = {a for a, v in self.fixed.items() if a not in self.dims and v is not None}
+        self._fixed_axes = tuple(a for a, v in self.fixed.items() if a not in self.dims and v is not None)
 
     def __call__(self, query: dict[str, np.ndarray]) -> Result:
         # The solver calls this some ninety times per operating point and iteration, mostly
@@ -349,8 +349,9 @@ class _LutComponent:
     def _fixed_off(self, query: dict[str, np.ndarray], n: int) -> list:
         """(mask, message per point) of the inputs the query gives that the LUT holds fixed and that are off."""
         outside = []
-        for axis, fixed in self.fixed.items():
-            if axis in query and axis not in self.dims and fixed is not None:
+        for axis in self._fixed_axes:
+            if axis in query:
+                fixed = self.fixed[axis]
                 x = np.broadcast_to(np.asarray(query[axis], float), (n,))
                 off = ~(np.abs(x - fixed) <= 1e-9 * max(abs(fixed), 1.0))
                 if off.any():
@@ -414,22 +415,22 @@ class _LutComponent:
             pts[j] = self._lo[j] if (d == "T_res" and d not in query) else query[d]
         out = np.empty((len(itp.variables), n))
         first = np.empty(n, np.int64)
-        rows, t_sec = (-1, -1), _NONE
+        rows, t_sec, check = (-1, -1), _NONE, 0
         if self.secondary is not None:
             rows = (itp.variables.index(APPROACH), itp.variables.index("p_out"))
+            check = rows[0]
             t_sec = (
                 pts[dims.index(self.secondary)]
                 if self.secondary in dims
                 else np.broadcast_to(np.asarray(query[self.secondary], float), (n,)).copy()
             )
         vapour, dh = self._vapour_args
-        check = rows[0] if self.secondary is not None else 0
         args = (self._lo, self._hi, itp._floats, itp._ints, itp._kernel_values, out, first, check, *rows)
         flags = self._kernel.evaluate(pts, *args, t_sec, vapour, dh, SUPERHEAT_MIN)
         res = {v: out[k] for k, v in enumerate(itp.variables)}
         if self.secondary is not None:
             res[OUTLET] = res.pop(APPROACH)
-        fixed = self._fixed_off(query, n) if self._fixed_axes else []
+        fixed = self._fixed_off(query, n)
         if not flags and not fixed:  # the usual call: every point inside the axes, every cell valid
             if self._no_heat_table is not None:
                 res["no_heat_flow"] = np.zeros(n, bool)
