@@ -104,7 +104,7 @@ _A, _DH, _FLOW_REF, _FLOW_C, _PORT, _R_WALL, _FOUL_REF, _FOUL_C, _LENGTH, _ANGLE
 @jit
 def _martin_htc(G, D_h, rho, cp, mu, k, angle):
     """Single-phase coefficient [W/(m2 K)] and Reynolds number [1] of a plate channel (Martin 1996),
-    as :func:`evtms.benches.chiller._martin_htc`."""
+    as :func:`evtms.benches.chiller.martin_htc`."""
     Re = G * D_h / mu
     Pr = cp * mu / k
     return martin_nusselt(Re, Pr, angle) * k / D_h, Re
@@ -113,7 +113,7 @@ def _martin_htc(G, D_h, rho, cp, mu, k, angle):
 @jit
 def _phase_props(meta, sat, vap, liq, p, T, s, vapour):
     """Density, heat capacity, viscosity and conductivity at ``(p, T)``, each falling back to the
-    saturated phase's (``s``) where the tables give none (:func:`evtms.benches.chiller._refrigerant_props`)."""
+    saturated phase's (``s``) where the tables give none (:func:`evtms.benches.chiller.refrigerant_props`)."""
     row = np.empty(5)
     pt_state(meta, sat, vap, liq, p, T, row)
     fall = (s[_RHO_V], s[_CP_V], s[_MU_V], s[_K_V]) if vapour else (s[_RHO_L], s[_CP_L], s[_MU_L], s[_K_L])

@@ -58,6 +58,17 @@ AXES: dict[str, AxisSpec] = {
             upper_open=False,
             cli_units=TEMPERATURE_UNITS,
         ),
+        AxisSpec("mdot_coolant", "kg s-1", "coolant (MEG 50 %) mass flow rate", 0.0, cli_units=MASS_FLOW_UNITS),
+        AxisSpec(
+            "T_coolant_in",
+            "K",
+            "coolant temperature entering the exchanger",
+            238.15,
+            373.15,
+            lower_open=False,
+            upper_open=False,
+            cli_units=TEMPERATURE_UNITS,
+        ),
         AxisSpec(
             "RH_air_in",
             "1",

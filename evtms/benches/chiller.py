@@ -67,7 +67,6 @@ from evtms.fluid import Fluid, coolant, quality
 from evtms.hx import plate, tube
 from evtms.hx.counterflow import LIQUID, TWO_PHASE, VAPOUR, RefrigerantPath, solve_counterflow_evaporator
 from evtms.hx.sides import CoolantSide
-from evtms.luts.schema import MASS_FLOW_UNITS, TEMPERATURE_UNITS, AxisSpec
 from evtms.params import Relation, fouling, length, param
 
 if TYPE_CHECKING:
@@ -214,7 +213,7 @@ def plate_geometry(hx: PlateHXParams) -> dict[str, float]:
     }
 
 
-def _martin_htc(G, D_h, props, angle):
+def martin_htc(G, D_h, props, angle):
     """Single-phase coefficient [W/(m2 K)] and Reynolds number of a plate channel (Martin 1996)."""
     Re = G * D_h / props["MU"]
     Pr = props["CP"] * props["MU"] / props["K"]
@@ -254,12 +253,53 @@ def _two_phase_gradient(G, D_h, sat, x0, x1):
     return np.sum(grad * tube.GAUSS_WEIGHTS, axis=-1)
 
 
-def _refrigerant_props(fluid, p, T, sat, phase):
+def refrigerant_props(fluid, p, T, sat, phase):
     """Single-phase refrigerant properties at (p, T), falling back to saturation where CoolProp fails."""
     props = fluid.state("PT", p, T, ("D", "CP", "MU", "K"))
     for key, sk in (("D", "rho"), ("CP", "cp"), ("MU", "mu"), ("K", "k")):
         props[key] = np.where(np.isfinite(props[key]), props[key], sat[f"{sk}_{phase}"])
     return props
+
+
+def plate_outlet(
+    fluid: Fluid,
+    geo: dict[str, float],
+    sat: dict[str, np.ndarray],
+    p_in: np.ndarray,
+    h_out: np.ndarray,
+    mdot: np.ndarray,
+    rho_in: np.ndarray,
+    dp_channels: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """A plate exchanger's refrigerant outlet: the ports' loss added to the channels' drop, and the outlet state.
+
+    Each port loses :data:`evtms.hx.plate.PORT_VELOCITY_HEADS` velocity heads of its
+    own flow (Shah and Focke 1988), at the inlet's and at the outlet's density (the
+    homogeneous density of a two-phase outlet at the inlet pressure).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``dp`` [Pa], ``p_out`` [Pa], ``bad_dp`` (the outlet pressure is not above the
+        triple point), ``x_out`` [1] and ``T_out`` [K] at the outlet pressure.
+    """
+    h_l, h_v = sat["h_l"], sat["h_v"]
+    x_hx = quality(h_out, h_l, h_v)
+    two_phase_out = (x_hx >= 0.0) & (x_hx <= 1.0)
+    rho_out = np.where(two_phase_out, 1.0 / (x_hx / sat["rho_v"] + (1.0 - x_hx) / sat["rho_l"]), np.nan)
+    single = ~two_phase_out & np.isfinite(h_out)
+    rho_out[single] = fluid.state("PH", p_in[single], h_out[single], ("D",))["D"]
+    G_port = mdot / geo["port_area"]
+    dp = dp_channels + plate.PORT_VELOCITY_HEADS * G_port**2 / 2.0 * (1.0 / rho_in + 1.0 / rho_out)
+    p_out = p_in - dp
+    bad_dp = ~(p_out > fluid.p_triple)
+    p_ok = np.where(bad_dp, np.nan, p_out)
+    curve = fluid.saturation_curve()
+    x_out = quality(h_out, curve.liquid_enthalpy(p_ok), curve.vapour_enthalpy(p_ok))
+    T_out = curve.temperature(p_ok)
+    single = ~((x_out >= 0.0) & (x_out <= 1.0))
+    T_out[single] = fluid.state("PH", p_ok[single], h_out[single], ("T",))["T"]
+    return dp, p_out, bad_dp, x_out, T_out
 
 
 def solve_chiller(
@@ -331,17 +371,17 @@ def solve_chiller(
     reachable = T_c_in > T_sat
     # Single-phase refrigerant coefficients at each zone's mean temperature (Martin 1996).
     T_end_l = np.where(reachable, T_sat, T_c_in)
-    liq = _refrigerant_props(fluid, p_in, 0.5 * (np.minimum(T_in, T_sat) + T_end_l), sat, "l")
-    h_liq, Re_liq = _martin_htc(G, D_h, liq, hx.chevron_angle)
+    liq = refrigerant_props(fluid, p_in, 0.5 * (np.minimum(T_in, T_sat) + T_end_l), sat, "l")
+    h_liq, Re_liq = martin_htc(G, D_h, liq, hx.chevron_angle)
     T0_v = np.where(h_in >= h_v, T_in, T_sat)
-    vap = _refrigerant_props(fluid, p_in, 0.5 * (T0_v + T_c_in), sat, "v")
-    h_vap, Re_vap = _martin_htc(G, D_h, vap, hx.chevron_angle)
+    vap = refrigerant_props(fluid, p_in, 0.5 * (T0_v + T_c_in), sat, "v")
+    h_vap, Re_vap = martin_htc(G, D_h, vap, hx.chevron_angle)
     R_fixed = geo["R_wall"] + hx.fouling_ref / A
 
     T_c_mean = T_c_in
     for _ in range(2):  # coolant properties at the inlet, then at the mean temperature
         c_props = cool.properties(T_c_mean)
-        h_c, Re_c = _martin_htc(G_c, D_h, c_props, hx.chevron_angle)
+        h_c, Re_c = martin_htc(G_c, D_h, c_props, hx.chevron_angle)
         R_c = 1.0 / (h_c * A) + hx.fouling_coolant / A
         C_c = m_c * c_props["CP"]
         # Mean heat flux of an all-two-phase exchanger, by fixed point (Yan and Lin's h ~ q^0.3).
@@ -369,23 +409,7 @@ def solve_chiller(
     x1 = np.clip((np.minimum(h_out, h_v) - h_l) / h_lv, 0.0, 1.0)
     grad_tp = _two_phase_gradient(G, D_h, sat, x0, x1)
     dp = grad_l * L[:, LIQUID] + grad_tp * L[:, TWO_PHASE] + grad_v * L[:, VAPOUR]
-    x_hx = quality(h_out, h_l, h_v)
-    two_phase_out = (x_hx >= 0.0) & (x_hx <= 1.0)
-    rho_out = np.where(two_phase_out, 1.0 / (x_hx / sat["rho_v"] + (1.0 - x_hx) / sat["rho_l"]), np.nan)
-    single = ~two_phase_out & np.isfinite(h_out)
-    rho_out[single] = fluid.state("PH", p_in[single], h_out[single], ("D",))["D"]
-    G_port = mdot / geo["port_area"]
-    dp = dp + plate.PORT_VELOCITY_HEADS * G_port**2 / 2.0 * (1.0 / inlet["D"] + 1.0 / rho_out)
-
-    # --- outlet states ------------------------------------------------------------
-    p_out = p_in - dp
-    bad_dp = ~(p_out > fluid.p_triple)
-    p_ok = np.where(bad_dp, np.nan, p_out)
-    curve = fluid.saturation_curve()
-    x_out = quality(h_out, curve.liquid_enthalpy(p_ok), curve.vapour_enthalpy(p_ok))
-    T_out = curve.temperature(p_ok)
-    single = ~((x_out >= 0.0) & (x_out <= 1.0))
-    T_out[single] = fluid.state("PH", p_ok[single], h_out[single], ("T",))["T"]
+    dp, p_out, bad_dp, x_out, T_out = plate_outlet(fluid, geo, sat, p_in, h_out, mdot, inlet["D"], dp)
     T_c_out = res.T_secondary_out
     coolant_freezes |= T_c_out < cool.T_freeze
 
@@ -589,24 +613,6 @@ FLAGS = {
     STATUS_CORRELATION_OUTSIDE_RANGE: "valid_correlation_outside_range",
 }
 
-#: The chiller's own axes (the refrigerant's ``mdot``, ``p_in`` and ``h_in`` are shared).
-AXIS_SPECS = {
-    a.name: a
-    for a in (
-        AxisSpec("mdot_coolant", "kg s-1", "coolant (MEG 50 %) mass flow rate", 0.0, cli_units=MASS_FLOW_UNITS),
-        AxisSpec(
-            "T_coolant_in",
-            "K",
-            "coolant temperature entering the chiller",
-            238.15,
-            373.15,
-            lower_open=False,
-            upper_open=False,
-            cli_units=TEMPERATURE_UNITS,
-        ),
-    )
-}
-
 BENCH = Bench(
     name="chiller",
     title="evtms chiller bench: brazed-plate R134a evaporator cooling MEG 50 % coolant",
@@ -616,7 +622,6 @@ BENCH = Bench(
     evaluate=chiller_heat_rate,
     parameters=PlateHXParams,
     valid_flags=(0, STATUS_CORRELATION_OUTSIDE_RANGE),
-    axis_specs=AXIS_SPECS,
     variables={
         "Q": ("W", "heat flow from refrigerant to coolant"),
         "T_coolant_out": ("K", "coolant temperature leaving the chiller"),

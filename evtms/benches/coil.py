@@ -391,19 +391,50 @@ def solve_coil(
     return out
 
 
+def air_stream(
+    coil: CoilParams, env: Environment, volume_flow: np.ndarray, T_air: np.ndarray, RH_air: np.ndarray
+) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The air side of a louvred-fin core at its entering state and volume flow.
+
+    The dry-air mass flow ``m_da = rho V / (1 + w)`` [kg/s] at the entering state,
+    its capacity rate ``C_air = m_da c_p`` [W/K] (``c_p`` per kg of dry air), and
+    the air side's thermal resistance ``R_air = 1 / (eta_o h A) + R_f / A`` [K/W]
+    with the louvred-fin coefficient of Chang and Wang (1997) at the core
+    velocity ``V / area_air_free`` (:func:`evtms.hx.fins.louvered_fin_htc`).
+
+    Parameters
+    ----------
+    coil : CoilParams
+        Core geometry.
+    env : Environment
+        Air pressure (``env.p``).
+    volume_flow : numpy.ndarray
+        Air volume flow at the entering state [m3/s].
+    T_air, RH_air : numpy.ndarray
+        Entering-air temperature [K] and relative humidity [1].
+
+    Returns
+    -------
+    tuple
+        The entering air's properties (:func:`evtms.fluid.humid_air_inlet` per
+        point), ``m_da`` [kg/s], ``C_air`` [W/K], ``R_air`` [K/W] and the louver-pitch
+        Reynolds number ``Re_Lp`` [1] (flagged by the benches outside the correlation's data).
+    """
+    geo = coil_geometry(coil)
+    air = _air_inlet_arrays(T_air, RH_air, env.p)
+    m_da = air["rho"] * volume_flow / (1.0 + air["w"])
+    C_air = m_da * air["cp"]
+    h_o, Re_Lp = louvered_fin_htc(volume_flow / coil.area_air_free, air["rho"], air["mu"], air["k"], air["Pr"], geo.fin)
+    R_air = 1.0 / (geo.eta_surface * h_o * geo.area_air) + coil.fouling_air / geo.area_air
+    return air, m_da, C_air, R_air, Re_Lp
+
+
 def _coil_sides(
     coil: CoilParams, env: Environment, air_fraction: np.ndarray, T_air: np.ndarray, RH_air: np.ndarray, wet: bool
 ) -> tuple[AirSide, TubeSide, np.ndarray]:
     """The air side (dry or moist), the tube side and the air's louver-pitch Reynolds number per point."""
     geo = coil_geometry(coil)
-    air = _air_inlet_arrays(T_air, RH_air, env.p)
-    volume_flow = air_fraction * coil.fan_flow_max
-    m_da = air["rho"] * volume_flow / (1.0 + air["w"])
-    C_air = m_da * air["cp"]
-    # Louvred-fin air side (Chang and Wang 1997) at the core velocity, flagged
-    # where Re_Lp lies outside the correlation's data.
-    h_o, Re_Lp = louvered_fin_htc(volume_flow / coil.area_air_free, air["rho"], air["mu"], air["k"], air["Pr"], geo.fin)
-    R_air = 1.0 / (geo.eta_surface * h_o * geo.area_air) + coil.fouling_air / geo.area_air
+    air, m_da, C_air, R_air, Re_Lp = air_stream(coil, env, air_fraction * coil.fan_flow_max, T_air, RH_air)
     if wet:
         side = MoistAirSide(T_air, air, m_da, C_air, R_air, env.p, sat_air=saturated_air(env.p))
     else:

@@ -73,7 +73,7 @@ if TYPE_CHECKING:
     from evtms.benches.parameters import Parameters
 
 
-def _evaporator_coil() -> CoilParams:
+def evaporator_coil() -> CoilParams:
     """The evaporator's default coil: :class:`CoilParams` at the cabin evaporator's size."""
     return CoilParams(
         n_tubes=20,
@@ -157,7 +157,7 @@ BENCH = Bench(
     outputs=OUTPUTS,
     flags=FLAGS,
     evaluate=evaporator_heat_rate,
-    parameters=_evaporator_coil,
+    parameters=evaporator_coil,
     extra_axes=("T_air_in", "RH_air_in"),
     optional_outputs=("capacity_ratio", "h_out_continued"),
     surface_axes=(("p_in", "T_in"), ("p_in", "h_in")),

@@ -343,3 +343,94 @@ def solve_counterflow_evaporator(ref: RefrigerantPath, sec: SecondaryStream) -> 
         h_out_continued=h_continued,
         bad_direction=bad_direction,
     )
+
+
+@dataclass
+class _MirroredStream:
+    """A secondary stream seen through the mirror ``h -> -h``, ``T -> -T`` (:func:`solve_counterflow_condenser`).
+
+    A colder stream being heated becomes a warmer one being cooled; its
+    enthalpy-temperature relation is the original one reflected, and its
+    table (kept in a tuple, so no per-point subset touches it) still rises in
+    enthalpy, as the compiled search reads it.
+    """
+
+    mdot: np.ndarray
+    T_in: np.ndarray
+    h_in: np.ndarray
+    R: np.ndarray
+    table: tuple[np.ndarray, ...]
+    original: SecondaryStream
+
+    def temperature(self, h: np.ndarray) -> np.ndarray:
+        return -self.original.temperature(-np.asarray(h, float))
+
+    def temperature_table(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.table[0], self.table[1]
+
+
+def _mirror_stream(sec: SecondaryStream) -> _MirroredStream:
+    h, T = sec.temperature_table()  # a tabulated stream (the coolant): its reflection is a table too
+    table = (-np.asarray(h, float)[::-1], -np.asarray(T, float)[::-1])
+    return _MirroredStream(sec.mdot, -sec.T_in, -sec.h_in, sec.R, table, sec)
+
+
+def solve_counterflow_condenser(ref: RefrigerantPath, sec: SecondaryStream) -> CounterflowResult:
+    """Heat rate of a counter-flow exchanger condensing ``ref`` against the colder stream ``sec``.
+
+    The condensing problem is the evaporating one reflected in enthalpy and
+    temperature (``h -> -h``, ``T -> -T``): the refrigerant's enthalpy then
+    rises through the reflected zones (desuperheating vapour as the
+    reflected "liquid", two-phase, subcooled liquid as the reflected
+    "vapour", with ``h_l`` and ``h_v`` exchanging roles), the colder
+    secondary stream becomes a warmer one, and every temperature difference,
+    log-mean, zone fraction and the second-law bound carry over unchanged.
+    So one algorithm (:func:`solve_counterflow_evaporator`, Bell et al. 2015)
+    solves both, and the condenser obeys the second law by the same
+    construction: the refrigerant never leaves colder than the secondary
+    enters, nor the secondary warmer than the refrigerant enters.
+
+    Parameters
+    ----------
+    ref : RefrigerantPath
+        The condensing refrigerant: its inlet (superheated or two-phase),
+        saturation state, ``h_at_secondary`` its enthalpy at the secondary
+        inlet temperature (the least it can reach) and ``R`` per zone in the
+        order (liquid, two-phase, vapour).
+    sec : SecondaryStream
+        The colder secondary stream (a coolant being heated).
+
+    Returns
+    -------
+    CounterflowResult
+        ``Q`` heat out of the refrigerant [W] (>= 0), ``h_out`` and the
+        secondary's outlet, ``fractions`` in (liquid, two-phase, vapour)
+        order, ``f_needed`` the area fraction needed to condense to saturated
+        liquid and ``capacity_ratio`` its inverse, ``h_out_continued``
+        (``h_out`` for a subcooled outlet; for a two-phase one continued past
+        the saturated-liquid boundary to the negative area ``1 - f_needed``,
+        with the subcooled side's slope), ``bad_direction`` (the secondary
+        inlet is not colder than the refrigerant inlet).
+    """
+    mirrored_ref = RefrigerantPath(
+        mdot=ref.mdot,
+        h_in=-ref.h_in,
+        T_in=-ref.T_in,
+        T_sat=-ref.T_sat,
+        h_l=-ref.h_v,
+        h_v=-ref.h_l,
+        h_at_secondary=-ref.h_at_secondary,
+        R=np.asarray(ref.R, float)[:, ::-1],
+    )
+    res = solve_counterflow_evaporator(mirrored_ref, _mirror_stream(sec))
+    return CounterflowResult(
+        Q=res.Q,
+        h_out=-res.h_out,
+        h_secondary_out=-res.h_secondary_out,
+        T_secondary_out=-res.T_secondary_out,
+        fractions=res.fractions[:, ::-1],
+        f_needed=res.f_needed,
+        capacity_ratio=res.capacity_ratio,
+        h_out_continued=-res.h_out_continued,
+        bad_direction=res.bad_direction,
+    )
