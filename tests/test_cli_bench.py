@@ -9,6 +9,7 @@ import sys
 import pytest
 from typer.testing import CliRunner
 
+from evtms.benches import BENCHES
 from evtms.cli import app
 
 runner = CliRunner()
@@ -87,11 +88,11 @@ def test_bad_axis_values_exit_2_one_line_no_file(tmp_path, args, names, allowed)
 
 
 def test_unknown_bench(tmp_path):
-    res = run("bench", "heater", "-o", str(tmp_path / "h.nc"))
+    res = run("bench", "pump", "-o", str(tmp_path / "h.nc"))
     assert res.exit_code == 2
     assert res.stderr.strip() == (
-        "error: No such command 'heater' (allowed: condenser, evaporator, expansion-valve, compressor, chiller, all) "
-        "(see 'evtms bench --help')"
+        "error: No such command 'pump' (allowed: condenser, evaporator, expansion-valve, compressor, chiller, "
+        "radiator, heater-core, all) (see 'evtms bench --help')"
     )
 
 
@@ -167,13 +168,8 @@ def test_bench_all_writes_one_file_per_registered_bench(tmp_path):
     out = tmp_path / "luts"
     res = run("bench", "all", "--grid", "thesis", "-o", str(out))
     assert res.exit_code == 0, res.output
-    assert sorted(p.name for p in out.iterdir()) == [
-        "chiller.nc",
-        "compressor.nc",
-        "condenser.nc",
-        "evaporator.nc",
-        "expansion_valve.nc",
-    ]
+    assert sorted(p.name for p in out.iterdir()) == sorted(f"{name}.nc" for name in BENCHES)
+    assert {"chiller.nc", "radiator.nc", "heater_core.nc"} <= {p.name for p in out.iterdir()}
     assert "expansion_valve: 36 points, 18 invalid" in res.stdout
     assert "compressor: 36 points, 0 invalid" in res.stdout
 

@@ -21,6 +21,8 @@ MODULES = (
     "expansion_valve",
     "compressor",
     "chiller",
+    "radiator",
+    "heater_core",
 )
 
 BENCHES: dict[str, Bench] = {
