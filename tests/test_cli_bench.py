@@ -92,7 +92,7 @@ def test_unknown_bench(tmp_path):
     assert res.exit_code == 2
     assert res.stderr.strip() == (
         "error: No such command 'pump' (allowed: condenser, evaporator, expansion-valve, compressor, chiller, "
-        "radiator, heater-core, all) (see 'evtms bench --help')"
+        "radiator, heater-core, wcc, all) (see 'evtms bench --help')"
     )
 
 
@@ -169,7 +169,7 @@ def test_bench_all_writes_one_file_per_registered_bench(tmp_path):
     res = run("bench", "all", "--grid", "thesis", "-o", str(out))
     assert res.exit_code == 0, res.output
     assert sorted(p.name for p in out.iterdir()) == sorted(f"{name}.nc" for name in BENCHES)
-    assert {"chiller.nc", "radiator.nc", "heater_core.nc"} <= {p.name for p in out.iterdir()}
+    assert {"chiller.nc", "radiator.nc", "heater_core.nc", "wcc.nc"} <= {p.name for p in out.iterdir()}
     assert "expansion_valve: 36 points, 18 invalid" in res.stdout
     assert "compressor: 36 points, 0 invalid" in res.stdout
 

@@ -23,6 +23,7 @@ MODULES = (
     "chiller",
     "radiator",
     "heater_core",
+    "wcc",
 )
 
 BENCHES: dict[str, Bench] = {
