@@ -39,8 +39,8 @@ Ports: 1.4 velocity heads each (Shah and Focke 1988), as the chiller.
 Validity: Martin compared his equations with data of Re 200 to 10,000; Yan,
 Lio and Lin's data cover channel mass fluxes of 60 to 120 kg/(m2 s)
 (:data:`evtms.hx.plate.YAN_LIO_LIN_G_RANGE`). The heat pump's refrigerant
-flows of 2-60 g/s give 2-50 kg/(m2 s) in this pack and its coolant flows Re of
-about 20 to 600, so most points use a correlation outside its data: they are
+flows of 2-60 g/s give 1-29 kg/(m2 s) in the default pack (14 refrigerant
+channels) and its coolant flows Re of about 13 to 550, so most points use a correlation outside its data: they are
 valid with status 11 (``valid_correlation_outside_range``), the correlations
 evaluated as published.
 
@@ -338,7 +338,10 @@ def wcc_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Flui
         [J/kg] (``h_out`` for a subcooled outlet; for a two-phase outlet the
         subcooled side's heat rate per unit area at the phase boundary
         continued linearly to the negative area ``1 - 1/capacity_ratio``: C1
-        across the boundary, as the chiller's and the condenser's) and
+        across the boundary, as the chiller's and the condenser's;
+        ``capacity_ratio`` is 0 and ``h_out_continued`` equals ``h_out``
+        where the coolant cannot take the latent heat with any area, its
+        outlet reaching the saturation temperature first) and
         ``status`` (int8, see :data:`FLAGS`; 0 and 11 are valid).
     """
     p_in = np.asarray(inputs["p_in"], float)
@@ -424,8 +427,8 @@ BENCH = Bench(
             "T_coolant_in": (293.15, 313.15, 333.15, 343.15),
         },
         # The hp circuit's envelope: discharge saturation 20-80 degC every 4 K (about 0.57-2.63
-        # MPa), inlet enthalpy from just inside the dome (x about 0.9 at the highest pressure)
-        # to about 80 K superheat at every pressure, every 10 kJ/kg; refrigerant 2-60 g/s on a
+        # MPa), inlet enthalpy every 10 kJ/kg from just inside the dome (x 0.98 at the lowest
+        # pressure, 0.78 at the highest) to at least 80 K superheat at every pressure; refrigerant 2-60 g/s on a
         # geometric ladder; the heating loop's pump at 0.05-0.36 kg/s; coolant 5-75 degC every 5 K.
         "cycle": {
             "mdot": tuple(np.geomspace(0.002, 0.06, 10)),
