@@ -2,7 +2,7 @@
 
 The demo's LUT step (:func:`evtms.workflows.demo.ensure_luts`: one process per
 LUT, or a grid that outweighs the others together in chunks over worker
-processes) runs on two values of each axis of both of its presets (three of
+processes) runs on two values of each axis of both of its presets (eight of
 the evaporator's mass flow on the cycle preset: that grid is spread, as the
 demo spreads the cycle evaporator's), in small chunks, twice into two folders;
 the bench workflow (``evtms bench all``, in this process, on the same chunks)
@@ -40,7 +40,7 @@ def tiny_presets(monkeypatch):
         for grid, tiny in TINY.items():
             preset = {k: tuple(v)[:2] for k, v in bench.presets[grid].items()}
             if name == "evaporator" and grid == "cycle":
-                preset["mdot"] = tuple(bench.presets[grid]["mdot"])[:3]
+                preset["mdot"] = tuple(bench.presets[grid]["mdot"])[:8]
             monkeypatch.setitem(bench.presets, tiny, preset)
     spread = TINY["cycle"]
     points = {c: demo._grid_points(c, spread) for c in BENCHES}

@@ -90,6 +90,7 @@ def test_every_ledger_closes(refrigerant, T_amb, dt):
         "heater_loop",
         "cabin",
         "refrigerant",
+        "edrive",
         "system",
     }
     for name, residual in r.ledgers.items():
@@ -365,6 +366,7 @@ def test_precondition_runs_on_the_grid_before_the_cycle(refrigerant):
     assert max(pre.ledgers.values()) <= 1e-9
     s = pre.summary
     parts = s["motor_energy_kWh"] + s["hvac_cabin_kWh"] + s["battery_thermal_kWh"] + s["aux_energy_kWh"]
+    parts += s["edrive_cooling_kWh"]
     assert parts + s["battery_loss_kWh"] == pytest.approx(s["battery_chemical_kWh"], rel=1e-9)
     with pytest.raises(EvtmsInputError, match="`precondition`"):
         simulate(WLTC, 313.15, refrigerant, precondition=0.5)

@@ -107,6 +107,8 @@ MAP_AC, MAP_CHILLER, MAP_ACCH = 0, 1, 2
 # Refrigerant circuits (output ``circuit``): none, the cabin evaporator, the chiller, both.
 CIRCUIT_NONE, CIRCUIT_CABIN, CIRCUIT_CHILLER, CIRCUIT_BOTH = range(4)
 CIRCUIT_NAMES = ("none", "cabin", "chiller", "cabin+chiller")
+# What the e-drive's losses heat (``edrive.model``): the coolant loop E, or the ambient directly.
+EDRIVE_LOOP, EDRIVE_AMBIENT = 0, 1
 # Cabin heating options (``hvac.heating``).
 HEATING_PTC_AIR, HEATING_PTC_COOLANT = 0, 1
 
@@ -122,9 +124,9 @@ N_H = H_FALLBACK + 1
     M_T_COOL, M_T_HEAT, M_CLR_COOL, M_CLR_HEAT, M_TCAB_F, M_TVS_F, M_I_VENT, M_SAT_UP, M_SAT_DN,
     M_COMP_ON, M_T_COMP, M_I_EV, M_FROST_OK, M_CH_FROST_OK, M_I_CH, M_I_PTC, M_I_PTCW, M_I_BLEND,
     M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
-    M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3, M_STOP,
+    M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3, M_STOP, M_RAD_IN,
     N_M,
-) = range(44)  # fmt: skip
+) = range(45)  # fmt: skip
 
 # Why a run ended before its last step (``mem[M_STOP]``): not at all, SOC at its floor, or a mode model's state
 # left the physical range (the step that would have put it there is not done).
@@ -158,15 +160,20 @@ N_X = 6
     P_MDOT_H, P_CP_H, P_PUMP_H_POWER, P_HC_UA, P_HC_AIR_REF, P_BH_TC_MAX, P_BH_TB_MAX, P_BC_TB_MIN,
     P_FAN_VMAX, P_FAN_PNOM, P_FAN_VNOM, P_RAM_AREA, P_V_FRONT_MIN, P_RAM_FLOOR,
     P_FAN_P1, P_FAN_D1, P_FAN_P2, P_FAN_P3, P_FAN_D23,
+    P_EDRIVE_MODEL, P_C_M, P_K1_M, P_C_I, P_F_INV, P_C_D, P_ETA_DC, P_C_E, P_PUMP_E_POWER, P_PUMP_E_MIN,
+    P_RAD_ON, P_RAD_OFF, P_JACKET_PR, P_MDOT_E_MAX, P_JACKET_M_RE1, P_JACKET_M_DL, P_JACKET_M_KA,
+    P_JACKET_D_RE1, P_JACKET_D_DL, P_JACKET_D_KA,
     N_P,
-) = range(120)  # fmt: skip
+) = range(140)  # fmt: skip
 
 # States at the step boundaries.
 (
     S_SOC, S_VRC, S_TB, S_TC, S_TA, S_TGLASS, S_TDOORS, S_TROOF, S_TINT, S_W, S_TH,
     S_YF,
 ) = range(12)  # fmt: skip
-N_S = S_YF + N_Y
+# The e-drive loop's nodes (motor, inverter, DC-DC, coolant E), after the filter's block.
+S_TM, S_TI, S_TD, S_TE = range(S_YF + N_Y, S_YF + N_Y + 4)
+N_S = S_YF + N_Y + 4
 
 # Per-step outputs (means over the step; commands as held over the step).
 (
@@ -176,8 +183,9 @@ N_S = S_YF + N_Y
     O_Q_AIR_SOURCES, O_Q_SUN_INT, O_T_SUPPLY, O_P_DEFICIT, O_REGEN, O_P_GRID,
     O_T_EVAP_AIR, O_T_VENT_TARGET, O_T_EVAP_TARGET, O_RECIRC, O_G_IN, O_T_IN_SRC, O_W_IN_SRC, O_G_BC, O_Q_EXT,
     O_Q_HC, O_P_PTCW, O_P_PUMP_H, O_BLEND, O_T_H_TARGET, O_COMP_ON, O_CIRCUIT, O_P_AUX, O_FAN, O_V_FRONT,
+    O_P_PUMP_E, O_P_EDRIVE_AUX, O_Q_DRIVE, O_Q_DCDC, O_Q_RAD, O_T_AIR_RAD, O_U_PUMP_E, O_RAD_IN,
     N_O,
-) = range(54)  # fmt: skip
+) = range(62)  # fmt: skip
 
 #: State columns a mode model carries (:data:`evtms.system.mode_model.STATE_NAMES` order).
 SURROGATE_STATES = (
@@ -348,6 +356,78 @@ def plate_conductance(u_pump: float, re_1: float, pr: float, d_over_l: float, k_
 
 
 @jit
+def jacket_conductance(u_pump: float, re_1: float, pr: float, d_over_l: float, k_area: float) -> float:
+    """Coolant-side conductance [W/K] of a cooling jacket's channels at pump command ``u_pump`` [1].
+
+    ``Re = u_pump re_1``; laminar below 2300 by Hausen's developing flow
+    (Incropera eq. 8.57, ``Nu = 3.66 + 0.0668 Gz / (1 + 0.04 Gz^(2/3))``,
+    ``Gz = (D/L) Re Pr``), turbulent above 4000 by Gnielinski (eq. 8.62,
+    Petukhov's friction factor ``f = (0.790 ln Re - 1.64)^-2``), blended
+    linearly in Re between (spec v2 5.2); with the pump off ``Nu = 2``
+    (natural convection in the stagnant channels, A). ``k_area`` [W/K] is
+    ``k / D`` times the channels' wetted area.
+    """
+    if u_pump <= 0.0:
+        return _NU_STAGNANT * k_area
+    re = u_pump * re_1
+    gz = d_over_l * re * pr
+    laminar = 3.66 + 0.0668 * gz / (1.0 + 0.04 * gz ** (2.0 / 3.0))
+    if re <= 2300.0:
+        nu = laminar
+    else:
+        re_t = max(re, 3000.0)  # Gnielinski's lower end; the blend's weight holds it to 0 at 2300
+        f = (0.790 * math.log(re_t) - 1.64) ** -2
+        turbulent = f / 8.0 * (re_t - 1000.0) * pr / (1.0 + 12.7 * math.sqrt(f / 8.0) * (pr ** (2.0 / 3.0) - 1.0))
+        w = min((re - 2300.0) / 1700.0, 1.0)
+        nu = (1.0 - w) * laminar + w * turbulent
+    return nu * k_area
+
+
+@jit
+def jacket_conductances(par, u_pump: float) -> tuple[float, float]:
+    """The motor's jacket and each drive jacket's (inverter, DC-DC) conductance [W/K] at pump command ``u_pump``."""
+    g_m = jacket_conductance(u_pump, par[P_JACKET_M_RE1], par[P_JACKET_PR], par[P_JACKET_M_DL], par[P_JACKET_M_KA])
+    g_d = jacket_conductance(u_pump, par[P_JACKET_D_RE1], par[P_JACKET_PR], par[P_JACKET_D_DL], par[P_JACKET_D_KA])
+    return g_m, g_d
+
+
+@jit
+def edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_air_rad) -> float:
+    """Advance the e-drive loop's four nodes over one step; returns the radiator's heat [W] (to the air).
+
+    Backward Euler with the sources held (spec v2 5.2, 5.8): the motor
+    ``C_m dT_m/dt = (1 - f_inv) P_loss + K_1 (T_amb - T_m) - G_m (T_m - T_E)``,
+    the inverter ``C_i dT_i/dt = f_inv P_loss - G_d (T_i - T_E)``, the DC-DC
+    ``C_d dT_d/dt = Q_dcdc - G_d (T_d - T_E)`` and the loop
+    ``C_E dT_E/dt = sum_k G_k (T_k - T_E) - g_rad (T_E - T_air_rad)`` with
+    ``g_rad = eps C_min`` of the radiator (0 while bypassed). Each of the
+    three masses sees only the loop (and the motor the ambient), so each is
+    eliminated in closed form, ``dT_k = a_k + b_k dT_E``, and the loop's
+    change is one division; solved for the changes, not the temperatures, so
+    the ledger closes to round-off. ``s0``/``s1``: the state rows at the
+    step's start and end (``S_TM``, ``S_TI``, ``S_TD``, ``S_TE``).
+    """
+    T_m, T_i, T_d, T_E = s0[S_TM], s0[S_TI], s0[S_TD], s0[S_TE]
+    q_m = (1.0 - par[P_F_INV]) * p_loss
+    q_i = par[P_F_INV] * p_loss
+    k1 = par[P_K1_M]
+    d_m = par[P_C_M] / dt + k1 + g_m
+    a_m = (q_m + k1 * (T_amb - T_m) - g_m * (T_m - T_E)) / d_m
+    d_i = par[P_C_I] / dt + g_d
+    a_i = (q_i - g_d * (T_i - T_E)) / d_i
+    d_d = par[P_C_D] / dt + g_d
+    a_d = (q_dcdc - g_d * (T_d - T_E)) / d_d
+    num = g_m * (T_m - T_E + a_m) + g_d * (T_i - T_E + a_i) + g_d * (T_d - T_E + a_d) - g_rad * (T_E - T_air_rad)
+    den = par[P_C_E] / dt + g_m * (1.0 - g_m / d_m) + g_d * (1.0 - g_d / d_i) + g_d * (1.0 - g_d / d_d) + g_rad
+    d_e = num / den
+    s1[S_TE] = T_E + d_e
+    s1[S_TM] = T_m + a_m + g_m / d_m * d_e
+    s1[S_TI] = T_i + a_i + g_d / d_i * d_e
+    s1[S_TD] = T_d + a_d + g_d / d_d * d_e
+    return g_rad * (s1[S_TE] - T_air_rad)
+
+
+@jit
 def crossflow_effectiveness(c_air: float, c_liquid: float, ua: float) -> float:
     """Effectiveness [1] of a cross-flow coil, liquid mixed and air unmixed (Incropera eq. 11.32-11.33).
 
@@ -429,6 +509,7 @@ def surrogate_state_ok(s) -> bool:
 def run_loop(
     par, dts, p_motor_el, soc_ocv, cell_T, cell_ocv, cell_r0, sat_T, sat_p,
     ac_knots, ac_starts, ac_table, ch_knots, ch_starts, ch_table, acch_knots, acch_starts, acch_table,
+    motor_T, motor_u, rad_knots, rad_starts, rad_table,
     states, out, modes, flags, ext, start, source, mem, held, tol, net, net_index,
 ):  # fmt: skip
     """Run the loop from step ``start`` to ``dts.size``; returns the number of steps done (fewer when SOC hits
@@ -437,12 +518,17 @@ def run_loop(
 
     ``states`` (steps + 1, N_S) holds the initial state in row 0 and is filled
     row by row; ``out`` (steps, N_O), ``modes`` and ``flags`` (steps) per step.
-    ``p_motor_el`` (steps, 5): the step's mean motor electrical power [W]
+    ``p_motor_el`` (steps, 7): the step's mean motor electrical power [W]
     with regeneration and with it cut, 1 where the car is plugged in
     (preconditioning: the grid, not the battery, feeds auxiliaries and HVAC),
     1 where the key is off (a soak: no propulsion, auxiliaries, HVAC,
-    pumps or DC-DC) and the mean vehicle speed [m/s] (ram air). ``ext`` (steps, N_X): external inputs, NaN where not
-    given (:mod:`evtms.system.inputs`).
+    pumps or DC-DC), the mean vehicle speed [m/s] (ram air) and the e-drive
+    loss [W] with regeneration and with it cut. ``motor_T``, ``motor_u``:
+    the e-drive pump's and fan's motor-temperature requirement (nodes [K],
+    commands [1]); ``rad_knots``, ``rad_starts``, ``rad_table``: the
+    radiator's conductance table (:func:`evtms.system.edrive.radiator_table`).
+    ``ext`` (steps, N_X): external inputs, NaN where not given
+    (:mod:`evtms.system.inputs`).
 
     ``source`` says where the refrigerant targets come from: SRC_MAPS the
     cycle maps; SRC_HELD the caller's solved point in ``held``, reused while
@@ -472,6 +558,10 @@ def run_loop(
     pred = np.zeros(len(SURROGATE_STATES))
     h0 = np.empty(_MLP_WIDTH)
     h1 = np.empty(_MLP_WIDTH)
+    x_rad = np.zeros(3)  # the radiator table's point: coolant flow, coolant temperature, air flow
+    ua_rad = np.zeros(1)
+    edrive_loop = int(par[P_EDRIVE_MODEL]) == EDRIVE_LOOP
+    eta_dc = par[P_ETA_DC] if edrive_loop else 1.0
     if mem[M_SET] == 0.0:
         for k in range(N_M):
             mem[k] = 0.0
@@ -787,8 +877,17 @@ def run_loop(
             g_bc = plate_conductance(
                 u_pump, par[P_PLATE_RE1], par[P_PLATE_PR], par[P_PLATE_DL], par[P_PLATE_KA], par[P_G_CP]
             )
+        # E-drive pump: the motor's requirement, never below its floor while the drive works (spec v2 5.3); with
+        # the car standing and the motor below the table's first node nothing needs the flow (the table's 0).
+        motor_need = 0.0
+        u_pump_e = 0.0
+        if edrive_loop and not key_off:
+            motor_need = np.interp(s0[S_TM], motor_T, motor_u)
+            if motor_need > 0.0 or p_motor_el[n, 5] > 0.0 or p_motor_el[n, 6] > 0.0:
+                u_pump_e = min(max(motor_need, par[P_PUMP_E_MIN]), 1.0)
         # Condenser fan (spec v2 5.4): three stages on the filtered discharge pressure while the compressor is
-        # commanded, at least one while ram air is weak; fan and ram air add over one quadratic resistance.
+        # commanded, at least one while ram air is weak, and at least the motor's requirement; fan and ram air
+        # add over one quadratic resistance.
         surrogate = source == SRC_SURROGATE
         fan_1, fan_2, fan_3 = _fan_stages(s0[S_YF + Y_PD], mem[M_FAN_1], mem[M_FAN_2], mem[M_FAN_3], par)
         v_ram = par[P_RAM_AREA] * p_motor_el[n, 4]
@@ -799,6 +898,7 @@ def run_loop(
                 u_fan = 1.0  # the mode models carry no discharge pressure: the fan at full flow
             elif v_ram < par[P_RAM_FLOOR]:
                 u_fan = max(u_fan, 1.0 / 3.0)
+        u_fan = max(u_fan, motor_need)
         v_fan = u_fan * par[P_FAN_VMAX]
         v_front = max(math.sqrt(v_fan * v_fan + v_ram * v_ram), par[P_V_FRONT_MIN])
         # The maps' fan axis ends at the fan's full flow (the condenser LUT's): more ram air is not credited.
@@ -971,6 +1071,9 @@ def run_loop(
         p_fan = par[P_FAN_PNOM] * (v_fan / par[P_FAN_VNOM]) ** 3
         p_blower = par[P_BLOWER_POWER] * blower**3
         p_pump = par[P_PUMP_REF] * (u_pump * par[P_PUMP_NMAX] / 1000.0) ** 3
+        p_pump_e = par[P_PUMP_E_POWER] * u_pump_e**3
+        # Low-voltage loads through the DC-DC converter: the pack gives p_lv / eta_dc, the rest heats it.
+        p_lv = p_blower + p_fan + p_pump + p_pump_h + p_pump_e
         # (c) battery ---------------------------------------------------------------
         regen = soc < par[P_SOC_MAX]
         if not regen:
@@ -999,7 +1102,7 @@ def run_loop(
         src = E - a_rc
         v_min = ns * par[P_VMIN]
         cap = v_min * (src - v_min) / r_eff
-        p_loads = p_aux + p_comp + p_ptc + p_ptcw + p_heater + p_blower + p_fan + p_pump + p_pump_h
+        p_loads = p_aux + p_comp + p_ptc + p_ptcw + p_heater + p_lv / eta_dc
         p_grid = 0.0
         if p_motor_el[n, 2] > 0.0:  # preconditioning, plugged in: the grid feeds the loads
             p_grid = p_loads
@@ -1117,6 +1220,33 @@ def run_loop(
             s1[S_W] = max(w_new, 0.0)
         if surrogate:
             s1[S_TH] = T_H
+        # E-drive loop E: motor, inverter and DC-DC eliminated onto the loop, the radiator implicit in it.
+        p_loss = 0.0 if key_off else (p_motor_el[n, 5] if regen else p_motor_el[n, 6])
+        q_drive = p_loss if edrive_loop else 0.0
+        q_dcdc = p_lv * (1.0 / eta_dc - 1.0)
+        rad_in = mem[M_RAD_IN]
+        q_rad = 0.0
+        T_air_rad = T_amb
+        if edrive_loop:
+            T_E = s0[S_TE]
+            rad_in = _relay(rad_in, T_E, par[P_RAD_OFF], par[P_RAD_ON] - par[P_RAD_OFF])
+            mdot_e = u_pump_e * par[P_MDOT_E_MAX]
+            g_m, g_d = jacket_conductances(par, u_pump_e)
+            g_rad = 0.0
+            if rad_in > 0.0 and mdot_e > 0.0:
+                # Stacked front end: the condenser's heat warms the radiator's air.
+                c_front = p_atm / (_R_AIR * T_amb) * v_front * _CP_AIR
+                q_cond = y[Y_QCOND]
+                if math.isfinite(q_cond) and q_cond > 0.0:
+                    T_air_rad = T_amb + q_cond / c_front
+                x_rad[0], x_rad[1], x_rad[2] = mdot_e, T_E, v_front
+                map_interp(rad_knots, rad_starts, rad_table, x_rad, ua_rad)
+                c_e = mdot_e * par[P_CP_H]
+                g_rad = crossflow_effectiveness(c_front, c_e, ua_rad[0]) * min(c_front, c_e)
+            q_rad = edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_air_rad)
+        else:
+            for k in (S_TM, S_TI, S_TD, S_TE):
+                s1[k] = s0[k]
         # Vent air (the air node's inflow temperature) over the step.
         T_v = T_ev_mean + (p_ptc + q_hc) / c_air if mdot_air > 0.0 else np.nan
         # Controller memory for the next step ---------------------------------------
@@ -1135,9 +1265,10 @@ def run_loop(
         mem[M_CAB_OFF] = u_cab <= 0.0
         mem[M_RETRY_STEP] = -1.0
         mem[M_FAN_1], mem[M_FAN_2], mem[M_FAN_3] = fan_1, fan_2, fan_3
+        mem[M_RAD_IN] = rad_in
         mem[M_T] = t + dt
         # Per-step record --------------------------------------------------------
-        p_hvac = p_comp + p_ptc + p_ptcw + p_heater + p_blower + p_fan + p_pump + p_pump_h
+        p_hvac = p_comp + p_ptc + p_ptcw + p_heater + (p_blower + p_fan + p_pump + p_pump_h) / eta_dc
         o[O_P_MOTOR_EL] = p_mel
         o[O_P_BATTERY] = volt * current
         o[O_P_HVAC] = p_hvac
@@ -1191,6 +1322,14 @@ def run_loop(
         o[O_P_AUX] = p_aux
         o[O_FAN] = u_fan
         o[O_V_FRONT] = v_front
+        o[O_P_PUMP_E] = p_pump_e
+        o[O_P_EDRIVE_AUX] = p_pump_e / eta_dc
+        o[O_Q_DRIVE] = q_drive
+        o[O_Q_DCDC] = q_dcdc if edrive_loop else 0.0
+        o[O_Q_RAD] = q_rad
+        o[O_T_AIR_RAD] = T_air_rad
+        o[O_U_PUMP_E] = u_pump_e
+        o[O_RAD_IN] = rad_in
         modes[n] = mode
         flags[n] = flag
         n += 1

@@ -19,6 +19,7 @@ from typing import Any, ClassVar
 from evtms.errors import EvtmsInputError
 from evtms.params import Relation, choice, ordered, override, param
 from evtms.system.battery import BatteryParams
+from evtms.system.edrive import EdriveParams
 from evtms.system.vehicle import VehicleParams
 
 
@@ -466,13 +467,14 @@ class SystemParams:
     controls: ControlParams = field(default_factory=ControlParams)
     climate: ClimateParams = field(default_factory=ClimateParams)
     hvac: HvacParams = field(default_factory=HvacParams)
+    edrive: EdriveParams = field(default_factory=EdriveParams)
 
     def to_json(self) -> str:
         """Every parameter, by table, as JSON (recorded in the output file)."""
         return json.dumps({k: dataclasses.asdict(getattr(self, k)) for k in SECTIONS}, sort_keys=True)
 
 
-SECTIONS = ("vehicle", "battery", "cabin", "coolant", "controls", "climate", "hvac")
+SECTIONS = ("vehicle", "battery", "cabin", "coolant", "controls", "climate", "hvac", "edrive")
 
 #: v1 names that moved or went: (table, name) -> what to say instead of applying them.
 MIGRATED: dict[tuple[str, str], str] = {

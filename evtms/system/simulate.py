@@ -24,6 +24,7 @@ import numpy as np
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
 from evtms.system.drive_cycles import DriveCycle
+from evtms.system.edrive import MOTOR_REQUIREMENT, jacket_slots, radiator_table
 from evtms.system.inputs import INPUT_NAMES, InputValue, check_inputs, per_step
 from evtms.system.mode_model import MODE_CODES, ModeModels
 from evtms.system.params import FAN_STAGE_CURVES, SECTIONS, WALLS, SystemParams
@@ -87,6 +88,13 @@ RECORD_VARIABLES: dict[str, tuple[str, str]] = {
     "P_blower": ("W", "cabin blower power"),
     "P_fan": ("W", "condenser fan power"),
     "P_pump": ("W", "coolant pump power"),
+    "P_pump_ed": ("W", "e-drive loop pump power (low-voltage side)"),
+    "Q_edrive": ("W", "e-drive loss into the motor and inverter (0 with edrive.model ambient: to the ambient)"),
+    "Q_dcdc": ("W", "DC-DC converter loss feeding the low-voltage loads"),
+    "Q_radiator": ("W", "radiator heat flow from the e-drive coolant to the air (< 0 from the air)"),
+    "T_air_radiator": ("K", "air entering the radiator (behind the condenser)"),
+    "u_pump_ed": ("1", "e-drive loop pump command"),
+    "radiator_in": ("1", "share of the interval the radiator was in the loop (not bypassed)"),
     "Q_evaporator": ("W", "evaporator heat flow from the cabin air, total (> 0 cooling)"),
     "Q_latent": ("W", "latent part of Q_evaporator (condensate)"),
     "Q_chiller": ("W", "chiller heat flow from the coolant (> 0 cooling)"),
@@ -111,6 +119,10 @@ RECORD_VARIABLES: dict[str, tuple[str, str]] = {
     "T_evap_target": ("K", "evaporator-air target while the cabin coil is requested"),
     "recirculation": ("1", "recirculated share of the blower's air"),
     "T_heater_loop": ("K", "heater-core loop coolant temperature (heater-core inlet)"),
+    "T_motor": ("K", "motor temperature"),
+    "T_inverter": ("K", "inverter temperature"),
+    "T_dcdc": ("K", "DC-DC converter temperature"),
+    "T_coolant_ed": ("K", "e-drive loop coolant temperature"),
     "T_heater_target": ("K", "heater-core loop target while its PTC runs"),
     "Q_heater_core": ("W", "heat from the heater core to the cabin air"),
     "P_ptcw": ("W", "coolant PTC power (heater-core loop)"),
@@ -124,9 +136,12 @@ RECORD_VARIABLES: dict[str, tuple[str, str]] = {
     "compressor_speed": ("1", "compressor speed command, fraction of maximum"),
     "blower": ("1", "blower command"),
     "u_pump": ("1", "coolant pump command"),
-    "fan": ("1", "condenser fan command: the share of its stages on"),
+    "fan": ("1", "front-end fan command: the condenser's stages or the motor's requirement, the larger"),
     "V_front": ("m3 s-1", "air flow through the condenser, fan and ram air"),
 }
+
+#: The e-drive pump's and fan's motor-temperature requirement as the loop reads it: nodes [K], commands [1].
+MOTOR_TABLE = tuple(np.asarray(MOTOR_REQUIREMENT[k], np.float64) for k in ("T_motor", "command"))
 
 # Per-step output column -> record variable, for the interval means.
 _MEANS = {
@@ -165,6 +180,13 @@ _MEANS = {
     "u_pump": L.O_U_PUMP,
     "fan": L.O_FAN,
     "V_front": L.O_V_FRONT,
+    "P_pump_ed": L.O_P_PUMP_E,
+    "Q_edrive": L.O_Q_DRIVE,
+    "Q_dcdc": L.O_Q_DCDC,
+    "Q_radiator": L.O_Q_RAD,
+    "T_air_radiator": L.O_T_AIR_RAD,
+    "u_pump_ed": L.O_U_PUMP_E,
+    "radiator_in": L.O_RAD_IN,
 }
 _STATES = {
     "SOC": L.S_SOC,
@@ -177,6 +199,10 @@ _STATES = {
     "T_interior": L.S_TINT,
     "v_rc": L.S_VRC,
     "T_heater_loop": L.S_TH,
+    "T_motor": L.S_TM,
+    "T_inverter": L.S_TI,
+    "T_dcdc": L.S_TD,
+    "T_coolant_ed": L.S_TE,
 }
 
 
@@ -192,7 +218,7 @@ def step_count(duration: float, dt: float) -> int:
 
 #: Bytes per time step of the arrays :func:`simulate` allocates for the loop: states and outputs, the
 #: step's motor power and external input columns, its edges, length and plug flag (float64), mode and flags.
-STEP_BYTES = 8 * (L.N_S + L.N_O + 4 + len(INPUT_NAMES) + 3) + 1 + 2
+STEP_BYTES = 8 * (L.N_S + L.N_O + 6 + len(INPUT_NAMES) + 3) + 1 + 2
 #: Bytes per output record: every record variable and the time (float64), mode and flags.
 RECORD_BYTES = 8 * (len(RECORD_VARIABLES) + 1) + 1 + 2
 
@@ -302,7 +328,7 @@ def derived_slots(
     }
     for w in WALLS:
         slots[f"G_{w.upper()}"] = c.wall_conductance(w)
-    return slots
+    return slots | jacket_slots(params.edrive, k.density, k.cp, k.viscosity, k.conductivity)
 
 
 def pack_parameters(
@@ -336,6 +362,9 @@ def initial_state(
     s[L.S_W] = L.humidity_ratio(T_cab, c.rh_cabin, P_ATM)
     s[L.S_TH] = T_cab  # the heater-core loop sits in the dashboard, at the cabin's temperature
     s[L.S_YF + L.Y_PS] = s[L.S_YF + L.Y_PD] = p_equalised
+    T_ed = params.edrive.T_init if params.edrive.T_init is not None else base
+    for i in (L.S_TM, L.S_TI, L.S_TD, L.S_TE):
+        s[i] = T_ed
     return s
 
 
@@ -436,6 +465,7 @@ def simulate(
             plugged,
             _key_off(cycle, edges),
             np.diff(_distance(cycle, edges)) / dts,  # mean vehicle speed (ram air at the condenser)
+            *(_step_means(cycle.time, seg[r].P_loss, edges) for r in (True, False)),
         ]
     )
     ext = per_step(inputs, edges - precondition)
@@ -451,7 +481,8 @@ def simulate(
     ocv = np.ascontiguousarray(tables.ocv_V[:, 0])
     args = (
         par, dts, p_motor, tables.soc, tables.temperature_K, ocv, np.ascontiguousarray(tables.r0_ohm),
-        refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), states, out, modes, flags, ext,
+        refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), *MOTOR_TABLE, *radiator_table(),
+        states, out, modes, flags, ext,
     )  # fmt: skip
     loop0 = time.perf_counter()
     done, solves, stop = _run_loop(args, model, refrigerant, mode_models)
@@ -478,6 +509,8 @@ def simulate(
         "aux_energy_kWh": float(np.sum(out[:, L.O_P_AUX] * dts * (1.0 - p_motor[:done, 2])) / 3.6e6),
         **_consumption_split(out, dts * (1.0 - p_motor[:done, 2])),
         "battery_loss_kWh": float(np.sum(out[:, L.O_Q_GEN] * dts) / 3.6e6),
+        "edrive_cooling_kWh": float(np.sum(out[:, L.O_P_EDRIVE_AUX] * dts * (1.0 - p_motor[:done, 2])) / 3.6e6),
+        "T_motor_max_degC": float(np.max(states[:, L.S_TM]) - 273.15),
         "soc_end": float(states[-1, L.S_SOC]),
         # None for a parked run, as range_km: a floor on the distance would report 1e10 kWh/100 km.
         "consumption_kWh_per_100km": float(E / 3.6e6 / distance_km * 100.0) if distance_km > 0 else None,
@@ -761,9 +794,27 @@ def ledgers(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np.ndarra
     res["cabin"] = rel(stored - np.sum(flows), np.sum(through * dts))
     ref = out[:, L.O_Q_COND] - out[:, L.O_Q_EVAP] - out[:, L.O_Q_CHILLER] - out[:, L.O_W_FLUID]
     res["refrigerant"] = rel(np.sum(ref * dts), np.sum(out[:, L.O_W_FLUID] * dts) + 1.0)
-    uses = (motor + out[:, L.O_P_AUX] + out[:, L.O_P_HVAC] - out[:, L.O_P_GRID] + out[:, L.O_Q_GEN]) * dts + Erc
+    res["edrive"] = _edrive_ledger(par, states, out, dts)
+    uses = out[:, L.O_P_AUX] + out[:, L.O_P_HVAC] + out[:, L.O_P_EDRIVE_AUX] - out[:, L.O_P_GRID]
+    uses = (motor + uses + out[:, L.O_Q_GEN]) * dts + Erc
     res["system"] = rel(np.sum(E_chem - uses), np.sum(np.abs(E_chem)))
     return res
+
+
+def _edrive_ledger(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np.ndarray) -> float:
+    """Relative residual of the e-drive loop's heat (motor, inverter, DC-DC and coolant E): the change of
+    their stored heat against the drive's and the DC-DC's losses, the motor's loss to the ambient and the
+    radiator's heat."""
+    caps = (par[L.P_C_M], par[L.P_C_I], par[L.P_C_D], par[L.P_C_E])
+    idx = (L.S_TM, L.S_TI, L.S_TD, L.S_TE)
+    stored = sum(c * (states[-1, i] - states[0, i]) for c, i in zip(caps, idx, strict=True))
+    to_motor = par[L.P_K1_M] * (par[L.P_T_AMB] - states[1:, L.S_TM])
+    if int(par[L.P_EDRIVE_MODEL]) != L.EDRIVE_LOOP:
+        to_motor = np.zeros_like(to_motor)
+    sources = out[:, L.O_Q_DRIVE] + out[:, L.O_Q_DCDC]
+    flows = np.sum((sources + to_motor - out[:, L.O_Q_RAD]) * dts)
+    through = np.sum((sources + np.abs(to_motor) + np.abs(out[:, L.O_Q_RAD])) * dts)
+    return float(abs(stored - flows) / max(through, 1e-300))
 
 
 def _records(cycle, par, states, out, modes, flags, dts, drive, m):
