@@ -57,7 +57,7 @@ def test_a_simulation_recorded_every_millisecond_is_refused_before_any_work(tmp_
         *["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--dt", "0.001", "--output-every", "0.001", "-o", "o.nc"],
         message="--dt 0.001 s with --output-every 0.001 s gives 1,800,000 steps and 1,800,001 records",
     )
-    assert "allowed: at most 1,500 MB" in line
+    assert "allowed: at most 1,750 MB" in line
 
 
 def test_every_run_the_step_limit_and_the_range_test_allow_fits_the_array_bound():

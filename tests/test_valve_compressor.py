@@ -143,5 +143,14 @@ def test_thesis_grid_sizes():
     for name, bench in BENCHES.items():
         grid = build_grid(bench, "thesis", {})
         sizes[name] = int(np.prod([len(v) for v in grid.values()]))
-    assert sizes == {"condenser": 768, "evaporator": 768, "expansion_valve": 36, "compressor": 36, "chiller": 288}
-    assert sum(sizes.values()) == 1896
+    assert sizes == {
+        "condenser": 768,
+        "evaporator": 768,
+        "expansion_valve": 36,
+        "compressor": 36,
+        "chiller": 288,
+        "radiator": 192,
+        "heater_core": 144,
+        "wcc": 768,
+    }
+    assert sum(sizes.values()) == 3000

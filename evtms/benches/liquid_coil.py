@@ -271,6 +271,6 @@ def liquid_coil_bench(name: str, title: str, parameters, presets: dict, evaluate
         valid_flags=VALID_FLAGS,
         axis_specs=AXIS_SPECS,
         variables=VARIABLES,
-        surface_axes=(("V_air", "T_coolant_in"), ("mdot_coolant", "V_air")),
-        main_output=("Q", "V_air"),
+        surface_axes=(("V_air", "T_coolant_in"), ("T_air_in", "V_air")),
+        main_output=("Q", "mdot_coolant"),
     )

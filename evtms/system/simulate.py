@@ -35,10 +35,10 @@ from evtms.system.vehicle import drive_segments
 P_ATM = 101325.0  # [Pa]
 #: Most time steps one simulation may take (23 days at 1 s; the loop's arrays take ~0.7 kB per step).
 MAX_STEPS = 2_000_000
-#: Most bytes of the step and record arrays of one simulation (:func:`run_bytes`): twice those of the
-#: longest run at the default 1 s (a week's cycle or range test after a day's preconditioning, 0.75 GB),
-#: and more than :data:`MAX_STEPS` steps with sparse records take (1.35 GB). Temporaries add about a quarter.
-MAX_RUN_BYTES = 1_500_000_000
+#: Most bytes of the step and record arrays of one simulation (:func:`run_bytes`): nearly twice those of the
+#: longest run at the default 1 s (a week's cycle or range test after a day's preconditioning, 0.91 GB),
+#: and more than :data:`MAX_STEPS` steps with sparse records take (1.61 GB). Temporaries add about a quarter.
+MAX_RUN_BYTES = 1_750_000_000
 #: ``--mode``: auto, or a forced mode by name (:data:`evtms.system.mode_model.MODE_CODES`).
 MODES = {"auto": -1, **MODE_CODES}
 #: How the refrigerant loop (and, for surrogates, the thermal plant) is computed.
