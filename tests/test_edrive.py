@@ -16,7 +16,7 @@ from test_simulate import params, refrigerant  # noqa: F401 - the synthetic maps
 
 from evtms.system import loop as L  # noqa: N812
 from evtms.system.drive_cycles import drive_cycle
-from evtms.system.edrive import MOTOR_REQUIREMENT, RADIATOR_NODES, EdriveParams, jacket_slots, radiator_table
+from evtms.system.edrive import CORE_AIR, CORE_NODES, MOTOR_REQUIREMENT, EdriveParams, core_table, jacket_slots
 from evtms.system.params import SystemParams
 from evtms.system.simulate import declared_slots, simulate
 
@@ -61,7 +61,7 @@ def test_network_follows_its_matrix_exponential():
     s0[cols] = T0
     worst = 0.0
     for n in range(1, 36001):  # one hour
-        q_rad = L.edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, 0.0, T_amb)
+        q_rad = L.edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, 0.0, T_amb, 0.0)
         assert q_rad == 0.0
         s0, s1 = s1, s0
         if n % 600 == 0:
@@ -87,23 +87,25 @@ def test_jacket_conductance_rises_with_flow_and_joins_its_laminar_and_turbulent_
         assert L.jacket_conductance(x, re1, pr, dl, ka) == pytest.approx(spec, rel=0.2)
 
 
-def test_radiator_table_is_the_bench_at_its_nodes(tmp_path, monkeypatch):
+@pytest.mark.parametrize("component", ["radiator", "heater_core"])
+def test_core_table_is_the_bench_at_its_nodes(component, tmp_path, monkeypatch):
     from evtms.benches.liquid_coil import solve_liquid_coil
     from evtms.benches.parameters import Parameters
     from evtms.params import Environment
-    from evtms.system.edrive import RADIATOR_AIR
 
     monkeypatch.setenv("EVTMS_CACHE_DIR", str(tmp_path))
-    knots, starts, table = radiator_table()
-    again = radiator_table()[2]  # from the cache now
+    knots, starts, table = core_table(component)
+    again = core_table(component)[2]  # from the cache now
     assert np.array_equal(table, again) and any(tmp_path.iterdir())
-    shape = tuple(len(v) for v in RADIATOR_NODES.values())
+    nodes = CORE_NODES[component]
+    shape = tuple(len(v) for v in nodes.values())
     ua = table[:, 0].reshape(shape)
     assert np.all(np.isfinite(ua)) and np.all(ua > 0)
     rng = np.random.default_rng(7)
     idx = [tuple(int(rng.integers(n)) for n in shape) for _ in range(5)]
-    m, T, V = (np.array([RADIATOR_NODES[a][i[k]] for i in idx]) for k, a in enumerate(RADIATOR_NODES))
-    bench = solve_liquid_coil(Parameters().radiator, Environment(), m, T, V, *(np.full(5, v) for v in RADIATOR_AIR))
+    m, T, V = (np.array([nodes[a][i[k]] for i in idx]) for k, a in enumerate(nodes))
+    core = getattr(Parameters(), component)
+    bench = solve_liquid_coil(core, Environment(), m, T, V, *(np.full(5, v) for v in CORE_AIR))
     assert np.array_equal(np.array([ua[i] for i in idx]), bench["UA"])
     # More air and more coolant conduct more.
     assert np.all(np.diff(ua, axis=2) > 0) and np.all(np.diff(ua, axis=0) > 0)

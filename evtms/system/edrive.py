@@ -19,7 +19,7 @@ Per the project's system spec (v2 sections 5.1-5.5, 5.8):
   ``radiator_on`` (a relay on the loop's temperature, MWc ``Radiator
   Bypass``), is a steady cross-flow exchanger, coolant mixed and air
   unmixed, its conductance ``UA(mdot, T_coolant, V_air)`` tabulated from the
-  radiator bench (:mod:`evtms.benches.radiator`, :func:`radiator_table`),
+  radiator bench (:mod:`evtms.benches.radiator`, :func:`core_table`),
   its air the front end's fan and ram air after the condenser (stacked);
 - the condenser fan also serves the motor: its command is the larger of the
   condenser's stages and the same motor-temperature table (MWc ``Fan
@@ -63,18 +63,26 @@ MOTOR_REQUIREMENT = {
     "command": (0.0, 0.0, 0.1, 0.3, 0.5, 0.7, 1.0, 1.0),
 }
 
-#: Nodes of the radiator's conductance table: coolant mass flow [kg/s], coolant temperature [K] and air
-#: volume flow [m3/s] (the e-drive pump's 0-0.36 kg/s; the coolant over its table, -35 to 100 degC; natural draft
-#: to 130 km/h).
-RADIATOR_NODES = {
-    "mdot_coolant": (0.02, 0.05, 0.1, 0.15, 0.2, 0.27, 0.36, 0.45),
-    "T_coolant_in": (238.15, *(243.15 + 10.0 * i for i in range(14))),
-    "V_air": (0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.2, 1.45),
+#: Nodes of the coolant-to-air cores' conductance tables by bench: coolant mass flow [kg/s], coolant
+#: temperature [K] and air volume flow [m3/s]. The radiator: the e-drive pump's 0-0.36 kg/s, the coolant over
+#: its table (-35 to 100 degC), natural draft to 130 km/h; the heater core: the heating loop's pump, the blend
+#: door's share of the blower's 0-0.3 m3/s.
+CORE_NODES = {
+    "radiator": {
+        "mdot_coolant": (0.02, 0.05, 0.1, 0.15, 0.2, 0.27, 0.36, 0.45),
+        "T_coolant_in": (238.15, *(243.15 + 10.0 * i for i in range(14))),
+        "V_air": (0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.2, 1.45),
+    },
+    "heater_core": {
+        "mdot_coolant": (0.02, 0.05, 0.1, 0.15, 0.2, 0.27, 0.36, 0.45),
+        "T_coolant_in": (238.15, *(243.15 + 10.0 * i for i in range(14))),
+        "V_air": (0.002, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4),
+    },
 }
-#: The air the radiator's conductance is tabulated at [K], [1]: its properties move the air side by a few
+#: The air the cores' conductances are tabulated at [K], [1]: its properties move the air side by a few
 #: per cent over the ambients of a drive (k and mu of air rise about 0.3 % per K); the coolant's viscosity,
 #: which changes tenfold, is an axis.
-RADIATOR_AIR = (293.15, 0.4)
+CORE_AIR = (293.15, 0.4)
 
 
 @dataclass(frozen=True)
@@ -162,19 +170,22 @@ def jacket_slots(edrive: EdriveParams, density: float, cp: float, viscosity: flo
     return slots
 
 
-def radiator_table(core: CoilParams | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The radiator's conductance ``UA`` [W/K] over :data:`RADIATOR_NODES`, packed for the loop.
+def core_table(component: str, core: CoilParams | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A coolant-to-air core's conductance ``UA`` [W/K] over :data:`CORE_NODES`, packed for the loop.
 
-    Computed by the radiator bench's core (:func:`evtms.benches.liquid_coil.solve_liquid_coil`:
-    Hausen / Gnielinski in the tubes, Chang and Wang's louvred fin outside)
-    with the air at :data:`RADIATOR_AIR`, once per core geometry: cached as
-    arrays (:func:`evtms.luts.cache.cached_arrays`), so a run with the cache
-    warm imports neither the bench nor CoolProp.
+    Computed by the core's bench (``radiator`` or ``heater_core``, both
+    :func:`evtms.benches.liquid_coil.solve_liquid_coil`: Hausen / Gnielinski
+    in the tubes, Chang and Wang's louvred fin outside) with the air at
+    :data:`CORE_AIR`, once per core geometry: cached as arrays
+    (:func:`evtms.luts.cache.cached_arrays`), so a run with the cache warm
+    imports neither the bench nor CoolProp.
 
     Parameters
     ----------
+    component : str
+        ``radiator`` or ``heater_core``.
     core : CoilParams, optional
-        The radiator's core (default: the radiator bench's).
+        The core (default: the bench's).
 
     Returns
     -------
@@ -184,24 +195,25 @@ def radiator_table(core: CoilParams | None = None) -> tuple[np.ndarray, np.ndarr
     """
     from evtms.luts.cache import cached_arrays
 
+    nodes = CORE_NODES[component]
     if core is None:
         from evtms.benches.parameters import Parameters
 
-        core = Parameters().radiator
-    recipe = {"core": dataclasses.asdict(core), "nodes": RADIATOR_NODES, "air": RADIATOR_AIR}
+        core = getattr(Parameters(), component)
+    recipe = {"core": dataclasses.asdict(core), "nodes": nodes, "air": CORE_AIR}
 
     def build() -> tuple[dict[str, np.ndarray], dict]:
         from evtms.benches.liquid_coil import solve_liquid_coil
         from evtms.params import Environment
 
-        grids = np.meshgrid(*(np.asarray(v, float) for v in RADIATOR_NODES.values()), indexing="ij")
+        grids = np.meshgrid(*(np.asarray(v, float) for v in nodes.values()), indexing="ij")
         m, T, V = (g.reshape(-1) for g in grids)
-        T_air, rh = (np.full(m.size, v) for v in RADIATOR_AIR)
+        T_air, rh = (np.full(m.size, v) for v in CORE_AIR)
         ua = solve_liquid_coil(core, Environment(), m, T, V, T_air, rh)["UA"]
         return {"ua": ua.reshape(-1, 1)}, {}
 
-    arrays, _ = cached_arrays("radiator-ua", [], recipe, build)
-    knots = np.concatenate([np.asarray(v, float) for v in RADIATOR_NODES.values()])
-    starts = np.zeros(len(RADIATOR_NODES) + 1, np.int64)
-    starts[1:] = np.cumsum([len(v) for v in RADIATOR_NODES.values()])
+    arrays, _ = cached_arrays(f"{component.replace('_', '-')}-ua", [], recipe, build)
+    knots = np.concatenate([np.asarray(v, float) for v in nodes.values()])
+    starts = np.zeros(len(nodes) + 1, np.int64)
+    starts[1:] = np.cumsum([len(v) for v in nodes.values()])
     return knots, starts, np.ascontiguousarray(arrays["ua"], dtype=np.float64)

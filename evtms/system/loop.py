@@ -84,8 +84,8 @@ MODE_NAMES = ("off", "BH", "BC", "CC", "CH", "CH+BH", "CH+BC", "CC+BC")
 # Flag bits of the output's ``flags``.
 (
     F_POWER_LIMITED, F_REF_CLIPPED, F_SURROGATE_OOR, F_REGEN_CUT, F_FREEZE_CUTOFF, F_TRACTION_CUT,
-    F_PHYSICS_FALLBACK, F_ECONOMY, F_REHEAT, F_KEY_OFF, F_SAFETY_RELAY,
-) = (1 << i for i in range(11))  # fmt: skip
+    F_PHYSICS_FALLBACK, F_ECONOMY, F_REHEAT, F_KEY_OFF, F_SAFETY_RELAY, F_FROST_OUTSIDE, F_HP_BACKUP, F_HP_LOCKED,
+) = (1 << i for i in range(14))  # fmt: skip
 FLAG_NAMES = (
     "power_limited",
     "ref_clipped",
@@ -98,19 +98,22 @@ FLAG_NAMES = (
     "reheat",
     "key_off",
     "safety_relay",
+    "frost_outside_hx",
+    "hp_backup",
+    "hp_locked",
 )
 
 # Where the refrigerant loop's steady targets come from (``source``).
 SRC_MAPS, SRC_HELD, SRC_SURROGATE = 0, 1, 2
 # Map ids of ``held`` (and of the physics requests).
-MAP_AC, MAP_CHILLER, MAP_ACCH = 0, 1, 2
-# Refrigerant circuits (output ``circuit``): none, the cabin evaporator, the chiller, both.
-CIRCUIT_NONE, CIRCUIT_CABIN, CIRCUIT_CHILLER, CIRCUIT_BOTH = range(4)
-CIRCUIT_NAMES = ("none", "cabin", "chiller", "cabin+chiller")
+MAP_AC, MAP_CHILLER, MAP_ACCH, MAP_HP = 0, 1, 2, 3
+# Refrigerant circuits (output ``circuit``): none, the cabin evaporator, the chiller, both, the heat pump.
+CIRCUIT_NONE, CIRCUIT_CABIN, CIRCUIT_CHILLER, CIRCUIT_BOTH, CIRCUIT_HP = range(5)
+CIRCUIT_NAMES = ("none", "cabin", "chiller", "cabin+chiller", "hp")
 # What the e-drive's losses heat (``edrive.model``): the coolant loop E, or the ambient directly.
 EDRIVE_LOOP, EDRIVE_AMBIENT = 0, 1
 # Cabin heating options (``hvac.heating``).
-HEATING_PTC_AIR, HEATING_PTC_COOLANT = 0, 1
+HEATING_PTC_AIR, HEATING_PTC_COOLANT, HEATING_HEAT_PUMP = 0, 1, 2
 
 # ``held``: the last refrigerant point the caller solved (SRC_HELD): map id, inputs, targets, fallback.
 # Map inputs a request carries (the largest map's axes: ac+chiller's seven).
@@ -125,8 +128,10 @@ N_H = H_FALLBACK + 1
     M_COMP_ON, M_T_COMP, M_I_EV, M_FROST_OK, M_CH_FROST_OK, M_I_CH, M_I_PTC, M_I_PTCW, M_I_BLEND,
     M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
     M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3, M_STOP, M_RAD_IN,
+    M_HP_ON, M_T_HP, M_I_HP, M_U_HP, M_PS_LOW, M_HP_UNTIL, M_TRIP_1, M_TRIP_2, M_TRIP_3,
+    M_BACKUP, M_T_BACKUP, M_SRC_1, M_SRC_2, M_SRC_3, M_LAST_CIRCUIT,
     N_M,
-) = range(45)  # fmt: skip
+) = range(60)  # fmt: skip
 
 # Why a run ended before its last step (``mem[M_STOP]``): not at all, SOC at its floor, or a mode model's state
 # left the physical range (the step that would have put it there is not done).
@@ -157,14 +162,15 @@ N_X = 6
     P_BAND, P_T_CLEAR, P_TAU_REQ, P_TEV_MIN, P_TEV_MAX, P_EV_KP, P_EV_KI, P_DT_CYC, P_T_ON_MIN, P_T_OFF_MIN,
     P_TFR_OFF, P_TFR_ON, P_PF_OFF, P_PF_ON, P_AC_TAMB_MIN, P_RH_DEHUM, P_BLEND_KP, P_BLEND_KI,
     P_HEATING, P_PTC_MAX, P_PTC_KP, P_PTC_KI, P_PTCW_MAX, P_PTCW_KP, P_PTCW_KI, P_TH_MAX, P_C_H,
-    P_MDOT_H, P_CP_H, P_PUMP_H_POWER, P_HC_UA, P_HC_AIR_REF, P_BH_TC_MAX, P_BH_TB_MAX, P_BC_TB_MIN,
+    P_MDOT_H, P_CP_H, P_PUMP_H_POWER, P_BH_TC_MAX, P_BH_TB_MAX, P_BC_TB_MIN,
     P_FAN_VMAX, P_FAN_PNOM, P_FAN_VNOM, P_RAM_AREA, P_V_FRONT_MIN, P_RAM_FLOOR,
     P_FAN_P1, P_FAN_D1, P_FAN_P2, P_FAN_P3, P_FAN_D23,
     P_EDRIVE_MODEL, P_C_M, P_K1_M, P_C_I, P_F_INV, P_C_D, P_ETA_DC, P_C_E, P_PUMP_E_POWER, P_PUMP_E_MIN,
     P_RAD_ON, P_RAD_OFF, P_JACKET_PR, P_MDOT_E_MAX, P_JACKET_M_RE1, P_JACKET_M_DL, P_JACKET_M_KA,
     P_JACKET_D_RE1, P_JACKET_D_DL, P_JACKET_D_KA,
+    P_HP_T_MIN, P_HP_PS_MIN, P_HP_KP, P_HP_KI, P_HP_BACKUP_DELAY, P_HP_RAD_BAND, P_HP_RESTART, P_HP_TRIPS_MAX,
     N_P,
-) = range(140)  # fmt: skip
+) = range(146)  # fmt: skip
 
 # States at the step boundaries.
 (
@@ -184,8 +190,9 @@ N_S = S_YF + N_Y + 4
     O_T_EVAP_AIR, O_T_VENT_TARGET, O_T_EVAP_TARGET, O_RECIRC, O_G_IN, O_T_IN_SRC, O_W_IN_SRC, O_G_BC, O_Q_EXT,
     O_Q_HC, O_P_PTCW, O_P_PUMP_H, O_BLEND, O_T_H_TARGET, O_COMP_ON, O_CIRCUIT, O_P_AUX, O_FAN, O_V_FRONT,
     O_P_PUMP_E, O_P_EDRIVE_AUX, O_Q_DRIVE, O_Q_DCDC, O_Q_RAD, O_T_AIR_RAD, O_U_PUMP_E, O_RAD_IN,
+    O_Q_WCC, O_Q_CH_E,
     N_O,
-) = range(62)  # fmt: skip
+) = range(64)  # fmt: skip
 
 #: State columns a mode model carries (:data:`evtms.system.mode_model.STATE_NAMES` order).
 SURROGATE_STATES = (
@@ -384,6 +391,21 @@ def jacket_conductance(u_pump: float, re_1: float, pr: float, d_over_l: float, k
 
 
 @jit
+def heating_loop_target(par, T_in, T_vs, T_H, mdot_air, rho_in, sp_cohx, hc_knots, hc_starts, hc_table, x_hc, ua_hc):
+    """The heater-core loop's target temperature [K]: the coolant that would bring the air at ``T_in`` to the
+    vent target ``T_vs`` through the whole core (``T_in + (T_vs - T_in) / eps``), or the given ``SP_CoHX``;
+    at least 3 K above the vent target, at most ``T_H_max``. ``x_hc``, ``ua_hc``: scratch."""
+    if not math.isnan(sp_cohx):
+        return sp_cohx
+    mdot_h = par[P_MDOT_H]
+    x_hc[0], x_hc[1], x_hc[2] = mdot_h, T_H, mdot_air / rho_in
+    map_interp(hc_knots, hc_starts, hc_table, x_hc, ua_hc)
+    eps_full = crossflow_effectiveness(mdot_air * _CP_AIR, mdot_h * par[P_CP_H], ua_hc[0])
+    T_H_t = T_in + (T_vs - T_in) / max(eps_full, 0.05)
+    return max(min(T_H_t, par[P_TH_MAX]), min(T_vs + 3.0, par[P_TH_MAX]))
+
+
+@jit
 def jacket_conductances(par, u_pump: float) -> tuple[float, float]:
     """The motor's jacket and each drive jacket's (inverter, DC-DC) conductance [W/K] at pump command ``u_pump``."""
     g_m = jacket_conductance(u_pump, par[P_JACKET_M_RE1], par[P_JACKET_PR], par[P_JACKET_M_DL], par[P_JACKET_M_KA])
@@ -392,15 +414,16 @@ def jacket_conductances(par, u_pump: float) -> tuple[float, float]:
 
 
 @jit
-def edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_air_rad) -> float:
+def edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_air_rad, q_chiller) -> float:
     """Advance the e-drive loop's four nodes over one step; returns the radiator's heat [W] (to the air).
 
     Backward Euler with the sources held (spec v2 5.2, 5.8): the motor
     ``C_m dT_m/dt = (1 - f_inv) P_loss + K_1 (T_amb - T_m) - G_m (T_m - T_E)``,
     the inverter ``C_i dT_i/dt = f_inv P_loss - G_d (T_i - T_E)``, the DC-DC
     ``C_d dT_d/dt = Q_dcdc - G_d (T_d - T_E)`` and the loop
-    ``C_E dT_E/dt = sum_k G_k (T_k - T_E) - g_rad (T_E - T_air_rad)`` with
-    ``g_rad = eps C_min`` of the radiator (0 while bypassed). Each of the
+    ``C_E dT_E/dt = sum_k G_k (T_k - T_E) - g_rad (T_E - T_air_rad) - Q_ch`` with
+    ``g_rad = eps C_min`` of the radiator (0 while bypassed) and ``Q_ch`` the
+    heat pump's chiller drawing on the loop (``q_chiller``, 0 otherwise). Each of the
     three masses sees only the loop (and the motor the ambient), so each is
     eliminated in closed form, ``dT_k = a_k + b_k dT_E``, and the loop's
     change is one division; solved for the changes, not the temperatures, so
@@ -418,6 +441,7 @@ def edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_ai
     d_d = par[P_C_D] / dt + g_d
     a_d = (q_dcdc - g_d * (T_d - T_E)) / d_d
     num = g_m * (T_m - T_E + a_m) + g_d * (T_i - T_E + a_i) + g_d * (T_d - T_E + a_d) - g_rad * (T_E - T_air_rad)
+    num -= q_chiller
     den = par[P_C_E] / dt + g_m * (1.0 - g_m / d_m) + g_d * (1.0 - g_d / d_i) + g_d * (1.0 - g_d / d_d) + g_rad
     d_e = num / den
     s1[S_TE] = T_E + d_e
@@ -509,7 +533,7 @@ def surrogate_state_ok(s) -> bool:
 def run_loop(
     par, dts, p_motor_el, soc_ocv, cell_T, cell_ocv, cell_r0, sat_T, sat_p,
     ac_knots, ac_starts, ac_table, ch_knots, ch_starts, ch_table, acch_knots, acch_starts, acch_table,
-    motor_T, motor_u, rad_knots, rad_starts, rad_table,
+    hp_knots, hp_starts, hp_table, motor_T, motor_u, rad_knots, rad_starts, rad_table, hc_knots, hc_starts, hc_table,
     states, out, modes, flags, ext, start, source, mem, held, tol, net, net_index,
 ):  # fmt: skip
     """Run the loop from step ``start`` to ``dts.size``; returns the number of steps done (fewer when SOC hits
@@ -526,7 +550,8 @@ def run_loop(
     loss [W] with regeneration and with it cut. ``motor_T``, ``motor_u``:
     the e-drive pump's and fan's motor-temperature requirement (nodes [K],
     commands [1]); ``rad_knots``, ``rad_starts``, ``rad_table``: the
-    radiator's conductance table (:func:`evtms.system.edrive.radiator_table`).
+    radiator's conductance table, ``hc_*`` the heater core's
+    (:func:`evtms.system.edrive.core_table`).
     ``ext`` (steps, N_X): external inputs, NaN where not given
     (:mod:`evtms.system.inputs`).
 
@@ -560,6 +585,9 @@ def run_loop(
     h1 = np.empty(_MLP_WIDTH)
     x_rad = np.zeros(3)  # the radiator table's point: coolant flow, coolant temperature, air flow
     ua_rad = np.zeros(1)
+    x_hc = np.zeros(3)  # the heater core's: coolant flow, coolant temperature, air flow through it
+    ua_hc = np.zeros(1)
+    y_cap = np.zeros(N_Y)  # the heat pump map at full speed, for the blower's cap
     edrive_loop = int(par[P_EDRIVE_MODEL]) == EDRIVE_LOOP
     eta_dc = par[P_ETA_DC] if edrive_loop else 1.0
     if mem[M_SET] == 0.0:
@@ -573,6 +601,8 @@ def run_loop(
         mem[M_HEATER_OK] = mem[M_HEATER_BAT_OK] = mem[M_CHILL_OK] = 1.0
         mem[M_CAB_OFF] = 1.0
         mem[M_RETRY_STEP] = -1.0
+        mem[M_T_HP] = mem[M_HP_UNTIL] = -1e300
+        mem[M_TRIP_1] = mem[M_TRIP_2] = mem[M_TRIP_3] = -1e300
     n_steps = dts.size
     n = start
     while n < n_steps:
@@ -744,8 +774,13 @@ def run_loop(
             w_in = r * w_cab + (1.0 - r) * w_amb
             T_src, w_src = T_amb, w_amb
         rho_in = p_atm / (_R_AIR * T_in)
-        # Heater capability for the blower cap.
+        # Heater capability for the blower cap: the heat pump's at full speed adds to its backup's.
         p_heat_max = par[P_PTC_MAX] if heating_opt == HEATING_PTC_AIR else par[P_PTCW_MAX]
+        if heating_opt == HEATING_HEAT_PUMP and source == SRC_MAPS:
+            x[0], x[1], x[2], x[3], x[4] = 1.0, 1.0, T_H, 0.5, s0[S_TE]
+            map_interp(hp_knots, hp_starts, hp_table, x[:5], y_cap)
+            if math.isfinite(y_cap[Y_QCOND]) and T_amb >= par[P_HP_T_MIN]:
+                p_heat_max += y_cap[Y_QCOND]
         blower = 0.0
         blower_prev = mem[M_BLOWER]
         if cabin_on:
@@ -849,7 +884,69 @@ def run_loop(
             i_ch = 0.0
         else:
             i_ch = 0.0
-        if u_cab > 0.0 and u_ch > 0.0:
+        # Heat pump (spec v2 6): the hp circuit on a PI of the heater-core loop, HP first, the coolant PTC its
+        # backup; off with a battery or cabin cooling request, below T_hp_min, after a suction trip until its
+        # restart delay, and locked after too many trips.
+        u_hp = 0.0
+        hp_limited = False
+        hp_on, t_hp, i_hp = mem[M_HP_ON] > 0.0, mem[M_T_HP], mem[M_I_HP]
+        ps_low, hp_until = mem[M_PS_LOW], mem[M_HP_UNTIL]
+        trips_in_window = 0
+        for m_trip in (M_TRIP_1, M_TRIP_2, M_TRIP_3):
+            if t - mem[m_trip] < 600.0:
+                trips_in_window += 1
+        hp_locked = trips_in_window >= par[P_HP_TRIPS_MAX]
+        if hp_locked:
+            flag |= F_HP_LOCKED
+        T_H_t = np.nan
+        if heating_opt != HEATING_PTC_AIR and cab_heat and mdot_air > 0.0:
+            T_H_t = heating_loop_target(
+                par, T_in, T_vs, T_H, mdot_air, rho_in, ext[n, X_SP_COHX], hc_knots, hc_starts, hc_table, x_hc, ua_hc
+            )
+        hp_wanted = (
+            heating_opt == HEATING_HEAT_PUMP
+            and cab_heat
+            and mdot_air > 0.0
+            and not (cab_coil or chill or bc or crit)
+            and T_amb >= par[P_HP_T_MIN]
+            and t >= hp_until
+            and not hp_locked
+            and source != SRC_SURROGATE
+        )
+        if hp_wanted:
+            e_hp = T_H_t - T_H
+            if not hp_on and T_H < T_H_t - par[P_DT_CYC] and t - t_hp >= par[P_T_OFF_MIN]:
+                hp_on = True
+                t_hp = t
+                i_hp = u_min - par[P_HP_KP] * e_hp  # restart at the minimum speed
+            if hp_on:
+                # Suction limiter: the speed ramps down while the filtered suction is within 10 kPa of its floor.
+                u_ps = 1.0
+                if ps_f < par[P_HP_PS_MIN] + 0.01e6:
+                    u_ps = max(u_min, mem[M_U_HP] - 0.02 * dt)
+                    hp_limited = True
+                u_hp, i_hp, _ = _pi(e_hp, i_hp, par[P_HP_KP], par[P_HP_KI], dt, u_min, u_ps)
+                if u_hp <= u_min and T_H > T_H_t + par[P_DT_CYC] and t - t_hp >= par[P_T_ON_MIN]:
+                    hp_on = False
+                    t_hp = t
+                    u_hp = 0.0
+                ps_low = ps_low + dt if ps_f < par[P_HP_PS_MIN] else 0.0
+                if ps_low >= 30.0:  # a suction trip
+                    hp_on = False
+                    t_hp = t
+                    u_hp = 0.0
+                    ps_low = 0.0
+                    hp_until = t + par[P_HP_RESTART]
+                    mem[M_TRIP_1], mem[M_TRIP_2], mem[M_TRIP_3] = mem[M_TRIP_2], mem[M_TRIP_3], t
+        else:
+            if hp_on:
+                t_hp = t
+            hp_on = False
+            ps_low = 0.0
+            i_hp = 0.0
+        if u_hp > 0.0:
+            circuit = CIRCUIT_HP
+        elif u_cab > 0.0 and u_ch > 0.0:
             circuit = CIRCUIT_BOTH
         elif u_cab > 0.0:
             circuit = CIRCUIT_CABIN
@@ -862,6 +959,8 @@ def run_loop(
         # chiller's suction target (6-7 degC air), overcool the cabin and close its branch for the minimum off
         # time, which swings the 3.5 kJ/K air by 6 K.
         speed = max(u_cab, u_ch) if (crit or u_cab <= 0.0) else u_cab
+        if circuit == CIRCUIT_HP:
+            speed = u_hp
         p_heater = par[P_HEATER_MAX] if heat_bat else 0.0
         u_pump = 0.0
         if not key_off:
@@ -885,6 +984,8 @@ def run_loop(
             motor_need = np.interp(s0[S_TM], motor_T, motor_u)
             if motor_need > 0.0 or p_motor_el[n, 5] > 0.0 or p_motor_el[n, 6] > 0.0:
                 u_pump_e = min(max(motor_need, par[P_PUMP_E_MIN]), 1.0)
+            if circuit == CIRCUIT_HP:  # the chiller's source needs its flow (spec v2 5.3)
+                u_pump_e = max(u_pump_e, 0.5)
         # Condenser fan (spec v2 5.4): three stages on the filtered discharge pressure while the compressor is
         # commanded, at least one while ram air is weak, and at least the motor's requirement; fan and ram air
         # add over one quadratic resistance.
@@ -892,7 +993,19 @@ def run_loop(
         fan_1, fan_2, fan_3 = _fan_stages(s0[S_YF + Y_PD], mem[M_FAN_1], mem[M_FAN_2], mem[M_FAN_3], par)
         v_ram = par[P_RAM_AREA] * p_motor_el[n, 4]
         u_fan = 0.0
-        if speed > 0.0:
+        # The heat pump's source fan: a third per stage on at T_amb - T_E of 4, 7 and 10 K (each off 2 K lower),
+        # while the radiator is the source and the compressor runs flat out.
+        src_1, src_2, src_3 = mem[M_SRC_1], mem[M_SRC_2], mem[M_SRC_3]
+        if circuit == CIRCUIT_HP and mem[M_RAD_IN] > 0.0 and (u_hp >= 1.0 or hp_limited):
+            lift = T_amb - s0[S_TE]
+            src_1 = _relay(src_1, lift, 2.0, 2.0)
+            src_2 = _relay(src_2, lift, 5.0, 2.0)
+            src_3 = _relay(src_3, lift, 8.0, 2.0)
+        else:
+            src_1 = src_2 = src_3 = 0.0
+        if circuit == CIRCUIT_HP:
+            u_fan = (src_1 + src_2 + src_3) / 3.0  # the condenser is shut: its pressure stages do not run
+        elif speed > 0.0:
             u_fan = (fan_1 + fan_2 + fan_3) / 3.0
             if surrogate:
                 u_fan = 1.0  # the mode models carry no discharge pressure: the fan at full flow
@@ -921,6 +1034,9 @@ def run_loop(
                 if circuit == CIRCUIT_CABIN:
                     map_id, nx = MAP_AC, 6
                     x[2], x[3], x[4], x[5] = blower, T_amb, T_in, rh_in
+                elif circuit == CIRCUIT_HP:
+                    map_id, nx = MAP_HP, 5
+                    x[1], x[2], x[3], x[4] = 1.0, T_H, u_pump_e, s0[S_TE]
                 elif circuit == CIRCUIT_BOTH:
                     map_id, nx = MAP_ACCH, 7
                     x[2], x[3], x[4], x[5], x[6] = blower, u_pump, T_amb, T_in, Tc
@@ -944,6 +1060,8 @@ def run_loop(
                         flag |= F_PHYSICS_FALLBACK
                 elif circuit == CIRCUIT_CABIN:
                     clipped = map_interp(ac_knots, ac_starts, ac_table, x[:6], y)
+                elif circuit == CIRCUIT_HP:
+                    clipped = map_interp(hp_knots, hp_starts, hp_table, x[:5], y)
                 elif circuit == CIRCUIT_BOTH:
                     clipped = map_interp(acch_knots, acch_starts, acch_table, x, y)
                 else:
@@ -970,7 +1088,7 @@ def run_loop(
                     sens_end = s1[S_YF + Y_QEVAP] - s1[S_YF + Y_QLAT]
                     T_ev_end = T_in - sens_end / (mdot_air * _CP_AIR)
                     cab_trip = T_ev_end <= par[P_TFR_OFF] or s1[S_YF + Y_PS] <= par[P_PF_OFF]
-                if circuit != CIRCUIT_CABIN:
+                if circuit == CIRCUIT_CHILLER or circuit == CIRCUIT_BOTH:
                     ch_trip = s1[S_YF + Y_PS] <= par[P_PF_OFF]
                 if cab_trip or ch_trip:
                     mem[M_FROST_OK] = frost_ok and not cab_trip
@@ -979,6 +1097,16 @@ def run_loop(
                     continue
             p_comp = y[Y_W] / par[P_DRIVE_EFF]
         q_evap, q_lat, q_chill = y[Y_QEVAP], y[Y_QLAT], y[Y_QCH]
+        # The heat pump's heat flows go to its loops (also the filter's tail after it stops): the chiller's to
+        # loop E, the water-cooled condenser's to loop H; the front condenser is shut.
+        ran = circuit if speed > 0.0 else int(mem[M_LAST_CIRCUIT])
+        q_wcc = 0.0
+        q_ch_e = 0.0
+        q_cond = y[Y_QCOND]
+        if ran == CIRCUIT_HP and not surrogate:
+            q_wcc, q_ch_e = q_cond, q_chill
+            q_cond = 0.0
+            q_chill = 0.0
         # Air after the evaporator over the step (interval-mean duty), then heat after it.
         if surrogate:
             T_ev_mean = T_ev
@@ -1010,23 +1138,46 @@ def run_loop(
         p_ptcw = 0.0
         beta = 0.0
         mdot_h = 0.0
-        T_H_t = np.nan
         eps_hc = 0.0
-        if heating_now and heating_opt == HEATING_PTC_COOLANT:
+        backup, t_backup = mem[M_BACKUP] > 0.0, mem[M_T_BACKUP]
+        if heating_now and heating_opt != HEATING_PTC_AIR:
             mdot_h = par[P_MDOT_H]
-            c_h = mdot_h * par[P_CP_H]
-            ua_full = par[P_HC_UA] * (mdot_air / par[P_HC_AIR_REF]) ** 0.6
-            eps_full = crossflow_effectiveness(c_air, c_h, ua_full)
-            if not math.isnan(ext[n, X_SP_COHX]):
-                T_H_t = ext[n, X_SP_COHX]
-            else:
-                T_H_t = T_in + (T_vs - T_in) / max(eps_full, 0.05)
-                T_H_t = max(min(T_H_t, par[P_TH_MAX]), min(T_vs + 3.0, par[P_TH_MAX]))
+            if math.isnan(T_H_t):  # reheat under an RH request: the target of this step's vent air
+                sp_cohx = ext[n, X_SP_COHX]
+                T_H_t = heating_loop_target(
+                    par, T_in, T_vs, T_H, mdot_air, rho_in, sp_cohx, hc_knots, hc_starts, hc_table, x_hc, ua_hc
+                )
             e_h = T_H_t - T_H
             pmax = par[P_PTCW_MAX]
-            u, i_ptcw, _ = _pi(e_h, i_ptcw, par[P_PTCW_KP] * pmax, par[P_PTCW_KI] * pmax, dt, 0.0, pmax)
-            if T_H < par[P_TH_MAX]:
-                p_ptcw = u
+            kp_w, ki_w = par[P_PTCW_KP] * pmax, par[P_PTCW_KI] * pmax
+            if u_hp > 0.0:
+                # The coolant PTC backs the heat pump up (split range): on once the HP has run flat out with the
+                # loop 2 K short for hp_backup_delay, holding 1 K below the target so the HP stays at full
+                # speed; off once it has given nothing, or the HP has had margin, for as long.
+                flat_out = u_hp >= 1.0 or hp_limited
+                if not backup:
+                    t_backup = t_backup + dt if (flat_out and T_H < T_H_t - 2.0) else 0.0
+                    if t_backup >= par[P_HP_BACKUP_DELAY]:
+                        backup = True
+                        t_backup = 0.0
+                        i_ptcw = 0.0
+                if backup:
+                    flag |= F_HP_BACKUP
+                    u, i_ptcw, _ = _pi(e_h - 1.0, i_ptcw, kp_w, ki_w, dt, 0.0, pmax)
+                    if T_H < par[P_TH_MAX]:
+                        p_ptcw = u
+                    t_backup = t_backup + dt if (p_ptcw <= 0.0 or not flat_out) else 0.0
+                    if t_backup >= par[P_HP_BACKUP_DELAY]:
+                        backup = False
+                        t_backup = 0.0
+                else:
+                    i_ptcw = 0.0
+            else:
+                backup = False
+                t_backup = 0.0
+                u, i_ptcw, _ = _pi(e_h, i_ptcw, kp_w, ki_w, dt, 0.0, pmax)
+                if T_H < par[P_TH_MAX]:
+                    p_ptcw = u
             i_ptcw = min(max(i_ptcw, -pmax), pmax)
             beta, i_blend, blk = _pi(e_v, i_blend, par[P_BLEND_KP], par[P_BLEND_KI], dt, 0.0, 1.0)
             heater_sat_up = blk and e_v > 0.0
@@ -1034,15 +1185,18 @@ def run_loop(
         else:
             i_ptcw = 0.0
             i_blend = 0.0
+            backup = False
+            t_backup = 0.0
         # Heater core: backward Euler in T_H with the air's inlet (the evaporator outlet) held.
         c_hc_air = beta * c_air
         g_hc = 0.0
         if beta > 0.0 and mdot_h > 0.0:
-            ua = par[P_HC_UA] * (beta * mdot_air / par[P_HC_AIR_REF]) ** 0.6
-            eps_hc = crossflow_effectiveness(c_hc_air, mdot_h * par[P_CP_H], ua)
+            x_hc[0], x_hc[1], x_hc[2] = mdot_h, T_H, beta * mdot_air / rho_in
+            map_interp(hc_knots, hc_starts, hc_table, x_hc, ua_hc)
+            eps_hc = crossflow_effectiveness(c_hc_air, mdot_h * par[P_CP_H], ua_hc[0])
             g_hc = eps_hc * min(c_hc_air, mdot_h * par[P_CP_H])
         c_hh = par[P_C_H] / dt
-        T_H_new = (c_hh * T_H + p_ptcw + g_hc * T_ev_mean) / (c_hh + g_hc)
+        T_H_new = (c_hh * T_H + p_ptcw + q_wcc + g_hc * T_ev_mean) / (c_hh + g_hc)
         q_hc = g_hc * (T_H_new - T_ev_mean)
         s1[S_TH] = T_H_new
         p_pump_h = par[P_PUMP_H_POWER] if mdot_h > 0.0 else 0.0
@@ -1119,7 +1273,7 @@ def run_loop(
             if cut_w > 0.0:  # the coolant PTC too, and the heater-core loop solved again with what it gets
                 p_ptcw -= cut_w
                 excess -= cut_w
-                T_H_new = (c_hh * T_H + p_ptcw + g_hc * T_ev_mean) / (c_hh + g_hc)
+                T_H_new = (c_hh * T_H + p_ptcw + q_wcc + g_hc * T_ev_mean) / (c_hh + g_hc)
                 q_hc = g_hc * (T_H_new - T_ev_mean)
                 s1[S_TH] = T_H_new
             if (cut > 0.0 or cut_w > 0.0) and cab_heat:
@@ -1229,21 +1383,29 @@ def run_loop(
         T_air_rad = T_amb
         if edrive_loop:
             T_E = s0[S_TE]
-            rad_in = _relay(rad_in, T_E, par[P_RAD_OFF], par[P_RAD_ON] - par[P_RAD_OFF])
+            if ran == CIRCUIT_HP:
+                # The heat pump's source: the radiator draws on the ambient while the loop is colder than it,
+                # and is bypassed while the loop is warmer (it keeps the drive's waste heat).
+                band_hp = par[P_HP_RAD_BAND]
+                rad_in = _relay(rad_in, T_amb - T_E, -band_hp, 2.0 * band_hp)
+            else:
+                rad_in = _relay(rad_in, T_E, par[P_RAD_OFF], par[P_RAD_ON] - par[P_RAD_OFF])
             mdot_e = u_pump_e * par[P_MDOT_E_MAX]
             g_m, g_d = jacket_conductances(par, u_pump_e)
             g_rad = 0.0
             if rad_in > 0.0 and mdot_e > 0.0:
                 # Stacked front end: the condenser's heat warms the radiator's air.
                 c_front = p_atm / (_R_AIR * T_amb) * v_front * _CP_AIR
-                q_cond = y[Y_QCOND]
                 if math.isfinite(q_cond) and q_cond > 0.0:
                     T_air_rad = T_amb + q_cond / c_front
                 x_rad[0], x_rad[1], x_rad[2] = mdot_e, T_E, v_front
                 map_interp(rad_knots, rad_starts, rad_table, x_rad, ua_rad)
                 c_e = mdot_e * par[P_CP_H]
                 g_rad = crossflow_effectiveness(c_front, c_e, ua_rad[0]) * min(c_front, c_e)
-            q_rad = edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_air_rad)
+            q_rad = edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_air_rad, q_ch_e)
+            # Frost on the radiator: it is the source, its cold end below 0 degC and the ambient's frost point.
+            if rad_in > 0.0 and mdot_e > 0.0 and T_E < 273.15 and T_E < dew_point(w_amb, p_atm):
+                flag |= F_FROST_OUTSIDE
         else:
             for k in (S_TM, S_TI, S_TD, S_TE):
                 s1[k] = s0[k]
@@ -1266,6 +1428,12 @@ def run_loop(
         mem[M_RETRY_STEP] = -1.0
         mem[M_FAN_1], mem[M_FAN_2], mem[M_FAN_3] = fan_1, fan_2, fan_3
         mem[M_RAD_IN] = rad_in
+        mem[M_HP_ON], mem[M_T_HP], mem[M_I_HP], mem[M_U_HP] = hp_on, t_hp, i_hp, u_hp
+        mem[M_PS_LOW], mem[M_HP_UNTIL] = ps_low, hp_until
+        mem[M_BACKUP], mem[M_T_BACKUP] = backup, t_backup
+        mem[M_SRC_1], mem[M_SRC_2], mem[M_SRC_3] = src_1, src_2, src_3
+        if speed > 0.0:
+            mem[M_LAST_CIRCUIT] = circuit
         mem[M_T] = t + dt
         # Per-step record --------------------------------------------------------
         p_hvac = p_comp + p_ptc + p_ptcw + p_heater + (p_blower + p_fan + p_pump + p_pump_h) / eta_dc
@@ -1281,7 +1449,7 @@ def run_loop(
         o[O_Q_EVAP] = q_evap
         o[O_Q_LATENT] = q_lat
         o[O_Q_CHILLER] = q_chill
-        o[O_Q_COND] = y[Y_QCOND]
+        o[O_Q_COND] = q_cond
         o[O_W] = y[Y_W]
         o[O_W_FLUID] = y[Y_WFLUID]
         o[O_P_SUCTION] = y[Y_PS]
@@ -1330,6 +1498,8 @@ def run_loop(
         o[O_T_AIR_RAD] = T_air_rad
         o[O_U_PUMP_E] = u_pump_e
         o[O_RAD_IN] = rad_in
+        o[O_Q_WCC] = q_wcc
+        o[O_Q_CH_E] = q_ch_e
         modes[n] = mode
         flags[n] = flag
         n += 1

@@ -117,6 +117,10 @@ AXIS_ATTRS = {
     "T_air_in": ("K", "air temperature entering the evaporator"),
     "RH_air_in": ("1", "relative humidity of the air entering the evaporator"),
     "T_coolant_in": ("K", "coolant temperature entering the chiller"),
+    "u_H": ("1", "heater-core loop pump command, fraction of heating_flow_max"),
+    "T_H": ("K", "heater-core loop coolant entering the water-cooled condenser"),
+    "u_E": ("1", "e-drive loop pump command, fraction of edrive_flow_max"),
+    "T_E": ("K", "e-drive loop coolant entering the chiller"),
 }
 
 #: Map axis -> the cycle operating input it sets (u_pump sets mdot_coolant through the settings).
@@ -129,6 +133,16 @@ AXIS_INPUTS = {
     "T_air_in": "T_cabin",
     "RH_air_in": "RH_cabin",
     "T_coolant_in": "T_coolant_in",
+    "u_H": "mdot_coolant_h",
+    "T_H": "T_coolant_h_in",
+    "u_E": "mdot_coolant",
+    "T_E": "T_coolant_in",
+}
+#: Pump-command axes -> (the flow setting at command 1, the density setting): mass flow = command x both.
+PUMP_AXES = {
+    "u_pump": ("coolant_flow_max", "coolant_density"),
+    "u_H": ("heating_flow_max", "coolant_density"),
+    "u_E": ("edrive_flow_max", "coolant_density"),
 }
 
 #: Bump when the build rule or the file layout changes: cached maps of another format are rebuilt.
@@ -170,6 +184,12 @@ MAPS: dict[str, MapSpec] = {
         (("RH_air_in", 0.5),),
         "cabin evaporator and chiller in parallel (mode CC+BC)",
     ),
+    "hp": MapSpec(
+        "hp",
+        ("speed", "u_H", "T_H", "u_E", "T_E"),
+        (),
+        "heat pump: the water-cooled condenser heats the heater-core loop, the chiller draws on the e-drive loop",
+    ),
 }
 
 
@@ -193,6 +213,10 @@ DEFAULT_AXES: dict[str, tuple[float, ...] | None] = {
     "T_air_in": _celsius(10.0, 50.0, 4.0),
     "RH_air_in": None,
     "T_coolant_in": _celsius(0.0, 50.0, 5.0),
+    "u_H": (0.3, 0.6, 1.0),
+    "T_H": _celsius(20.0, 70.0, 10.0),
+    "u_E": (0.3, 0.6, 1.0),
+    "T_E": _celsius(-25.0, 35.0, 5.0),
 }
 
 #: The ac+chiller map is coarser (spec 2.5): blower 4 nodes, T_air_in every 8 K, T_coolant_in every 10 K,
@@ -222,9 +246,9 @@ def _check_axis(key: str, values: Sequence[float]) -> tuple[float, ...]:
         raise EvtmsInputError(f"map axis {key!r}: give at least one finite value")
     if any(b <= a for a, b in zip(out, out[1:], strict=False)):
         raise EvtmsInputError(f"map axis {key!r}: the values must be strictly increasing")
-    if axis == "u_pump":
+    if axis in PUMP_AXES:
         if out[0] <= 0.0:
-            raise EvtmsInputError(f"map axis {key!r}: u_pump must be > 0 (the chiller needs a coolant flow)")
+            raise EvtmsInputError(f"map axis {key!r}: {axis} must be > 0 (the exchanger needs a coolant flow)")
         return out
     spec = INPUTS[AXIS_INPUTS[axis]]
     for v in out:
@@ -241,6 +265,9 @@ class MapSettings:
     ----------
     coolant_flow_max : float
         Coolant volume flow at u_pump 1 [m3/s].
+    heating_flow_max, edrive_flow_max : float
+        The heater-core loop's and the e-drive loop's volume flows at u_H and
+        u_E 1 [m3/s] (the ``hp`` map's water-cooled condenser and chiller).
     coolant_density : float
         Coolant density [kg/m3]; mdot_coolant = u_pump coolant_flow_max coolant_density.
     superheat : float
@@ -258,6 +285,8 @@ class MapSettings:
 
     coolant_flow_max: float = 4.0e-4
     coolant_density: float = 1070.0
+    heating_flow_max: float = 3.33e-4
+    edrive_flow_max: float = 3.33e-4
     superheat: float = 10.0
     subcooling: float = 0.0
     RH_amb: float = 0.4
@@ -267,6 +296,8 @@ class MapSettings:
         checks = (
             ("coolant_flow_max", 0.0, math.inf, True),
             ("coolant_density", 0.0, math.inf, True),
+            ("heating_flow_max", 0.0, math.inf, True),
+            ("edrive_flow_max", 0.0, math.inf, True),
             ("superheat", 0.0, 50.0, False),
             ("subcooling", 0.0, 30.0, False),
             ("RH_amb", 0.0, 1.0, False),
@@ -295,9 +326,9 @@ class MapSettings:
             "subcooling": self.subcooling,
             "RH_amb": self.RH_amb,
         }
-        if "u_pump" in spec.axes:
-            out["coolant_flow_max"] = self.coolant_flow_max
-            out["coolant_density"] = self.coolant_density
+        for axis in spec.axes:
+            for setting in PUMP_AXES.get(axis, ()):
+                out[setting] = getattr(self, setting)
         out["axes"] = {a: list(v) for a in spec.axes if (v := self.override(name, a)) is not None}
         return out
 
@@ -570,8 +601,9 @@ def operating_inputs(name: str, axes: Mapping[str, np.ndarray], settings: MapSet
         "subcooling": settings.subcooling,
     }
     for a, v in values.items():
-        if a == "u_pump":
-            points["mdot_coolant"] = v * settings.coolant_flow_max * settings.coolant_density
+        if a in PUMP_AXES:
+            flow, density = (getattr(settings, k) for k in PUMP_AXES[a])
+            points[AXIS_INPUTS[a]] = v * flow * density
         else:
             points[AXIS_INPUTS[a]] = v
     return {k: np.broadcast_to(np.asarray(v, float), mesh[0].size).copy() for k, v in points.items()}

@@ -361,19 +361,23 @@ class ClimateParams:
     )
 
 
-#: Cabin heating options (``hvac.heating``); the heat pump is a later version's.
-HEATING = ("ptc_air", "ptc_coolant")
+#: Cabin heating options (``hvac.heating``): an air PTC, a coolant PTC in the heater-core loop, or the
+#: indirect heat pump on that loop with the coolant PTC as its backup.
+HEATING = ("ptc_air", "ptc_coolant", "heat_pump")
 
 
 @dataclass(frozen=True)
 class HvacParams:
     """Cabin heaters, the heater-core loop and the battery's safety limits (spec v2 sections 2.5-3).
 
-    ``heating``: ``ptc_air`` (an air PTC after the evaporator) or
-    ``ptc_coolant`` (a coolant PTC ``ptcw`` in loop H with a heater core).
+    ``heating``: ``ptc_air`` (an air PTC after the evaporator),
+    ``ptc_coolant`` (a coolant PTC ``ptcw`` in loop H with a heater core) or
+    ``heat_pump`` (the indirect heat pump on loop H, ``ptcw`` its backup:
+    :class:`HeatPumpParams`).
     PTC gains are per K and K s times the heater's maximum power.
-    ``heater_core_ua`` [W/K] at ``heater_core_air_ref`` [kg/s] of air through
-    the core, scaled with the air flow to the power 0.6; loop H holds
+    The heater core is the ``heater_core`` bench's core, its conductance
+    tabulated over coolant flow, coolant temperature and air flow
+    (:func:`evtms.system.edrive.core_table`); loop H holds
     ``C_H`` [J/K], its pump moves ``pump_h_flow`` [m3/s] at ``pump_h_power``
     [W]. Battery relays: the coolant heater is off above
     ``bh_T_coolant_max`` (on 5 K below) and at ``bh_T_battery_max`` (on 1 K
@@ -387,7 +391,8 @@ class HvacParams:
         slot="HEATING",
         source=(
             "MW (an air PTC after the evaporator); `ptc_coolant`: a coolant PTC in a heater-core loop "
-            "(EFFEREST, thesis 4.5)"
+            "(EFFEREST, thesis 4.5); `heat_pump`: the indirect heat pump on that loop, the coolant PTC its backup "
+            "(spec v2 6)"
         ),
     )
     ptc_max_power: float = param(
@@ -418,18 +423,6 @@ class HvacParams:
     C_H: float = param(6600.0, 100.0, 1e7, "J/K", slot="C_H", source="A: 1.5 l of glycol plus 2 kg of core")
     pump_h_flow: float = param(3.33e-4, 1e-6, 0.1, "m3/s", source="MW M pump as template (20 l/min)")
     pump_h_power: float = param(120.0, 0.0, 1e4, "W", slot="PUMP_H_POWER", source="MW M pump as template")
-    heater_core_ua: float = param(
-        250.0,
-        1.0,
-        1e5,
-        "W/K",
-        slot="HC_UA",
-        source=(
-            "A: UA at the reference air flow, scaled with the air flow to the power 0.6 (air side dominant); "
-            "effectiveness 0.6-0.8 over the blower range"
-        ),
-    )
-    heater_core_air_ref: float = param(0.15, 1e-3, 10.0, "kg/s", slot="HC_AIR_REF", source="A")
     bh_T_coolant_max: float = param(
         318.15,
         173.15,
@@ -457,6 +450,39 @@ class HvacParams:
 
 
 @dataclass(frozen=True)
+class HeatPumpParams:
+    """The indirect heat pump's controls (``hvac.heating = "heat_pump"``, spec v2 section 6).
+
+    The compressor runs the ``hp`` circuit (the water-cooled condenser heats
+    the heater-core loop, the chiller draws on the e-drive loop) on a PI of
+    the heater-core loop's temperature (``hp_kp`` [1/K], ``hp_ki``
+    [1/(K s)]), limited so that the filtered suction pressure stays above
+    ``hp_p_suction_min`` [Pa] + 10 kPa; below ``T_hp_min`` [K] it does not
+    run. A suction pressure below ``hp_p_suction_min`` for 30 s trips it; it
+    restarts after ``hp_restart_delay`` [s], and after ``hp_trips_max`` trips
+    within 10 min it stays off until the oldest is 10 min old. The coolant
+    PTC backs it up once it has run flat out ``hp_backup_delay`` [s] with the
+    loop 2 K below its target. The radiator joins the e-drive loop as the
+    heat pump's ambient source while that loop is ``hp_rad_band`` [K] below
+    the ambient and is bypassed above it by as much (it keeps the drive's
+    waste heat).
+    """
+
+    T_hp_min: float = param(
+        258.15, 173.15, 323.15, "K", slot="HP_T_MIN", source="A: the suction guard binds first (spec v2 6)"
+    )
+    hp_p_suction_min: float = param(
+        0.10e6, 0.02e6, 1.0e6, "Pa", slot="HP_PS_MIN", source="A (R134a saturates at -26 degC at 0.10 MPa)"
+    )
+    hp_kp: float = param(0.05, 0.0, 10.0, "1/K", slot="HP_KP", source="A")
+    hp_ki: float = param(0.002, 0.0, 10.0, "1/(K s)", slot="HP_KI", source="A")
+    hp_backup_delay: float = param(60.0, 0.0, 3600.0, "s", slot="HP_BACKUP_DELAY", source="A")
+    hp_rad_band: float = param(1.0, 0.0, 20.0, "K", slot="HP_RAD_BAND", source="A")
+    hp_restart_delay: float = param(120.0, 0.0, 3600.0, "s", slot="HP_RESTART", source="A")
+    hp_trips_max: int = param(3, 1, 3, "1", whole=True, slot="HP_TRIPS_MAX", source="A (per 10 min)")
+
+
+@dataclass(frozen=True)
 class SystemParams:
     """All parameters of a system simulation."""
 
@@ -468,13 +494,14 @@ class SystemParams:
     climate: ClimateParams = field(default_factory=ClimateParams)
     hvac: HvacParams = field(default_factory=HvacParams)
     edrive: EdriveParams = field(default_factory=EdriveParams)
+    heatpump: HeatPumpParams = field(default_factory=HeatPumpParams)
 
     def to_json(self) -> str:
         """Every parameter, by table, as JSON (recorded in the output file)."""
         return json.dumps({k: dataclasses.asdict(getattr(self, k)) for k in SECTIONS}, sort_keys=True)
 
 
-SECTIONS = ("vehicle", "battery", "cabin", "coolant", "controls", "climate", "hvac", "edrive")
+SECTIONS = ("vehicle", "battery", "cabin", "coolant", "controls", "climate", "hvac", "edrive", "heatpump")
 
 #: v1 names that moved or went: (table, name) -> what to say instead of applying them.
 MIGRATED: dict[tuple[str, str], str] = {
@@ -501,6 +528,11 @@ MIGRATED: dict[tuple[str, str], str] = {
         "is the condenser bench's [condenser] fan_flow_max, read from the cycle LUTs the maps are built on "
         "(the maps' fan axis is a share of it); build the LUTs with it"
     ),
+    ("hvac", "heater_core_ua"): (
+        "was dropped: the heater core is the heater_core bench's core ([heater_core] table), its conductance "
+        "tabulated over coolant flow, coolant temperature and air flow"
+    ),
+    ("hvac", "heater_core_air_ref"): "was dropped with heater_core_ua: the heater core is the heater_core bench's core",
     ("controls", "condenser_fan"): (
         "was dropped in v2: the fan is staged on the discharge pressure ([controls] fan_p1, fan_p1_band, fan_band) "
         "and ram air adds to it ([controls] ram_area)"

@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from evtms.cycle.solver import CycleSolver
 
 #: Map names by the loop's map id.
-MAP_NAMES = {L.MAP_AC: "ac", L.MAP_CHILLER: "chiller", L.MAP_ACCH: "ac+chiller"}
+MAP_NAMES = {L.MAP_AC: "ac", L.MAP_CHILLER: "chiller", L.MAP_ACCH: "ac+chiller", L.MAP_HP: "hp"}
 #: Physics model: how far a map input may drift from the last solved point before the cycle is solved again.
 PHYSICS_TOLERANCE = {
     "speed": 0.02,
@@ -45,6 +45,16 @@ PHYSICS_TOLERANCE = {
     "T_air_in": 0.25,
     "RH_air_in": 0.02,
     "T_coolant_in": 0.25,
+    "u_H": 0.02,
+    "T_H": 0.25,
+    "u_E": 0.02,
+    "T_E": 0.25,
+}
+#: The loop's stand-in for a map not loaded (the heat pump's, unless ``hvac.heating`` is ``heat_pump``): one
+#: node of NaN outputs on each of its axes, which the loop never reads.
+_NO_MAP = {
+    name: (np.zeros(len(MAPS[name].axes)), np.arange(len(MAPS[name].axes) + 1, dtype=np.int64), np.full((1, 9), np.nan))
+    for name in ("hp",)
 }
 
 
@@ -93,11 +103,15 @@ class Refrigerant:
     memo: dict = field(default_factory=dict, compare=False, repr=False)
 
     def packed(self) -> tuple[np.ndarray, ...]:
-        return tuple(a for name in ("ac", "chiller", "ac+chiller") for a in self.maps[name].packed())
+        """The maps as the loop takes them, in map-id order; one not loaded is a stand-in it never reads."""
+        out = []
+        for name in MAP_NAMES.values():
+            out.extend(self.maps[name].packed() if name in self.maps else _NO_MAP[name])
+        return tuple(out)
 
     def tolerances(self) -> np.ndarray:
-        """``(3, 7)`` input tolerances of the physics model by map id and axis (:data:`PHYSICS_TOLERANCE`)."""
-        tol = np.zeros((3, L.N_MAP_X))
+        """``(maps, 7)`` input tolerances of the physics model by map id and axis (:data:`PHYSICS_TOLERANCE`)."""
+        tol = np.zeros((len(MAP_NAMES), L.N_MAP_X))
         for map_id, name in MAP_NAMES.items():
             for k, axis in enumerate(MAPS[name].axes):
                 tol[map_id, k] = PHYSICS_TOLERANCE[axis]
@@ -208,6 +222,8 @@ def map_settings(params: SystemParams) -> MapSettings:
     return MapSettings(
         coolant_flow_max=params.coolant.flow_max,
         coolant_density=params.coolant.density,
+        heating_flow_max=params.hvac.pump_h_flow,
+        edrive_flow_max=params.edrive.flow_max,
     )
 
 
@@ -236,7 +252,8 @@ def load_refrigerant(
     sat = saturation_curve(luts)
     # The LUTs all come from one folder, the one found in luts_folder: its store caches the maps.
     folder = LutStore.containing(next(iter(luts.values())).path).folder
-    maps = load_maps(folder, settings, progress=progress)
+    names = ("ac", "chiller", "ac+chiller", *(("hp",) if params.hvac.heating == "heat_pump" else ()))
+    maps = load_maps(folder, settings, names, progress=progress)
     return Refrigerant(
         maps=maps,
         sat_T=np.ascontiguousarray(sat.T, float),

@@ -24,7 +24,7 @@ import numpy as np
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
 from evtms.system.drive_cycles import DriveCycle
-from evtms.system.edrive import MOTOR_REQUIREMENT, jacket_slots, radiator_table
+from evtms.system.edrive import MOTOR_REQUIREMENT, core_table, jacket_slots
 from evtms.system.inputs import INPUT_NAMES, InputValue, check_inputs, per_step
 from evtms.system.mode_model import MODE_CODES, ModeModels
 from evtms.system.params import FAN_STAGE_CURVES, SECTIONS, WALLS, SystemParams
@@ -69,7 +69,7 @@ class SimulationResult:
     ledgers: dict[str, float]
     summary: dict
     attrs: dict = field(default_factory=dict)
-    #: The loop's own arrays (``states``, ``out``, ``modes``, ``dts``, ``par``) when asked for (training data).
+    #: The loop's own arrays (``states``, ``out``, ``modes``, ``flags``, ``dts``, ``par``) when asked for.
     trace: dict | None = None
 
 
@@ -95,6 +95,8 @@ RECORD_VARIABLES: dict[str, tuple[str, str]] = {
     "T_air_radiator": ("K", "air entering the radiator (behind the condenser)"),
     "u_pump_ed": ("1", "e-drive loop pump command"),
     "radiator_in": ("1", "share of the interval the radiator was in the loop (not bypassed)"),
+    "Q_wcc": ("W", "heat pump: water-cooled condenser heat into the heater-core loop"),
+    "Q_chiller_ed": ("W", "heat pump: chiller heat drawn from the e-drive loop"),
     "Q_evaporator": ("W", "evaporator heat flow from the cabin air, total (> 0 cooling)"),
     "Q_latent": ("W", "latent part of Q_evaporator (condensate)"),
     "Q_chiller": ("W", "chiller heat flow from the coolant (> 0 cooling)"),
@@ -187,6 +189,8 @@ _MEANS = {
     "T_air_radiator": L.O_T_AIR_RAD,
     "u_pump_ed": L.O_U_PUMP_E,
     "radiator_in": L.O_RAD_IN,
+    "Q_wcc": L.O_Q_WCC,
+    "Q_chiller_ed": L.O_Q_CH_E,
 }
 _STATES = {
     "SOC": L.S_SOC,
@@ -451,6 +455,7 @@ def simulate(
             "use `model` lut or physics"
         )
     check_model(model, mode, mode_models, refrigerant)
+    check_heating(params, refrigerant)
     inputs = check_inputs(inputs, mode=mode)
     m = round(every / dt)
     if precondition:
@@ -479,9 +484,10 @@ def simulate(
     modes = np.zeros(n, np.int8)
     flags = np.zeros(n, np.uint16)
     ocv = np.ascontiguousarray(tables.ocv_V[:, 0])
+    cores = (*core_table("radiator"), *core_table("heater_core"))
     args = (
         par, dts, p_motor, tables.soc, tables.temperature_K, ocv, np.ascontiguousarray(tables.r0_ohm),
-        refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), *MOTOR_TABLE, *radiator_table(),
+        refrigerant.sat_T, refrigerant.sat_p, *refrigerant.packed(), *MOTOR_TABLE, *cores,
         states, out, modes, flags, ext,
     )  # fmt: skip
     loop0 = time.perf_counter()
@@ -511,6 +517,7 @@ def simulate(
         "battery_loss_kWh": float(np.sum(out[:, L.O_Q_GEN] * dts) / 3.6e6),
         "edrive_cooling_kWh": float(np.sum(out[:, L.O_P_EDRIVE_AUX] * dts * (1.0 - p_motor[:done, 2])) / 3.6e6),
         "T_motor_max_degC": float(np.max(states[:, L.S_TM]) - 273.15),
+        **heat_pump_metrics(par, states, out, flags, dts),
         "soc_end": float(states[-1, L.S_SOC]),
         # None for a parked run, as range_km: a floor on the distance would report 1e10 kWh/100 km.
         "consumption_kWh_per_100km": float(E / 3.6e6 / distance_km * 100.0) if distance_km > 0 else None,
@@ -553,7 +560,9 @@ def simulate(
         "ledgers": json.dumps(ledger),
     }
     records["time"] = t_rec - precondition
-    trace = {"states": states, "out": out, "modes": modes, "dts": dts, "par": par} if keep_trace else None
+    trace = None
+    if keep_trace:
+        trace = {"states": states, "out": out, "modes": modes, "flags": flags, "dts": dts, "par": par}
     return SimulationResult(records, rec_mode, rec_flags, ledger, summary, attrs, trace)
 
 
@@ -562,6 +571,53 @@ def _moving_mean(t: np.ndarray, values: np.ndarray, window: float) -> np.ndarray
     integral = np.concatenate(([0.0], np.cumsum(0.5 * (values[1:] + values[:-1]) * np.diff(t))))
     mean = (integral - np.interp(t - window, t, integral)) / window
     return np.where(t - t[0] >= window - 1e-9, mean, np.nan)
+
+
+def heat_pump_metrics(par: np.ndarray, states: np.ndarray, out: np.ndarray, flags: np.ndarray, dts: np.ndarray) -> dict:
+    """What the heat pump did (spec v2 section 6), from the loop's per-step arrays; None where it never ran.
+
+    - ``hp_heat_kWh``: the water-cooled condenser's heat into the heater-core loop;
+    - ``cop_hp``: that heat over the compressor's shaft work;
+    - ``cop_sys_mean``: the heater core's heat less the backup PTC's over the compressor's electrical power
+      and the low-voltage power the heat pump adds at the pack (heater-core loop pump, the e-drive pump above
+      the motor's own need, the front-end fan), over the steps the heat pump ran;
+    - ``backup_kWh`` and ``backup_share``: the coolant PTC's heat while it backed the heat pump up, and its
+      share of the heater core's heat over those steps;
+    - ``source_heat_kWh`` (the chiller's draw on the e-drive loop), split into ``ambient_heat_kWh`` (what the
+      radiator took from the air while it was the source) and ``waste_heat_kWh`` (the rest: the drive's);
+    - ``frost_time_s``: time with the radiator as the source, its cold end below 0 degC and the ambient's
+      frost point (no defrost is modelled).
+    """
+    hp = out[:, L.O_CIRCUIT] == L.CIRCUIT_HP
+    frost = float(np.sum(dts[(flags & L.F_FROST_OUTSIDE) > 0]))
+    if not np.any(hp):
+        keys = ("hp_heat_kWh", "cop_hp", "cop_sys_mean", "backup_kWh", "backup_share", "source_heat_kWh")
+        return {**dict.fromkeys(keys), "ambient_heat_kWh": None, "waste_heat_kWh": None, "frost_time_s": frost}
+
+    def kwh(values: np.ndarray, where: np.ndarray = hp) -> float:
+        return float(np.sum(values[where] * dts[where]) / 3.6e6)
+
+    eta = par[L.P_ETA_DC]
+    need = np.interp(states[:-1, L.S_TM], *MOTOR_TABLE)
+    own = par[L.P_PUMP_E_POWER] * np.clip(need, par[L.P_PUMP_E_MIN], 1.0) ** 3
+    extra_pump = np.maximum(out[:, L.O_P_PUMP_E] - own, 0.0)
+    electric = out[:, L.O_P_COMPRESSOR] + (out[:, L.O_P_PUMP_H] + extra_pump + out[:, L.O_P_FAN]) / eta
+    heat = out[:, L.O_Q_HC] - out[:, L.O_P_PTCW]
+    backup = hp & ((flags & L.F_HP_BACKUP) > 0)
+    source = kwh(out[:, L.O_Q_CH_E])
+    ambient = kwh(np.maximum(-out[:, L.O_Q_RAD], 0.0))
+    q_hc = kwh(out[:, L.O_Q_HC])
+    return {
+        "hp_heat_kWh": kwh(out[:, L.O_Q_WCC]),
+        "cop_hp": kwh(out[:, L.O_Q_WCC]) / max(kwh(out[:, L.O_W]), 1e-12),
+        "cop_sys_mean": kwh(heat) / max(kwh(electric), 1e-12),
+        "backup_kWh": kwh(out[:, L.O_P_PTCW], backup),
+        "backup_share": kwh(out[:, L.O_P_PTCW], backup) / q_hc if q_hc > 0 else None,
+        "source_heat_kWh": source,
+        "ambient_heat_kWh": ambient,
+        "waste_heat_kWh": source - ambient,
+        "frost_time_s": frost,
+    }
 
 
 def climate_metrics(
@@ -634,6 +690,22 @@ def _run_loop(
         held[L.H_Y : L.H_Y + L.N_Y] = y
         held[L.H_FALLBACK] = float(fallback)
         solves += int(solved)
+
+
+def check_heating(params: SystemParams, refrigerant: Refrigerant) -> None:
+    """Refuse a heat pump without the loops it works on: the e-drive loop (its source) and its cycle map."""
+    if params.hvac.heating != "heat_pump":
+        return
+    if params.edrive.model != "loop":
+        raise EvtmsInputError(
+            "hvac.heating = 'heat_pump' draws on the e-drive coolant loop; edrive.model 'ambient' has none "
+            "(use edrive.model = 'loop')"
+        )
+    if "hp" not in refrigerant.maps:
+        raise EvtmsInputError(
+            "hvac.heating = 'heat_pump' needs the hp cycle map; load the refrigerant with these parameters "
+            "(evtms.system.refrigerant.load_refrigerant(folder, params))"
+        )
 
 
 def check_model(model: str, mode: str, mode_models: ModeModels | None, refrigerant: Refrigerant) -> None:
@@ -778,9 +850,10 @@ def ledgers(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np.ndarra
     through_c = (abs(q_bc) + out[:, L.O_Q_HEATER] + abs(out[:, L.O_Q_CHILLER])) * dts
     res["coolant"] = rel(stored_c - np.sum(flow_c), np.sum(through_c))
     stored_h = par[L.P_C_H] * (states[-1, L.S_TH] - states[0, L.S_TH])
-    flow_h = (out[:, L.O_P_PTCW] - out[:, L.O_Q_HC]) * dts
+    flow_h = (out[:, L.O_P_PTCW] + out[:, L.O_Q_WCC] - out[:, L.O_Q_HC]) * dts
     res["heater_loop"] = rel(
-        stored_h - np.sum(flow_h), np.sum((out[:, L.O_P_PTCW] + abs(out[:, L.O_Q_HC])) * dts) + 1.0
+        stored_h - np.sum(flow_h),
+        np.sum((out[:, L.O_P_PTCW] + abs(out[:, L.O_Q_WCC]) + abs(out[:, L.O_Q_HC])) * dts) + 1.0,
     )
     caps = [par[L.P_C_AIR], par[L.P_C_GLASS], par[L.P_C_DOORS], par[L.P_C_ROOF], par[L.P_C_INT]]
     idx = [L.S_TA, L.S_TGLASS, L.S_TDOORS, L.S_TROOF, L.S_TINT]
@@ -792,7 +865,8 @@ def ledgers(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np.ndarra
     walls_abs = sum(par[L.P_G_GLASS + k] * abs(T_amb - s1[:, L.S_TGLASS + k]) for k in range(3))
     through = walls_abs + abs(inflow) + abs(out[:, L.O_Q_AIR_SOURCES]) + out[:, L.O_Q_SUN_INT]
     res["cabin"] = rel(stored - np.sum(flows), np.sum(through * dts))
-    ref = out[:, L.O_Q_COND] - out[:, L.O_Q_EVAP] - out[:, L.O_Q_CHILLER] - out[:, L.O_W_FLUID]
+    ref = out[:, L.O_Q_COND] + out[:, L.O_Q_WCC] - out[:, L.O_Q_EVAP] - out[:, L.O_Q_CHILLER] - out[:, L.O_Q_CH_E]
+    ref -= out[:, L.O_W_FLUID]
     res["refrigerant"] = rel(np.sum(ref * dts), np.sum(out[:, L.O_W_FLUID] * dts) + 1.0)
     res["edrive"] = _edrive_ledger(par, states, out, dts)
     uses = out[:, L.O_P_AUX] + out[:, L.O_P_HVAC] + out[:, L.O_P_EDRIVE_AUX] - out[:, L.O_P_GRID]
@@ -812,8 +886,8 @@ def _edrive_ledger(par: np.ndarray, states: np.ndarray, out: np.ndarray, dts: np
     if int(par[L.P_EDRIVE_MODEL]) != L.EDRIVE_LOOP:
         to_motor = np.zeros_like(to_motor)
     sources = out[:, L.O_Q_DRIVE] + out[:, L.O_Q_DCDC]
-    flows = np.sum((sources + to_motor - out[:, L.O_Q_RAD]) * dts)
-    through = np.sum((sources + np.abs(to_motor) + np.abs(out[:, L.O_Q_RAD])) * dts)
+    flows = np.sum((sources + to_motor - out[:, L.O_Q_RAD] - out[:, L.O_Q_CH_E]) * dts)
+    through = np.sum((sources + np.abs(to_motor) + np.abs(out[:, L.O_Q_RAD]) + np.abs(out[:, L.O_Q_CH_E])) * dts)
     return float(abs(stored - flows) / max(through, 1e-300))
 
 

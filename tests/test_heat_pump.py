@@ -1,0 +1,157 @@
+"""The indirect heat pump in the simulator (spec v2 section 6): the hp circuit on the heater-core and e-drive loops,
+its controller, backup, suction trips and lockout, the radiator as its source, frost, and every ledger.
+
+The refrigerant loop runs on synthetic cycle maps (:mod:`test_simulate`'s, plus an ``hp`` map built here) that
+close their energy balance exactly, so these tests check the simulator; the ``hp`` map of real LUTs is the
+cycle solver's (``tests/test_cycle_hp.py``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from test_simulate import params, parked, refrigerant  # noqa: F401 - the synthetic maps' fixture
+
+from evtms.errors import EvtmsInputError
+from evtms.system import loop as L  # noqa: N812
+from evtms.system.drive_cycles import drive_cycle
+from evtms.system.maps import CycleMap
+from evtms.system.simulate import simulate
+
+WLTC = drive_cycle("wltc3b")
+HP = {"hvac": {"heating": "heat_pump"}}
+
+
+def hp_map(capacity: float = 1.0, suction: float = 1.0) -> CycleMap:
+    """A heat pump whose chiller draws more with speed and a warmer source, its suction falling with both
+    speed and a colder source; the water-cooled condenser gives the chiller's heat plus 0.9 of the work."""
+    nodes = [
+        np.array([0.1, 0.5, 1.0]),
+        np.array([0.3, 1.0]),
+        np.array([293.15, 343.15]),
+        np.array([0.3, 1.0]),
+        np.array([248.15, 273.15, 308.15]),
+    ]
+    speed, _, T_H, _, T_E = np.meshgrid(*nodes, indexing="ij")
+    v = np.zeros((*speed.shape, 9))
+    W = 2500.0 * speed * (1.0 + (T_H - 293.15) / 100.0)
+    q_ch = capacity * 4000.0 * speed * np.clip((T_E - 233.15) / 60.0, 0.0, None)
+    v[..., 0] = suction * 2.9e5 * np.exp(0.037 * (T_E - 283.15)) / (0.5 + speed)
+    v[..., 1] = 1.0e6 + 1.2e6 * speed
+    v[..., 2] = 0.03 * speed
+    v[..., 5] = q_ch
+    v[..., 7], v[..., 8] = W, 0.9 * W
+    v[..., 6] = q_ch + 0.9 * W
+    return CycleMap("hp", ("speed", "u_H", "T_H", "u_E", "T_E"), tuple(nodes), v, 0)
+
+
+def with_hp(refrigerant, **kw):  # noqa: F811
+    return dataclasses.replace(refrigerant, maps={**refrigerant.maps, "hp": hp_map(**kw)})
+
+
+def test_heat_pump_heats_the_cabin_for_less_than_the_coolant_ptc_and_every_ledger_closes(refrigerant):  # noqa: F811
+    ref = with_hp(refrigerant)
+    hp = simulate(WLTC, 268.15, ref, params(**HP), dt=1.0, keep_trace=True)
+    ptcw = simulate(WLTC, 268.15, ref, params(hvac={"heating": "ptc_coolant"}), dt=1.0)
+    for name, residual in hp.ledgers.items():
+        assert residual <= 1e-9, (name, residual)
+    out = hp.trace["out"]
+    ran = out[:, L.O_CIRCUIT] == L.CIRCUIT_HP
+    assert ran.mean() > 0.3
+    s = hp.summary
+    assert s["hp_heat_kWh"] > 0.5 and s["cop_hp"] > 1.0 and s["cop_sys_mean"] > 1.0
+    assert s["source_heat_kWh"] == pytest.approx(s["ambient_heat_kWh"] + s["waste_heat_kWh"], abs=1e-12)
+    assert s["hvac_energy_kWh"] < ptcw.summary["hvac_energy_kWh"]
+    assert abs(s["T_cabin_end_degC"] - ptcw.summary["T_cabin_end_degC"]) < 1.0  # the same comfort
+    # The heat pump's heat flows go to its loops; the front condenser and the battery chiller carry none.
+    assert np.all(out[ran, L.O_Q_COND] == 0.0) and np.all(out[ran, L.O_Q_CHILLER] == 0.0)
+    assert np.all(out[ran, L.O_Q_WCC] > 0.0) and np.all(out[ran, L.O_Q_CH_E] >= 0.0)
+    # Its chiller needs the e-drive loop's flow.
+    assert np.all(out[ran, L.O_U_PUMP_E] >= 0.5)
+    assert ptcw.summary["hp_heat_kWh"] is None
+
+
+def test_ledgers_close_at_every_step_size_with_the_heat_pump(refrigerant):  # noqa: F811
+    ref = with_hp(refrigerant)
+    for dt in (0.1, 10.0):
+        r = simulate(WLTC, 263.15, ref, params(**HP), dt=dt)
+        assert max(r.ledgers.values()) <= 1e-9, (dt, r.ledgers)
+
+
+def test_radiator_is_the_source_below_the_ambient_and_frost_is_flagged(refrigerant):  # noqa: F811
+    ref = with_hp(refrigerant)
+    r = simulate(WLTC, 268.15, ref, params(**HP), dt=1.0, RH_amb=0.9, keep_trace=True)
+    out, st = r.trace["out"], r.trace["states"]
+    T_E = st[:-1, L.S_TE]
+    hp = out[:, L.O_CIRCUIT] == L.CIRCUIT_HP
+    rad = out[:, L.O_RAD_IN] > 0
+    assert np.any(hp & rad)
+    # In heat-pump mode the radiator joins below the ambient less the band and leaves above it plus the band.
+    joined = np.flatnonzero(np.diff(rad.astype(int)) > 0) + 1
+    assert np.all(T_E[joined[hp[joined]]] < 268.15 - 1.0)
+    assert np.any(out[hp & rad, L.O_Q_RAD] < 0.0)  # the air heats the loop: the ambient source
+    assert r.summary["ambient_heat_kWh"] > 0.0
+    # Frost: exactly the steps with the radiator as the source, its cold end below 0 degC and the ambient's
+    # frost point (the ambient's humidity ratio at 268.15 K, RH 0.9).
+    frost = (r.trace["flags"] & L.F_FROST_OUTSIDE) > 0
+    assert frost.any() and r.summary["frost_time_s"] == pytest.approx(float(np.sum(r.trace["dts"][frost])))
+    T_fp = L.dew_point(L.humidity_ratio(268.15, 0.9, 101325.0), 101325.0)
+    flowing = out[:, L.O_U_PUMP_E] > 0
+    expected = rad & flowing & (T_E < 273.15) & (T_E < T_fp)
+    assert np.array_equal(frost, expected)
+
+
+def test_backup_fills_in_only_behind_a_heat_pump_running_flat_out(refrigerant):  # noqa: F811
+    weak = with_hp(refrigerant, capacity=0.05)
+    r = simulate(WLTC, 263.15, weak, params(**HP), dt=1.0, keep_trace=True)
+    out = r.trace["out"]
+    backup = (r.trace["flags"] & L.F_HP_BACKUP) > 0
+    assert backup.any() and r.summary["backup_kWh"] > 0.0
+    hp = out[:, L.O_CIRCUIT] == L.CIRCUIT_HP
+    # Split range: the coolant PTC heats with the heat pump running only while it is backing it up.
+    assert np.all(out[hp & ~backup, L.O_P_PTCW] == 0.0)
+    # It starts only after the heat pump has run flat out (full speed, or held by its suction limiter) for the
+    # backup delay (60 s), and it heats only while the heat pump was flat out within that delay.
+    suction = r.trace["states"][:-1, L.S_YF + L.Y_PS]
+    flat = (out[:, L.O_SPEED_CMD] >= 1.0) | (hp & (suction < 0.10e6 + 0.01e6))
+    for k in np.flatnonzero(backup[1:] & ~backup[:-1]) + 1:
+        assert np.all(flat[k - 59 : k + 1]), k
+    for k in np.flatnonzero(backup & (out[:, L.O_P_PTCW] > 0)):
+        assert np.any(flat[max(k - 60, 0) : k + 1]), k
+
+
+def test_suction_trips_restart_after_their_delay_and_lock_out(refrigerant):  # noqa: F811
+    starved = with_hp(refrigerant, suction=0.2)  # suction below the 0.10 MPa floor at any speed
+    p = params(**HP, heatpump={"hp_restart_delay": 60.0})
+    r = simulate(WLTC, 263.15, starved, p, dt=1.0, keep_trace=True)
+    out, flags = r.trace["out"], r.trace["flags"]
+    locked = (flags & L.F_HP_LOCKED) > 0
+    assert locked.any()
+    hp = out[:, L.O_CIRCUIT] == L.CIRCUIT_HP
+    assert not np.any(hp & locked)
+    t = np.concatenate(([0.0], np.cumsum(r.trace["dts"])))[:-1]
+    stops = np.flatnonzero(hp[:-1] & ~hp[1:]) + 1
+    starts = np.flatnonzero(~hp[:-1] & hp[1:]) + 1
+    assert stops.size >= 3
+    for s in stops:  # each trip waits out the restart delay
+        later = starts[starts > s]
+        if later.size:
+            assert t[later[0]] - t[s] >= 60.0 - 1.0
+    assert max(r.ledgers.values()) <= 1e-9
+
+
+def test_below_its_lowest_ambient_the_coolant_ptc_heats_alone(refrigerant):  # noqa: F811
+    ref = with_hp(refrigerant)
+    r = simulate(WLTC, 253.15, ref, params(**HP), dt=1.0, keep_trace=True)
+    out = r.trace["out"]
+    assert not np.any(out[:, L.O_CIRCUIT] == L.CIRCUIT_HP)
+    assert np.sum(out[:, L.O_P_PTCW]) > 0.0 and r.summary["hp_heat_kWh"] is None
+
+
+def test_heat_pump_needs_its_loops(refrigerant):  # noqa: F811
+    with pytest.raises(EvtmsInputError, match="edrive.model"):
+        simulate(parked(60.0), 268.15, with_hp(refrigerant), params(**HP, edrive={"model": "ambient"}))
+    with pytest.raises(EvtmsInputError, match="hp cycle map"):
+        simulate(parked(60.0), 268.15, refrigerant, params(**HP))
