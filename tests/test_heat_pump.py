@@ -155,3 +155,44 @@ def test_heat_pump_needs_its_loops(refrigerant):  # noqa: F811
         simulate(parked(60.0), 268.15, with_hp(refrigerant), params(**HP, edrive={"model": "ambient"}))
     with pytest.raises(EvtmsInputError, match="hp cycle map"):
         simulate(parked(60.0), 268.15, refrigerant, params(**HP))
+
+
+def test_range_test_with_both_heatings_then_the_report_gives_the_gain(refrigerant, monkeypatch, tmp_path):  # noqa: F811
+    import json
+
+    from conftest import one_error_line
+    from typer.testing import CliRunner
+
+    from evtms import cli
+    from evtms.workflows import simulate as simulate_workflow
+
+    ref = with_hp(refrigerant)
+    monkeypatch.setattr(simulate_workflow, "system_refrigerant", lambda *args, **kwargs: ref)
+    runner = CliRunner()
+
+    def run(*args):
+        return runner.invoke(cli.app, [str(a) for a in args])
+
+    toml = tmp_path / "small.toml"
+    toml.write_text("[battery]\nn_parallel = 8\n")
+    out = tmp_path / "mct.nc"
+    res = run("simulate", "--range", "mct", "--t-amb", "-10,0", "--heating", "ptc_air,heat_pump", "--params", toml,
+              "--luts", tmp_path / "l", "-o", out, "--json")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    runs = json.loads(res.stdout)["runs"]
+    assert [r["heating"] for r in runs] == ["ptc_air", "ptc_air", "heat_pump", "heat_pump"]
+    assert runs[2]["hp_heat_kWh"] > 0 and runs[0]["hp_heat_kWh"] is None
+    res = run("report", "range", out, "-o", tmp_path / "r.png", "--heating", "ptc_air,heat_pump", "--json")
+    assert res.exit_code == 0, res.output
+    gain = json.loads(res.stdout)["heat_pump_gain"]
+    assert [g["T_amb_degC"] for g in gain] == pytest.approx([-10.0, 0.0])
+    for g, hp, base in zip(gain, runs[2:], runs[:2], strict=True):
+        expected = hp["range"]["range_combined_km"] / base["range"]["range_combined_km"] - 1.0
+        assert g["gain_pct"] == pytest.approx(100.0 * expected, rel=1e-9) and g["gain_pct"] > 0.0
+        assert g["cop_sys_mean"] == hp["cop_sys_mean"] and g["base"] == "ptc_air"
+        assert g["hvac_share"] < g["base_hvac_share"]
+    text = run("report", "range", out, "-o", tmp_path / "r2.png")
+    assert text.exit_code == 0 and "heat_pump" in text.stdout and "vs ptc_air" in text.stdout
+    bad = run("report", "range", out, "-o", tmp_path / "r3.png", "--heating", "ptc_coolant")
+    one_error_line(bad, "--heating 'ptc_coolant': the file has no run of it")
+    assert not (tmp_path / "r3.png").exists()

@@ -189,10 +189,7 @@ BAD_FILES = [
     ("cycle-parked-0", '[a]\ncycle = "parked:0"\n', ["parked:0", "1 to 604,800 s"]),
     ("cycle-missing-file", '[a]\ncycle = "nosuch.csv"\n', ["[a] cycle", "nosuch.csv", "cannot read"]),
     ("mode-unknown", '[a]\ncycle = "udds"\nmode = "heat"\n', ["mode 'heat' is unknown", "auto, off, bh"]),
-    ("mode-ch-hp", '[a]\ncycle = "udds"\nmode = "ch-hp"\n', ["mode 'ch-hp'", "not available yet"]),
     ("heating-unknown", '[a]\ncycle = "udds"\nheating = "gas"\n', ["heating 'gas' is unknown"]),
-    ("heating-hp", '[a]\ncycle = "udds"\nheating = "heat_pump"\n', ["heating 'heat_pump'", "not available yet",
-                                                                     "allowed: ptc_air, ptc_coolant"]),
     ("T_amb-degC", '[a]\ncycle = "udds"\nT_amb = 35\n', ["T_amb = 35 is not allowed", "233.15 to 333.15 K"]),
     ("T_amb-text", '[a]\ncycle = "udds"\nT_amb = "hot"\n', ["T_amb = 'hot' is not a finite number"]),
     ("rh", '[a]\ncycle = "udds"\nrh_amb = 1.5\n', ["rh_amb = 1.5 is not allowed", "0 to 1"]),
@@ -341,6 +338,10 @@ def test_setup_overrides_and_the_heating_option():
     assert ch.heating == "ptc_coolant" and ch.params.hvac.heating == "ptc_coolant"
     assert apply_heating(SystemParams(), "ptc_coolant").hvac.heating == "ptc_coolant"
     assert Scenario("", "udds").setup().mode == "auto"
+    # ch-hp forces cabin heating on the heat pump: the mode ch with heating heat_pump.
+    hp = SCENARIOS["t12-ch-1"].setup(mode="ch-hp")
+    assert hp.mode == "ch" and hp.heating == "heat_pump" and hp.params.hvac.heating == "heat_pump"
+    assert Scenario("", "udds", heating="heat_pump").setup().params.hvac.heating == "heat_pump"
 
 
 # --------------------------------------------------------------------------------------------- Table 12 columns
@@ -473,7 +474,8 @@ def test_simulate_with_input_options_and_a_scenario_file(luts, tmp_path):
          "--sp-evap 40 degC is not allowed; allowed: 0 to 25 degC"),
         (["--cycle", "parked:600", "--t-amb", "30", "--blower", "no.csv:u"], "--blower 'no.csv:u'"),
         (["--cycle", "parked:600", "--t-amb", "30", "--q-battery", "lots"], "--q-battery 'lots' is neither"),
-        (["--cycle", "parked:600", "--t-amb", "30", "--mode", "ch-hp"], "not available yet"),
+        (["--cycle", "parked:600", "--t-amb", "30", "--heating", "gas"], "--heating 'gas' is unknown"),
+        (["--cycle", "parked:600", "--t-amb", "30", "--heating", "ptc_air,ptc_air"], "--heating 'ptc_air,ptc_air'"),
         (["--scenario", "t12-bh-9"], "--scenario 't12-bh-9' is unknown"),
         (["--scenario-file", "nosuch.toml"], "scenario file 'nosuch.toml': no such file"),
         (["--scenario", "t12-bh-1", "--cycle", "udds"], "one of them"),
@@ -487,12 +489,13 @@ def test_bad_scenario_or_input_options_are_one_line_and_no_file(luts, tmp_path, 
     assert not out.exists()
 
 
-def test_a_heat_pump_scenario_file_is_refused_by_the_command(luts, tmp_path):
+def test_a_heat_pump_scenario_file_sets_the_heating(tmp_path):
+    from evtms.system.scenarios import read_scenario_file
+
     f = tmp_path / "hp.toml"
     f.write_text('[hp]\ncycle = "wltc3b"\nT_amb = 263.15\nheating = "heat_pump"\n')
-    r = run("simulate", "--scenario-file", f, "--luts", luts, "-o", tmp_path / "hp.nc")
-    assert r.exit_code == 2 and "heating 'heat_pump': the heat pump" in r.stderr
-    assert len(r.stderr.strip().splitlines()) == 1 and not (tmp_path / "hp.nc").exists()
+    setup = read_scenario_file(f)["hp"].setup()
+    assert setup.heating == "heat_pump" and setup.params.hvac.heating == "heat_pump"
 
 
 def test_report_compare_prints_the_table12_columns(luts, tmp_path):

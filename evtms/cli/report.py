@@ -125,6 +125,14 @@ def report_range(
         typer.Argument(help="Simulation sweep over the ambient (evtms simulate --t-amb a:b:n), or range tests."),
     ],
     output: Annotated[Path, typer.Option("--output", "-o", help="Figure file, .png or .svg.")],
+    heating: Annotated[
+        str | None,
+        typer.Option(
+            "--heating",
+            help="A range test's heating options to draw, comma-separated (ptc_air, ptc_coolant, heat_pump; "
+            "default: every one in the file). With heat_pump and a resistive one: the gain per ambient.",
+        ),
+    ] = None,
     json_out: JsonOut = False,
 ) -> None:
     """Range against the ambient temperature.
@@ -139,11 +147,28 @@ def report_range(
     """
     from evtms.workflows.report import range_report
 
-    report = range_report(sweep, output)
+    report = range_report(sweep, output, heating)
     if json_out:
         print_json({"path": str(output), **report})
         return
+    for g in report.get("heat_pump_gain", []):
+        typer.echo(_gain_line(g))
     typer.echo(f"wrote {output}")
+
+
+def _gain_line(g: dict) -> str:
+    """One line of the heat pump's range gain at one ambient, and where it comes from."""
+
+    def num(key: str, fmt: str) -> str:
+        return "n/a" if g.get(key) is None else format(g[key], fmt)
+
+    return (
+        f"{g['T_amb_degC']:6.1f} degC  heat_pump {num('range_km', '.0f')} km vs {g['base']} "
+        f"{num('base_range_km', '.0f')} km: {num('gain_pct', '+.1f')} %  (HVAC share {g['hvac_share']:.0%} vs "
+        f"{g['base_hvac_share']:.0%}, COP_sys {num('cop_sys_mean', '.2f')}, backup share "
+        f"{num('backup_share', '.0%')}, waste heat {num('waste_heat_kWh', '.2f')} kWh, ambient heat "
+        f"{num('ambient_heat_kWh', '.2f')} kWh)"
+    )
 
 
 _Cycles = Annotated[

@@ -68,7 +68,11 @@ _ScenarioFile = Annotated[
 ]
 _Mode = Annotated[
     str | None,
-    typer.Option("--mode", help="auto, or force one mode: off, bh, bc, cc, ch (default: the scenario's, or auto)."),
+    typer.Option(
+        "--mode",
+        help="auto, or force one mode: off, bh, bc, cc, ch, ch-hp (ch on the heat pump); default: the scenario's, "
+        "or auto.",
+    ),
 ]
 _Params = Annotated[Path | None, typer.Option("--params", help="TOML: [vehicle] [battery] [cabin] ...")]
 _Luts = Annotated[
@@ -110,6 +114,16 @@ _RangeTest = Annotated[
 ]
 
 
+_Heating = Annotated[
+    str | None,
+    typer.Option(
+        "--heating",
+        help="Cabin heating: ptc_air, ptc_coolant or heat_pump, or several comma-separated (each runs at every "
+        "ambient, side by side; evtms report range draws one curve each). Default: --params' [hvac] heating.",
+    ),
+]
+
+
 @with_options(_input_options, at=15)
 def simulate(
     output: Annotated[Path, typer.Option("--output", "-o", help="Output netCDF file.")],
@@ -127,6 +141,7 @@ def simulate(
     model: _Model = "lut",
     surrogates: _Surrogates = Path("models"),
     range_test: _RangeTest = "single",
+    heating: _Heating = None,
     json_out: JsonOut = False,
     **inputs: str | None,
 ) -> None:

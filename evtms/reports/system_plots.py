@@ -18,6 +18,7 @@ backend), written as PNG or SVG by the file suffix.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -418,7 +419,7 @@ def range_data(ds: xr.Dataset) -> dict:
     }
 
 
-def range_figure(ds: xr.Dataset, path: str | Path) -> Path:
+def range_figure(ds: xr.Dataset, path: str | Path, heating: Sequence[str] | None = None) -> Path:
     """Draw consumption per 100 km split by use (stacked bars) and the single-trip range against the ambient.
 
     Parameters
@@ -427,6 +428,8 @@ def range_figure(ds: xr.Dataset, path: str | Path) -> Path:
         A simulation sweep over the ambient (dimension ``T_amb``).
     path : str or Path
         Figure file, ``.png`` or ``.svg`` (written atomically).
+    heating : sequence of str, optional
+        A range test's heating options to draw (default: all).
 
     Returns
     -------
@@ -443,7 +446,7 @@ def range_figure(ds: xr.Dataset, path: str | Path) -> Path:
     A depletion test's file (``evtms simulate --range mct|ccp``) gets :func:`depletion_figure` instead.
     """
     if "time" in ds.dims and range_test(ds) != "single":
-        return depletion_figure(ds, path)
+        return depletion_figure(ds, path, heating)
     d = range_data(ds)
     x = d["T_amb"]
     step = float(np.min(np.diff(np.sort(x)))) if x.size > 1 else 5.0
@@ -564,13 +567,15 @@ def _checks(T: np.ndarray, r: np.ndarray) -> list[dict]:
     return out
 
 
-def depletion_data(ds: xr.Dataset) -> dict:
+def depletion_data(ds: xr.Dataset, heating: Sequence[str] | None = None) -> dict:
     """What :func:`depletion_figure` draws, and the report's JSON, from a depletion test's runs.
 
     Parameters
     ----------
     ds : xarray.Dataset
         An ``evtms simulate --range mct|ccp`` file (one ambient or a sweep).
+    heating : sequence of str, optional
+        The heating options to draw (default: every one in the file).
 
     Returns
     -------
@@ -587,7 +592,7 @@ def depletion_data(ds: xr.Dataset) -> dict:
     Raises
     ------
     EvtmsInputError
-        Not a simulation output, or not a depletion test's file.
+        Not a simulation output, not a depletion test's file, or a heating option the file has no run of.
     """
     if "time" not in ds.dims:
         raise EvtmsInputError("not an evtms simulation output (no 'time' dimension; write one with evtms simulate)")
@@ -598,15 +603,19 @@ def depletion_data(ds: xr.Dataset) -> dict:
         )
     runs = _range_runs(ds)
     temps = np.round(ambients(ds) - 273.15, 9)  # K to degC without the subtraction's round-off
-    heating = _heating(ds, len(runs))
+    heating_of_runs = _heating(ds, len(runs))
     key = "range_combined_km" if test == "mct" else "range_depletion_km"
 
     def num(value) -> float:
         return float(value) if value is not None else np.nan
 
+    in_file = list(dict.fromkeys(heating_of_runs))
+    missing = [h for h in (heating or ()) if h not in in_file]
+    if missing:
+        raise EvtmsInputError(f"`heating` {missing[0]!r}: the file has no run of it; it has {', '.join(in_file)}")
     curves = {}
-    for option in dict.fromkeys(heating):
-        idx = [i for i, h in enumerate(heating) if h == option]
+    for option in heating or in_file:
+        idx = [i for i, h in enumerate(heating_of_runs) if h == option]
         idx.sort(key=lambda i: temps[i])
         T = np.array([temps[i] for i in idx])
         col = {
@@ -628,6 +637,7 @@ def depletion_data(ds: xr.Dataset) -> dict:
             "pct_vs_baseline": pct,
             "baseline_km": base,
             "checks": checks,
+            "runs": idx,
         }
         if any(c["ok"] is False for c in checks):
             curve["breakdown"] = [
@@ -646,16 +656,53 @@ def depletion_data(ds: xr.Dataset) -> dict:
         "test": test,
         "range_key": key,
         "curves": curves,
+        "heat_pump_gain": _heat_pump_gain(curves, summaries(ds)),
         "aaa_2019": dict(AAA_2019),
         "geotab_band": GEOTAB_BAND_DEGC,
         "title": f"Range over the ambient: {name}",
     }
 
 
-def depletion_report(ds: xr.Dataset) -> dict:
+#: The resistive heating a heat pump's gain is measured against, first found first.
+GAIN_BASES = ("ptc_air", "ptc_coolant")
+#: What a heat-pump run's summary says of where its range gain comes from (evtms.system.simulate.heat_pump_metrics).
+GAIN_BREAKDOWN = ("cop_sys_mean", "cop_hp", "backup_share", "hp_heat_kWh", "waste_heat_kWh", "ambient_heat_kWh")
+
+
+def _heat_pump_gain(curves: dict, runs: list[dict]) -> list[dict]:
+    """The heat pump's range against the resistive heater's at each ambient both curves have, with its breakdown:
+    the heating share of the energy of both, the heat pump's COPs, backup share and source heats."""
+    base_name = next((b for b in GAIN_BASES if b in curves), None)
+    if "heat_pump" not in curves or base_name is None:
+        return []
+    hp, base = curves["heat_pump"], curves[base_name]
+    out = []
+    for j, T in enumerate(hp["T_amb"]):
+        k = np.flatnonzero(np.abs(base["T_amb"] - T) < 1e-6)
+        if not k.size:
+            continue
+        k = int(k[0])
+        r_hp, r_base = float(hp["range_km"][j]), float(base["range_km"][k])
+        summary = runs[hp["runs"][j]]
+        entry = {
+            "T_amb_degC": float(T),
+            "base": base_name,
+            "range_km": r_hp if np.isfinite(r_hp) else None,
+            "base_range_km": r_base if np.isfinite(r_base) else None,
+            "gain_pct": (r_hp / r_base - 1.0) * 100.0 if np.isfinite(r_hp) and r_base > 0 else None,
+            "hvac_share": float(hp["hvac_share"][j]),
+            "base_hvac_share": float(base["hvac_share"][k]),
+        }
+        entry.update({name: summary.get(name) for name in GAIN_BREAKDOWN})
+        out.append(entry)
+    return out
+
+
+def depletion_report(ds: xr.Dataset, heating: Sequence[str] | None = None) -> dict:
     """The ``evtms report range --json`` object of a depletion test: per curve the per-ambient figures, the
-    Geotab shape checks and, where one fails, the per-point breakdown; the AAA 2019 comparison (JSON-ready)."""
-    d = depletion_data(ds)
+    Geotab shape checks and, where one fails, the per-point breakdown; the AAA 2019 comparison; the heat
+    pump's gain per ambient with its breakdown (JSON-ready). ``heating``: the curves (default: all)."""
+    d = depletion_data(ds, heating)
 
     def clean(x) -> float | None:
         return None if x is None or not np.isfinite(x) else float(x)
@@ -688,10 +735,10 @@ def depletion_report(ds: xr.Dataset) -> dict:
         if "breakdown" in c:
             entry["breakdown"] = c["breakdown"]
         curves.append(entry)
-    return {"test": d["test"], "range": d["range_key"], "curves": curves}
+    return {"test": d["test"], "range": d["range_key"], "curves": curves, "heat_pump_gain": d["heat_pump_gain"]}
 
 
-def depletion_figure(ds: xr.Dataset, path: str | Path) -> Path:
+def depletion_figure(ds: xr.Dataset, path: str | Path, heating: Sequence[str] | None = None) -> Path:
     """Draw a depletion test's range and steady consumption against the ambient.
 
     Top: the test's range (combined for mct, depletion for ccp) per heating option, ``range_ss`` dotted,
@@ -704,6 +751,8 @@ def depletion_figure(ds: xr.Dataset, path: str | Path) -> Path:
         An ``evtms simulate --range mct|ccp`` file.
     path : str or Path
         Figure file, ``.png`` or ``.svg`` (written atomically).
+    heating : sequence of str, optional
+        The heating options to draw (default: every one in the file).
 
     Returns
     -------
@@ -715,7 +764,7 @@ def depletion_figure(ds: xr.Dataset, path: str | Path) -> Path:
     EvtmsInputError
         Not a depletion test's file.
     """
-    d = depletion_data(ds)
+    d = depletion_data(ds, heating)
     fig = _figure(figsize=(8.5, 7.5))
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
     lo, hi = d["geotab_band"]
@@ -738,6 +787,12 @@ def depletion_figure(ds: xr.Dataset, path: str | Path) -> Path:
         bottom.plot(x, c["EC_ss_Wh_per_km"], "s-", color=colour, label=f"EC_ss{tag}")
         if first is None and c["baseline_km"]:
             first = c
+    for g in d["heat_pump_gain"]:
+        if g["gain_pct"] is not None:
+            top.annotate(f"{g['gain_pct']:+.0f} %", (g["T_amb_degC"], g["range_km"]), textcoords="offset points",
+                         xytext=(0, 7), ha="center", fontsize="x-small", color="tab:red")  # fmt: skip
+    if d["heat_pump_gain"]:
+        top.plot([], [], ls="none", label=f"heat pump's gain over {d['heat_pump_gain'][0]['base']} (red)")
     if first is not None:
         base = first["baseline_km"]
         right = top.secondary_yaxis(

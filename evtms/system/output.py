@@ -127,6 +127,13 @@ def _global_attrs(results: list[SimulationResult]) -> dict:
         attrs["range"] = json.dumps([json.loads(r.attrs["range"]) for r in results]) if several else first["range"]
     if not several:
         attrs["T_amb"] = first["T_amb"]
+    # The cabin heating per run (`evtms simulate --heating a,b` runs each at every ambient): one name, or a
+    # JSON list along T_amb where the runs differ; `parameters` is the first run's.
+    heating = [r.summary.get("heating") for r in results]
+    if len(set(heating)) > 1:
+        attrs["heating"] = json.dumps(heating)
+    elif heating[0] is not None:
+        attrs["heating"] = str(heating[0])
     return attrs
 
 

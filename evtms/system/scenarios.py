@@ -54,15 +54,11 @@ INITIAL_KEYS = {
     "T_cabin": ("cabin", "T_init"),
     "soc": ("battery", "soc_init"),
 }
-#: Modes a scenario may name (``auto`` or a forced one); ``ch-hp`` is refused until the heat pump exists.
+#: Modes a scenario may name (``auto`` or a forced one); ``ch-hp`` is cabin heating forced on the heat pump
+#: (the mode ``ch`` with ``heating = "heat_pump"``).
 SCENARIO_MODES = ("auto", *MODE_CODES, "ch-hp")
-#: Heating options; ``heat_pump`` is refused until the heat pump exists.
+#: Heating options (``hvac.heating``).
 HEATING = ("ptc_air", "ptc_coolant", "heat_pump")
-#: Options of the spec that are later features: refused with this reason.
-NOT_YET = {
-    "heat_pump": "the heat pump (spec section 6) is not available yet",
-    "ch-hp": "heat-pump heating (spec section 6) is not available yet",
-}
 #: Allowed ranges: ambient [K] (that of ``--t-amb``), humidity [1], sun [W/m2], initial temperatures [K].
 T_AMB_RANGE = (233.15, 333.15)
 RH_RANGE = (0.0, 1.0)
@@ -187,7 +183,10 @@ class Scenario:
             params = system_params_from_dict(self._initial_tables(), params)
         except EvtmsInputError as exc:
             raise EvtmsInputError(f"{where}: {exc}") from None
-        params = apply_heating(params, self.heating)
+        heating = self.heating
+        if mode == "ch-hp":  # forced cabin heating on the heat pump (spec v2 3): mode ch, heating heat_pump
+            mode, heating = "ch", "heat_pump"
+        params = apply_heating(params, heating)
         given = check_inputs(self.inputs, labels={n: f"{where}: input {n}" for n in INPUT_NAMES})
         extra = dict(inputs or {})
         merged = {n: extra[n] if n in extra else given[n] for n in INPUT_NAMES if n in extra or n in given}
@@ -203,7 +202,7 @@ class Scenario:
             RH_amb=self.rh_amb,
             sun=self.sun,
             inputs=merged,
-            heating=self.heating,
+            heating=heating,
         )
 
     def _initial_tables(self) -> dict[str, dict[str, float]]:
@@ -308,13 +307,10 @@ def run_scenario(setup: ScenarioSetup, refrigerant, T_amb: float | None = None, 
 
 
 def check_choice(what: str, value: Any, allowed: Iterable[str]) -> str:
-    """``value`` if it is one of ``allowed`` and available; else one line naming ``what`` and the choices."""
+    """``value`` if it is one of ``allowed``; else one line naming ``what`` and the choices."""
     allowed = tuple(allowed)
     if not isinstance(value, str) or value not in allowed:
         raise EvtmsInputError(f"{what} {value!r} is unknown; allowed: {', '.join(allowed)}")
-    if value in NOT_YET:
-        others = ", ".join(a for a in allowed if a not in NOT_YET)
-        raise EvtmsInputError(f"{what} {value!r}: {NOT_YET[value]}; allowed: {others}")
     return value
 
 
@@ -359,8 +355,7 @@ def scenario_from_dict(name: str, table: Any, *, base: str | Path | None = None,
     EvtmsInputError
         One line naming the scenario, the key and what is allowed: a bad
         name, not a table, an unknown or missing key, a value of the wrong
-        type or out of range, an unknown mode or heating (``heat_pump`` and
-        ``ch-hp``: not available yet), a cycle or trace file that cannot be
+        type or out of range, an unknown mode or heating, a cycle or trace file that cannot be
         read, a blower of 0 with a mode that runs the cabin coil or a heater,
         a parameter not allowed, an initial value also set in ``params``.
     """

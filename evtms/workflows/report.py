@@ -9,6 +9,7 @@ output path before anything is drawn, then draws with :mod:`evtms.reports`.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from evtms.errors import EvtmsInputError
@@ -167,19 +168,25 @@ def simulation_report(run: str | Path, output: str | Path, t_amb: float | None =
     return output
 
 
-def range_report(sweep: str | Path, output: str | Path) -> dict:
+def range_report(sweep: str | Path, output: str | Path, heating: str | Sequence[str] | None = None) -> dict:
     """Range against the ambient of a simulation sweep or range-test file.
 
-    Returns the depletion report of a range test (:func:`evtms.reports.system_plots.depletion_report`;
-    empty for a single-trip sweep) once the figure is written.
+    ``heating`` (text ``a,b`` or names) picks the range test's curves to draw (default: every heating option
+    in the file). Returns the depletion report of a range test
+    (:func:`evtms.reports.system_plots.depletion_report`; empty for a single-trip sweep) once the figure is
+    written.
     """
     from evtms.reports.system_plots import depletion_report, range_figure, range_test
+    from evtms.workflows.simulate import heating_options
 
+    options = heating_options(heating)
     output = output_file(output, [sweep], _FIGURES)
     ds = _open_simulation(Path(sweep))
     try:
+        if options is not None and range_test(ds) == "single":
+            raise EvtmsInputError("`heating` picks a range test's curves; this file is a single-trip sweep")
         with creating_parents(output):
-            range_figure(ds, output)
-        return depletion_report(ds) if range_test(ds) != "single" else {}
+            range_figure(ds, output, options)
+        return depletion_report(ds, options) if range_test(ds) != "single" else {}
     except EvtmsInputError as exc:
         raise EvtmsInputError(f"{sweep}: {exc}") from None

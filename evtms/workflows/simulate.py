@@ -11,6 +11,7 @@ time series. The helpers the other workflows share (:func:`cycle_luts`,
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -68,6 +69,9 @@ class SimulationRequest:
     inputs : mapping of str to str or float
         External inputs by name (:data:`evtms.system.inputs.INPUT_NAMES`): numbers (degC for temperatures)
         or ``FILE.csv:column`` traces.
+    heating : str or sequence of str, optional
+        Cabin heating (``ptc_air``, ``ptc_coolant``, ``heat_pump``): one, several, or text ``a,b``; each
+        runs at every ambient, side by side in the file (default: the parameters' or the scenario's).
     """
 
     output: Path | None = None
@@ -86,6 +90,7 @@ class SimulationRequest:
     surrogates: Path = Path("models")
     range_test: str = "single"
     inputs: Mapping[str, str | float | None] = field(default_factory=dict)
+    heating: str | Sequence[str] | None = None
 
 
 @dataclass
@@ -95,7 +100,8 @@ class SimulationRun:
     Attributes
     ----------
     results : list of SimulationResult
-        One run per ambient (:class:`evtms.system.simulate.SimulationResult`); their summaries carry
+        One run per heating option and ambient, ambients varying fastest
+        (:class:`evtms.system.simulate.SimulationResult`); their summaries carry
         ``wall_time_s``, the time of the whole request.
     path : Path or None
         The file written.
@@ -265,11 +271,28 @@ def _check_choice(request: SimulationRequest) -> tuple[bool, bool]:
     return depletion, named
 
 
+def heating_options(heating: str | Sequence[str] | None) -> list[str] | None:
+    """The heating options a request names (text ``a,b`` or a sequence), checked; None: none named."""
+    from evtms.system.params import HEATING
+    from evtms.system.scenarios import check_choice
+
+    if heating is None:
+        return None
+    names = [h.strip() for h in heating.split(",")] if isinstance(heating, str) else [str(h) for h in heating]
+    if not names or len(set(names)) != len(names):
+        raise EvtmsInputError(
+            f"`heating` {heating!r}: give one or more different options; allowed: {', '.join(HEATING)}"
+        )
+    for name in names:
+        check_choice("`heating`", name, HEATING)
+    return names
+
+
 def _plan(request: SimulationRequest, depletion: bool, named: bool):
     """(scenario, its setup, system parameters, ambients [K], files read): checked before any map work."""
     from evtms.cycle.topology import parse_values
     from evtms.system.params import load_parameter_tree
-    from evtms.system.scenarios import Scenario
+    from evtms.system.scenarios import Scenario, apply_heating
     from evtms.system.simulate import check_run_options
 
     r = request
@@ -282,6 +305,7 @@ def _plan(request: SimulationRequest, depletion: bool, named: bool):
         inputs.append(r.scenario_file)
     tree = load_parameter_tree(r.params)
     setup = sc.setup(tree.system, mode=r.mode, inputs=_option_inputs(r.inputs))
+    heatings = heating_options(r.heating) or [setup.params.hvac.heating]
     if depletion:
         from evtms.system.range_test import ccp_sequence, mct_sequence
 
@@ -291,7 +315,11 @@ def _plan(request: SimulationRequest, depletion: bool, named: bool):
     check_run_options(trace, r.dt, setup.mode, r.output_every, r.precondition)
     if not depletion and Path(trace.source).is_file():
         inputs.append(Path(trace.source))
-    return sc, setup, tree, ambients, inputs + trace_files(setup.inputs)
+    setups = [dataclasses.replace(setup, params=apply_heating(setup.params, h), heating=h) for h in heatings]
+    # The maps the runs need: the heat pump's only where one of them heats with it.
+    maps_for = next((s.params for s in setups if s.params.hvac.heating == "heat_pump"), setup.params)
+    tree = dataclasses.replace(tree, system=maps_for)
+    return sc, setups, tree, ambients, inputs + trace_files(setup.inputs)
 
 
 def run_simulation(
@@ -332,7 +360,7 @@ def _run_simulation(request: SimulationRequest, notify: Notify, progress: Progre
     from evtms.system.simulate import check_model
 
     depletion, named = _check_choice(request)
-    sc, setup, tree, ambients, inputs = _plan(request, depletion, named)
+    sc, setups, tree, ambients, inputs = _plan(request, depletion, named)
     lut_folder, lut_files = cycle_luts(request.luts)
     inputs += lut_files
     mode_models = None
@@ -342,7 +370,8 @@ def _run_simulation(request: SimulationRequest, notify: Notify, progress: Progre
     if request.output is not None:
         output_file(request.output, inputs, (".nc",))
     refrigerant = system_refrigerant(request.luts, lut_folder, tree, notify, progress)
-    check_model(request.model, setup.mode, mode_models, refrigerant)
+    for setup in setups:
+        check_model(request.model, setup.mode, mode_models, refrigerant)
     options = dict(
         dt=request.dt,
         soak_cabin=None if request.soak_cabin is None else request.soak_cabin + 273.15,
@@ -362,10 +391,11 @@ def _run_simulation(request: SimulationRequest, notify: Notify, progress: Progre
                 test, T, refrigerant, setup.params, mode=setup.mode, RH_amb=setup.RH_amb, sun=setup.sun,
                 scenario=sc.name, inputs=setup.inputs, **options,
             )[0]
+            for setup in setups
             for T in ambients
         ]  # fmt: skip
     else:
-        results = [run_scenario(setup, refrigerant, T, **options) for T in ambients]
+        results = [run_scenario(setup, refrigerant, T, **options) for setup in setups for T in ambients]
     if request.output is not None:
         with creating_parents(request.output):
             write_simulation(results, request.output)
