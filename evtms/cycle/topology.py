@@ -15,7 +15,10 @@ the superheat at that branch's outlet:
   the compressor suction. A valve that would need more than its maximum
   opening sits at it, its branch's superheat floating while the other holds
   the setpoint; a branch that would need less than the least flow its model
-  covers has its valve closed (no flow, no heat).
+  covers has its valve closed (no flow, no heat);
+- ``hp``: the heat pump: the WCC heats the heating loop (H), the chiller
+  draws on the e-drive loop (E); the front condenser and the cabin
+  evaporator are shut, so no air input enters (system-v2 spec, section 6).
 
 :data:`INPUTS` declares every operating input once (units, meaning, allowed
 range, how the command line takes it); a topology lists the ones it uses.
@@ -135,6 +138,8 @@ class Branch:
 
 CABIN = Branch("evaporator", ("blower", "T_cabin", "RH_cabin"), "T_cabin", "cabin evaporator")
 BATTERY = Branch("chiller", ("mdot_coolant", "T_coolant_in"), "T_coolant_in", "battery chiller")
+#: The same chiller with its valve V_ch on the e-drive loop (the heat pump's source).
+EDRIVE = Branch("chiller", ("mdot_coolant", "T_coolant_in"), "T_coolant_in", "e-drive chiller")
 
 
 @dataclass(frozen=True)
@@ -205,6 +210,12 @@ TOPOLOGIES: dict[str, Topology] = {
         Topology("cabin", (CABIN,), "evaporator cooling the cabin air"),
         Topology("chiller", (BATTERY,), "chiller cooling the battery coolant, cabin blower off"),
         Topology("cabin+chiller", (CABIN, BATTERY), "evaporator and chiller in parallel behind their own valves"),
+        Topology(
+            "hp",
+            (EDRIVE,),
+            "heat pump: the WCC heats the heating loop, the chiller draws on the e-drive loop",
+            condensing=WCC,
+        ),
     )
 }
 
