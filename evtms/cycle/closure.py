@@ -671,6 +671,7 @@ def _figures(ctx: SolveContext, ops: Ops, p_A, fin: SuctionEval, p_C, T_C, h_C) 
     }
     with np.errstate(invalid="ignore", divide="ignore"):
         res["COP"] = -(res["Q_evap"] + res["Q_chiller"]) / res["W"]
+        res["COP_heating"] = res["Q_cond"] / res["W"]
     return res
 
 
