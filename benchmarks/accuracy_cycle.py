@@ -1,6 +1,6 @@
 """LUT cycle against the direct physics on random points over the whole envelope.
 
-Run:  python benchmarks/accuracy_cycle.py LUT_FOLDER [--points 100] [--topology cabin,chiller,cabin+chiller] [--wide]
+Run:  python benchmarks/accuracy_cycle.py LUT_FOLDER [--points 100] [--topology cabin,chiller,cabin+chiller,hp] [--wide]
 
 The tests compare 24 points (fan and blower from 0.2, speed from 0.15); this
 script draws points over the full envelope of docs/guide/cycle.md (speed 0.1-1, fan and
@@ -11,8 +11,12 @@ the suction and discharge pressures, Q_evap, COP and valve opening, the
 floating superheat where the valve is saturated in both, the statuses of both
 solutions and the worst energy-balance residuals, for each circuit topology
 (the chiller's coolant 0.12-0.45 kg/s, the battery pump at 0.3-1 of 4e-4 m3/s, at 15-40 degC; with two branches also the
-chiller's heat flow and share of the refrigerant flow). The direct reference takes
-about 0.25 s a point (a point with the valve saturated several times that).
+chiller's heat flow and share of the refrigerant flow). The heat pump ``hp`` has
+an envelope of its own (:func:`hp_envelope`: speed 0.1-1, the heating loop at
+0.05-0.36 kg/s and 20-70 degC, the e-drive loop at 0.1-0.36 kg/s and -25-35
+degC, superheat 5-10 K). The direct reference takes about 0.25 s a point (a
+point with the valve saturated several times that; the WCC's bench, on
+CoolProp without a compiled kernel, some 2 s a point).
 """
 
 from __future__ import annotations
@@ -42,11 +46,25 @@ def envelope(n: int, seed: int = 11, wide: bool = False) -> OperatingPoints:
     )
 
 
+def hp_envelope(n: int, seed: int = 11) -> OperatingPoints:
+    """Random operating points of the heat pump: its coolant loops' ranges (system-v2 spec, section 6)."""
+    rng = np.random.default_rng(seed)
+    return OperatingPoints(
+        speed=rng.uniform(0.1, 1.0, n),
+        mdot_coolant_h=rng.uniform(0.05, 0.36, n),
+        T_coolant_h_in=rng.uniform(293.15, 343.15, n),
+        mdot_coolant=rng.uniform(0.1, 0.36, n),
+        T_coolant_in=rng.uniform(248.15, 308.15, n),
+        superheat=rng.uniform(5.0, 10.0, n),
+    )
+
+
 #: Figures compared per topology: (result variable, label).
 FIGURES = {
     "cabin": ("p_A", "p_B", "Q_evap", "COP", "valve_opening"),
     "chiller": ("p_A", "p_B", "Q_chiller", "COP", "valve_opening"),
     "cabin+chiller": ("p_A", "p_B", "mdot", "Q_evap", "Q_chiller", "mdot_chiller", "COP", "valve_opening"),
+    "hp": ("p_A", "p_B", "Q_cond", "Q_chiller", "COP", "COP_heating", "valve_opening"),
 }
 
 
@@ -62,7 +80,7 @@ def main() -> None:
     points = envelope(args.points, wide=args.wide)
     for circuit in args.topology.split(","):
         print(f"== topology {circuit}, {args.points} random points")
-        compare(points, load_cycle_luts(args.luts, circuit), circuit)
+        compare(hp_envelope(args.points) if circuit == "hp" else points, load_cycle_luts(args.luts, circuit), circuit)
 
 
 def relative_error(lut: np.ndarray, direct: np.ndarray) -> np.ndarray:

@@ -22,7 +22,8 @@ FIGURES = ("p_A", "p_B", "h_A", "h_B", "h_C", "mdot", "mdot_evap", "mdot_chiller
 
 
 def wide_points(n: int, seed: int) -> OperatingPoints:
-    """Ambient -10 to 50 degC, cabin air 10-50 degC, coolant 5-45 degC, every actuator 0.1-1."""
+    """Ambient -10 to 50 degC, cabin air 10-50 degC, coolant 5-45 degC, every actuator 0.1-1; the heat
+    pump's heating loop at 20-70 degC, 0.05-0.36 kg/s (drawn last: the other inputs' draws stay as they were)."""
     rng = np.random.default_rng(seed)
     return OperatingPoints(
         speed=rng.uniform(0.1, 1.0, n),
@@ -34,6 +35,8 @@ def wide_points(n: int, seed: int) -> OperatingPoints:
         mdot_coolant=rng.uniform(0.12, 0.45, n),
         T_coolant_in=rng.uniform(278.15, 318.15, n),
         superheat=rng.uniform(5.0, 10.0, n),
+        T_coolant_h_in=rng.uniform(293.15, 343.15, n),
+        mdot_coolant_h=rng.uniform(0.05, 0.36, n),
     )
 
 

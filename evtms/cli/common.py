@@ -85,6 +85,8 @@ _OPTION_OF = {
     "range_test": "--range",
     "mdot_coolant": "--coolant-flow",
     "T_coolant_in": "--t-coolant",
+    "mdot_coolant_h": "--coolant-flow-h",
+    "T_coolant_h_in": "--t-coolant-h",
     "Q_battery_ext": "--q-battery",
 }
 _FIELD = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)`")

@@ -19,11 +19,23 @@ _TAMB = typer.Option("--t-amb", help="Ambient air temperature [degC], -40 to 60.
 _RHAMB = typer.Option("--rh-amb", help="Ambient relative humidity [0-1].")
 _TCAB = typer.Option("--t-cabin", help="Air temperature entering the evaporator [degC], -20 to 50.")
 _RHCAB = typer.Option("--rh-cabin", help="Relative humidity entering the evaporator [0-1].")
-_TCOOL = typer.Option("--t-coolant", help="Coolant temperature entering the chiller [degC], -20 to 60.")
-_MCOOL = typer.Option("--coolant-flow", help="Coolant (50 % ethylene glycol) mass flow through the chiller [kg/s].")
+_TCOOL = typer.Option(
+    "--t-coolant", help="Coolant temperature entering the chiller [degC], -20 to 60 (battery loop; e-drive loop in hp)."
+)
+_MCOOL = typer.Option(
+    "--coolant-flow",
+    help="Coolant (50 % ethylene glycol) mass flow through the chiller [kg/s] (battery loop; e-drive loop in hp).",
+)
+_TCOOLH = typer.Option(
+    "--t-coolant-h", help="Heating-loop coolant temperature entering the water-cooled condenser [degC], -20 to 90 (hp)."
+)
+_MCOOLH = typer.Option(
+    "--coolant-flow-h", help="Heating-loop coolant mass flow through the water-cooled condenser [kg/s] (hp)."
+)
 _TOPOLOGY = typer.Option(
     "--topology",
-    help="Circuit: cabin (evaporator), chiller (battery coolant, blower off) or cabin+chiller (both in parallel).",
+    help="Circuit: cabin (evaporator), chiller (battery coolant, blower off), cabin+chiller (both in parallel) "
+    "or hp (heat pump: the water-cooled condenser heats the heating loop, the chiller draws on the e-drive loop).",
 )
 _SH = typer.Option("--superheat", help="Thermostatic-valve superheat setpoint [K], 0-50.")
 _SC = typer.Option("--subcooling", help="Condenser-outlet subcooling [K], 0-30; 0 = saturated liquid (receiver).")
@@ -38,6 +50,8 @@ _PARAMS = typer.Option(
 )
 
 _STATES = {"A": "A evaporator outlet", "B": "B compressor outlet", "C": "C condenser outlet", "D": "D valve outlet"}
+#: The heat pump's state labels (its evaporator is the chiller, its condenser the WCC).
+_HP_STATES = {"A": "A chiller outlet", "B": "B compressor outlet", "C": "C WCC outlet", "D": "D valve outlet"}
 _PERFORMANCE = (
     ("mdot", "mass flow", 1e3, "g/s", "kg s-1"),
     ("mdot_evap", "  through the evaporator", 1e3, "g/s", "kg s-1"),
@@ -64,11 +78,27 @@ _PERFORMANCE_NEEDS = {
     "Q_chiller": ("chiller",),
     "valve_opening_chiller": ("evaporator", "chiller"),
 }
+#: The heat pump's rows (a circuit with the WCC): its heat flows named by the loops they serve.
+_HP_PERFORMANCE = (
+    ("mdot", "mass flow", 1e3, "g/s", "kg s-1"),
+    ("Q_cond", "heat to the heating loop", 1.0, "W", "W"),
+    ("Q_chiller", "heat from the e-drive loop", -1.0, "W", "W"),
+    ("W", "compressor shaft power W", 1.0, "W", "W"),
+    ("COP_heating", "heating COP Q_cond/W", 1.0, "-", "1"),
+    ("COP", "source COP |Q_chiller|/W", 1.0, "-", "1"),
+    ("dp_valve", "valve pressure drop", 1e-3, "kPa", "Pa"),
+    ("valve_opening", "valve opening / nominal", 1.0, "-", "1"),
+    ("superheat_actual", "chiller-outlet superheat", 1.0, "K", "K"),
+    ("balance_residual", "energy balance residual", 1.0, "W", "W"),
+    ("balance_relative", "  relative to W_fluid", 100.0, "%", "1"),
+)
 
 
 def _performance(components: tuple[str, ...]) -> list[tuple]:
     """The performance rows that apply to a circuit of ``components``."""
     have = set(components)
+    if "wcc" in have:
+        return list(_HP_PERFORMANCE)
     return [row for row in _PERFORMANCE if set(_PERFORMANCE_NEEDS.get(row[0], ())) <= have]
 
 
@@ -80,6 +110,8 @@ _INPUT_OF = {
     "rh_cabin": "RH_cabin",
     "coolant_flow": "mdot_coolant",
     "t_coolant": "T_coolant_in",
+    "coolant_flow_h": "mdot_coolant_h",
+    "t_coolant_h": "T_coolant_h_in",
 }
 
 
@@ -92,6 +124,8 @@ def _circuit_options(
     rh_amb: Annotated[str | None, _RHAMB] = None,
     t_cabin: Annotated[str | None, _TCAB] = None,
     rh_cabin: Annotated[str | None, _RHCAB] = None,
+    coolant_flow_h: Annotated[str | None, _MCOOLH] = None,
+    t_coolant_h: Annotated[str | None, _TCOOLH] = None,
     coolant_flow: Annotated[str | None, _MCOOL] = None,
     t_coolant: Annotated[str | None, _TCOOL] = None,
     superheat: Annotated[str | None, _SH] = None,
@@ -116,6 +150,8 @@ def cycle_run(json_out: JsonOut = False, **options) -> None:
     """Solve one operating point and print its states and performance.
 
     Example: evtms cycle run --luts luts/ --speed 0.6 --fan 0.5 --blower 0.4 --t-amb 30 --t-cabin 27
+
+    Heat pump: evtms cycle run --luts luts/ --topology hp --speed 0.6 --t-coolant-h 40 --t-coolant 10
     """
     from evtms.workflows.cycle import run_cycle
 
@@ -138,7 +174,7 @@ def cycle_run(json_out: JsonOut = False, **options) -> None:
         return
     v = p.values
     typer.echo(f"{'state':<26} {'p [MPa]':>9} {'T [degC]':>9} {'h [kJ/kg]':>10}")
-    for s, label in _STATES.items():
+    for s, label in (_HP_STATES if "wcc" in p.components else _STATES).items():
         typer.echo(f"{label:<26} {v['p_' + s] / 1e6:9.4f} {v['T_' + s] - 273.15:9.2f} {v['h_' + s] / 1e3:10.2f}")
     for key, label, scale, unit, _ in rows:
         typer.echo(f"{label:<26} {scale * v[key]:10.4g} {unit}")

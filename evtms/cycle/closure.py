@@ -2,7 +2,8 @@
 
 For a suction pressure ``p_A``, the inner closure
 (:func:`solve_discharge`) finds the discharge pressure ``p_B`` at which the
-condenser reaches its outlet condition; the evaporating side from the valve
+condensing component (the air-cooled condenser or the WCC, the circuit's
+:class:`~evtms.cycle.topology.Condensing`) reaches its outlet condition; the evaporating side from the valve
 (isenthalpic, ``h_D = h_C``) to the suction then gives the outlet enthalpy,
 and :func:`suction_side` its difference to the suction state at the
 superheat setpoint. :func:`solve_at` finds the suction pressure where that
@@ -61,15 +62,32 @@ _SUCTION_LOW_FLOOR = 243.15
 INNER_SLOPE = -0.075
 OUTER_SLOPE = -4.0
 
-#: Why a closure has no root in its range: (physical bound, LUT axis) texts at its low and high end.
-_CONDENSER_LOW = (
-    "the condenser outlet is below its target even at the lowest discharge pressure searched",
-    "the condenser outlet condition lies below the discharge pressure",
-)
-_CONDENSER_HIGH = (
-    "the condenser cannot reach its outlet condition up to the highest discharge pressure searched",
-    "the condenser outlet condition lies above the discharge pressure",
-)
+#: Why a closure has no root in its range: (physical bound, LUT axis) texts at its low and high end,
+#: the condensing side's by its component.
+_CONDENSER_LOW = {
+    "condenser": (
+        "the condenser outlet is below its target even at the lowest discharge pressure searched",
+        "the condenser outlet condition lies below the discharge pressure",
+    ),
+    "wcc": (
+        "the water-cooled condenser outlet is below its target even at the lowest discharge pressure searched",
+        "the water-cooled condenser outlet condition lies below the discharge pressure",
+    ),
+}
+_CONDENSER_HIGH = {
+    "condenser": (
+        "the condenser cannot reach its outlet condition up to the highest discharge pressure searched",
+        "the condenser outlet condition lies above the discharge pressure",
+    ),
+    # The heating loop's coolant enters too warm, or flows too little to take the heat: the refrigerant
+    # would have to condense above what the compressor (pressure ratio) or the LUT (discharge pressure) reach.
+    "wcc": (
+        "the water-cooled condenser cannot condense the refrigerant up to the highest discharge pressure "
+        "searched (the heating-loop coolant too warm, or its flow too small, to take the heat)",
+        "the water-cooled condenser outlet condition (heating-loop coolant too warm or too little) lies above "
+        "the discharge pressure",
+    ),
+}
 _SUPERHEAT_LOW = (
     "the superheat stays below its setpoint even at the lowest suction pressure searched",
     "the superheat setpoint lies below the suction pressure",
@@ -171,8 +189,22 @@ class SuctionEval:
     evap: EvaporatingSide
 
 
+def condensing(ctx: SolveContext, ops: Ops, mdot, p_in, h_in) -> dict:
+    """The circuit's condensing component at refrigerant flow ``mdot`` [kg/s], inlet ``(p_in, h_in)``
+    [Pa, J/kg]: the air-cooled condenser against the ambient air, or the WCC against the heating loop."""
+    if ctx.circuit.condensing.component == "wcc":
+        return ctx.models.wcc(mdot, p_in, h_in, ops["mdot_coolant_h"], ops["T_coolant_h_in"])
+    return ctx.models.condenser(mdot, ops["fan"], p_in, h_in, ops["T_amb"], ops["RH_amb"])
+
+
+def condensing_secondary(ctx: SolveContext, ops: Ops) -> np.ndarray:
+    """The condensing component's secondary inlet temperature [K] (ambient air or heating-loop
+    coolant): the refrigerant must condense above it."""
+    return ops[ctx.circuit.condensing.secondary_temperature]
+
+
 def discharge_side(ctx: SolveContext, ops: Ops, p_A: np.ndarray, p_B: np.ndarray) -> dict:
-    """Compressor and condenser at ``(p_A, p_B)`` [Pa], and the condenser closure's residual [1].
+    """Compressor and condensing component at ``(p_A, p_B)`` [Pa], and its closure's residual [1].
 
     Returns ``T_A`` [K], ``comp`` and ``cond`` (the models' results), ``residual`` (falls as
     ``p_B`` rises) and ``reason``.
@@ -180,7 +212,7 @@ def discharge_side(ctx: SolveContext, ops: Ops, p_A: np.ndarray, p_B: np.ndarray
     sat = ctx.sat
     T_A = sat.temperature(p_A) + ops["superheat"]
     comp = ctx.models.compressor(ops["speed"], T_A, p_A, p_B / p_A)
-    cond = ctx.models.condenser(comp["mdot"], ops["fan"], p_B, comp["h_out"], ops["T_amb"], ops["RH_amb"])
+    cond = condensing(ctx, ops, comp["mdot"], p_B, comp["h_out"])
     # Target quality of a liquid subcooled by `subcooling` below saturation.
     p_C = cond["p_out"]
     h_l, h_v = sat.liquid_enthalpy(p_C), sat.vapour_enthalpy(p_C)
@@ -191,7 +223,8 @@ def discharge_side(ctx: SolveContext, ops: Ops, p_A: np.ndarray, p_B: np.ndarray
     if "h_out_continued" in cond:  # present whenever some point targets a subcooled outlet
         x_out = (cond["h_out_continued"] - h_l) / (h_v - h_l)
         residual = np.where(ops["subcooling"] > 0, x_out - x_target, residual)
-    # Refrigerant not warmer than the air condenses nothing: far above the target.
+    # Refrigerant not warmer than the air (a saturation not above the WCC's coolant) condenses
+    # nothing: far above the target.
     residual = np.where(no_heat_flow(cond) & np.isfinite(comp["mdot"]), 1.0, residual)
     reason = np.where(comp["reason"] != "", comp["reason"], cond["reason"])
     return {"T_A": T_A, "comp": comp, "cond": cond, "residual": residual, "reason": reason}
@@ -202,8 +235,9 @@ def solve_discharge(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndar
 
     ``idx`` are the points' indices in the whole batch. The first guess is
     the root at the previous suction iterate, with the slope found there
-    (``state``); without one, condensing 13 K above the ambient air (the
-    middle of the default circuit's envelope). The side returned is the
+    (``state``); without one, condensing 13 K above the condensing side's
+    secondary inlet (the ambient air, the heating loop's coolant; the middle
+    of the default circuit's envelope). The side returned is the
     solver's last evaluation at the root, not a new one.
     """
     sat = ctx.sat
@@ -217,7 +251,7 @@ def solve_discharge(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndar
         return r["residual"], r["reason"]
 
     known = np.isfinite(state.p_B[idx])
-    t_guess = np.where(known, sat.temperature(state.p_B[idx]), ops["T_amb"] + 13.0)
+    t_guess = np.where(known, sat.temperature(state.p_B[idx]), condensing_secondary(ctx, ops) + 13.0)
     slope = np.where(known & (state.slope[idx] < 0), state.slope[idx], INNER_SLOPE)
     if state.warm:
         t_guess = _extrapolated_discharge(state, sat.temperature(p_A), idx, t_guess)
@@ -233,8 +267,9 @@ def solve_discharge(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndar
         INNER_FTOL if state.warm else None,
     )
     state.slope[idx] = np.where(br.slope < 0, br.slope, state.slope[idx])
+    component = ctx.circuit.condensing.component
     status, reason = range_status(
-        br, lo, lo_axis, hi, hi_axis, STATUS_CONDENSER_NO_ROOT, _CONDENSER_LOW, _CONDENSER_HIGH
+        br, lo, lo_axis, hi, hi_axis, STATUS_CONDENSER_NO_ROOT, _CONDENSER_LOW[component], _CONDENSER_HIGH[component]
     )
     status[~np.isfinite(p_A)] = STATUS_OUTSIDE_ENVELOPE
     p_B = np.full(n, np.nan)
@@ -278,12 +313,13 @@ def _extrapolated_discharge(state: SolveState, t_A: np.ndarray, idx: np.ndarray,
 
 
 def _discharge_range(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndarray) -> tuple:
-    """The discharge pressures searched [Pa]: from saturation just above the ambient and the models'
-    lower ends to their upper ends; ``(lo, lo_axis, hi, hi_axis)`` (the axes as :func:`tightest_bound`)."""
+    """The discharge pressures searched [Pa]: from saturation just above the condensing side's secondary
+    inlet (ambient air, heating-loop coolant) and the models' lower ends to their upper ends;
+    ``(lo, lo_axis, hi, hi_axis)`` (the axes as :func:`tightest_bound`)."""
     (pr_lo, pr_hi), axes = state.pr, state.axes
     lo, lo_axis = tightest_bound(
         [
-            (ctx.sat.pressure(ops["T_amb"] + 0.5), None),
+            (ctx.sat.pressure(condensing_secondary(ctx, ops) + 0.5), None),
             (pr_lo * p_A, axes["pr"][0]),
             (state.p_discharge[0], axes["p_discharge"][0]),
         ],
@@ -635,6 +671,7 @@ def _figures(ctx: SolveContext, ops: Ops, p_A, fin: SuctionEval, p_C, T_C, h_C) 
     }
     with np.errstate(invalid="ignore", divide="ignore"):
         res["COP"] = -(res["Q_evap"] + res["Q_chiller"]) / res["W"]
+        res["COP_heating"] = res["Q_cond"] / res["W"]
     return res
 
 

@@ -1,7 +1,8 @@
 """Component models for the cycle solver: from LUTs, or the bench physics directly.
 
-Both classes answer the same calls (the compressor, condenser and evaporator
-on arrays of operating points, the valve's parameters) and return NaN plus a
+Both classes answer the same calls (the compressor, the condensing component
+(air-cooled condenser or WCC) and the evaporating branches on arrays of
+operating points, the valve's parameters) and return NaN plus a
 reason string where they cannot: :class:`LutModels`
 interpolates LUT files (the fast path for control work) and names the LUT
 axis a query leaves; :class:`DirectModels` calls the bench functions (the
@@ -33,11 +34,19 @@ if TYPE_CHECKING:
 Result = dict[str, np.ndarray]
 
 
+#: Status meanings of a refrigerant on the wrong side of its secondary stream: the condenser's and
+#: the evaporating benches' inlet, and the WCC's coolant not below the refrigerant's saturation
+#: (which may still desuperheat, but condenses nothing).
+_WRONG_SIDE = ("refrigerant_inlet_not_", "coolant_inlet_not_colder_than_refrigerant_saturation")
+
+
 def wrong_side_flags(flags: dict[int, str]) -> tuple[int, ...]:
-    """A bench's status codes for a refrigerant inlet on the wrong side of the secondary stream (not
-    warmer than the air in a condenser, not colder than the air or coolant in an evaporator): no heat
-    flows. The cycle's closures read them as "no heat flows", not as a failed point."""
-    return tuple(c for c, meaning in flags.items() if meaning.startswith("refrigerant_inlet_not_"))
+    """A bench's status codes for a refrigerant on the wrong side of the secondary stream (inlet not
+    warmer than the air in a condenser, saturation not warmer than the coolant in the WCC, inlet not
+    colder than the air or coolant in an evaporator): no heat flows the way the circuit needs, the
+    condensing side gives no liquid. The cycle's closures read them as "no heat flows", not as a
+    failed point."""
+    return tuple(c for c, meaning in flags.items() if meaning.startswith(_WRONG_SIDE))
 
 
 def frost_risk_flags(flags: dict[int, str]) -> tuple[int, ...]:
@@ -59,7 +68,12 @@ ITERATION_OUTPUTS = {
     "condenser_subcooled": ("capacity_ratio", "p_out", "h_out_continued"),
     "evaporator": ("h_out_continued", "p_out"),
     "chiller": ("h_out_continued", "p_out"),
+    # The WCC closes the same way as the condenser (its capacity ratio is the same construct).
+    "wcc": ("capacity_ratio", "p_out"),
 }
+
+#: The condensing components (:class:`~evtms.cycle.topology.Condensing`): the same closure variables.
+CONDENSING = ("condenser", "wcc")
 
 #: Variables whose interpolation gets the quadratic (curvature) correction: the coils'
 #: closure and outlet variables, which curve strongly between nodes.
@@ -68,6 +82,7 @@ CURVED = {
     "condenser": ("capacity_ratio", "h_out_continued"),
     "evaporator": ("h_out_continued", "Q_latent"),
     "chiller": ("h_out_continued",),
+    "wcc": ("capacity_ratio", "h_out_continued"),
 }
 
 #: The operating inputs each component's model takes as they are, by the component's axis name:
@@ -77,6 +92,8 @@ OPERATING_AXES = {
     "condenser": {"fan": "fan", "T_air_in": "T_amb", "RH_air_in": "RH_amb"},
     "evaporator": {"blower": "blower", "T_air_in": "T_cabin", "RH_air_in": "RH_cabin"},
     "chiller": {"mdot_coolant": "mdot_coolant", "T_coolant_in": "T_coolant_in"},
+    # The WCC's coolant is the heating loop's, the chiller's the battery or e-drive loop's.
+    "wcc": {"mdot_coolant": "mdot_coolant_h", "T_coolant_in": "T_coolant_h_in"},
 }
 
 #: Variables each component model returns for the final states.
@@ -85,6 +102,7 @@ COMPONENT_OUTPUTS = {
     "condenser": ("p_out", "capacity_ratio", "h_out_continued"),
     "evaporator": ("Q_latent", "h_out_continued", "p_out"),
     "chiller": ("h_out_continued", "p_out"),
+    "wcc": ("p_out", "capacity_ratio", "h_out_continued"),
 }
 
 
@@ -171,6 +189,12 @@ class DirectModels:
                 "T_air_in": T_air,
                 "RH_air_in": RH_air,
             },
+        )
+
+    def wcc(self, mdot, p_in, h_in, mdot_coolant, T_coolant_in) -> Result:
+        return self._run(
+            "wcc",
+            {"mdot": mdot, "p_in": p_in, "h_in": h_in, "mdot_coolant": mdot_coolant, "T_coolant_in": T_coolant_in},
         )
 
     def evaporator(self, mdot, blower, p_in, h_in, T_air, RH_air) -> Result:
@@ -274,7 +298,7 @@ class _LutComponent:
         # The coils' responses curve strongly between nodes (they saturate towards
         # the air temperature); the quadratic correction cuts that error several-fold.
         self.fast = table(ITERATION_OUTPUTS[component])
-        self.subcooled = table(ITERATION_OUTPUTS["condenser_subcooled"]) if component == "condenser" else self.fast
+        self.subcooled = table(ITERATION_OUTPUTS["condenser_subcooled"]) if component in CONDENSING else self.fast
         self.needs_subcooled = False
         # The final states need a few more variables: a table of those alone, added to
         # the widest iteration table's (the tables hold each variable with its curvature
@@ -473,7 +497,8 @@ class LutModels:
     ----------
     luts : mapping of str to CycleLut or xarray.Dataset
         ``condenser``, ``evaporator``, ``expansion_valve`` and ``compressor``
-        LUTs (and ``chiller``, as ``components`` needs). The coils must have ``h_in`` inlet axes (a two-phase inlet has
+        LUTs (``chiller`` and ``wcc`` in their place, as ``components`` needs).
+        The coils must have ``h_in`` inlet axes (a two-phase inlet has
         no (p, T)) and the compressor a ``p_in`` axis, as the ``cycle`` grid
         preset writes them. Of the valve's LUT the cycle uses its parameters
         (see :meth:`valve`).
@@ -501,6 +526,7 @@ class LutModels:
         # Axes the solver searches along (an input it only sets may be a fixed input of the LUT).
         searched = {
             "condenser": ("p_in", "h_in"),
+            "wcc": ("p_in", "h_in"),
             "evaporator": ("p_in", "h_in", "mdot"),
             "chiller": ("p_in", "h_in", "mdot"),
             "expansion_valve": (),
@@ -525,6 +551,8 @@ class LutModels:
                         f"(write it with 'evtms bench {component} --grid cycle')"
                     )
             self.luts[component] = _LutComponent(component, lut, CURVED.get(component, ()), compiled, vapour)
+        # None for a partial set (a branch's LUTs alone): no discharge closure to serve.
+        self.condensing = next((c for c in components if c in CONDENSING), None)
         self.valve_lut = cycle_lut(luts["expansion_valve"], "expansion_valve")
         self.valve_attrs = dict(self.valve_lut.attrs)
         self._valve: tuple[ExpansionValveParams, float] | None = None
@@ -536,7 +564,8 @@ class LutModels:
 
     def subcooled_targets(self, on: bool) -> None:
         """Whether any point asks for a subcooled condenser outlet (more variables per iteration)."""
-        self.luts["condenser"].needs_subcooled = on
+        if self.condensing is not None:
+            self.luts[self.condensing].needs_subcooled = on
 
     def compressor(self, speed, T_in, p_in, pr) -> Result:
         return self.luts["compressor"]({"speed": speed, "T_in": T_in, "p_in": p_in, "pr": pr})
@@ -544,6 +573,11 @@ class LutModels:
     def condenser(self, mdot, fan, p_in, h_in, T_air, RH_air) -> Result:
         return self.luts["condenser"](
             {"mdot": mdot, "fan": fan, "p_in": p_in, "h_in": h_in, "T_air_in": T_air, "RH_air_in": RH_air}
+        )
+
+    def wcc(self, mdot, p_in, h_in, mdot_coolant, T_coolant_in) -> Result:
+        return self.luts["wcc"](
+            {"mdot": mdot, "p_in": p_in, "h_in": h_in, "mdot_coolant": mdot_coolant, "T_coolant_in": T_coolant_in}
         )
 
     def evaporator(self, mdot, blower, p_in, h_in, T_air, RH_air) -> Result:
@@ -609,7 +643,7 @@ class LutModels:
         ]
         low = max(suction, key=lambda item: item[1][0])
         high = min(suction, key=lambda item: item[1][1])
-        cond = self.luts["condenser"].ranges["p_in"]
+        cond = self.luts[self.condensing].ranges["p_in"]
         return {
             "p_suction": (low[1][0], high[1][1]),
             "p_discharge": cond,
@@ -617,7 +651,7 @@ class LutModels:
             # Which LUT axis each limit is, for the reason of a point beyond it.
             "axes": {
                 "p_suction": (f"{low[0]} LUT axis p_in", f"{high[0]} LUT axis p_in"),
-                "p_discharge": ("condenser LUT axis p_in", "condenser LUT axis p_in"),
+                "p_discharge": (f"{self.condensing} LUT axis p_in",) * 2,
                 "pr": ("compressor LUT axis pr", "compressor LUT axis pr"),
             },
         }

@@ -47,6 +47,7 @@ RESULT_KEYS = (
     "superheat_chiller",
     "frost_risk",
     "COP",
+    "COP_heating",
     "status",
     "reason",
 )
@@ -123,9 +124,13 @@ class CycleResult(Mapping):
     mdot : numpy.ndarray
         Compressor refrigerant flow [kg/s].
     Q_cond, W, W_fluid : numpy.ndarray
-        Condenser heat flow, compressor shaft power and ``mdot (h_B - h_A)`` [W].
+        Heat flow out of the condensing component (to the air, or to the
+        heating loop's coolant in the WCC), compressor shaft power and
+        ``mdot (h_B - h_A)`` [W].
     COP : numpy.ndarray
         Cooling coefficient of performance (|Q_evap| + |Q_chiller|) / W [1].
+    COP_heating : numpy.ndarray
+        Heating coefficient of performance Q_cond / W [1] (the heat pump's).
     h_A_evap : numpy.ndarray
         The evaporating side's outlet (the branches' mixture) [J/kg].
     dp_valve, valve_opening, superheat_actual : numpy.ndarray
@@ -160,6 +165,7 @@ class CycleResult(Mapping):
     valve_opening: np.ndarray
     superheat_actual: np.ndarray
     COP: np.ndarray
+    COP_heating: np.ndarray
     status: np.ndarray
     reason: np.ndarray
     branches: dict[str, BranchResult]

@@ -93,11 +93,13 @@ class OperatingPoints:
         Ambient air at the condenser [K], [1].
     T_cabin, RH_cabin : array_like
         Air entering the evaporator [K], [1].
+    mdot_coolant_h, T_coolant_h_in : array_like
+        Heating-loop coolant entering the WCC [kg/s], [K].
     mdot_coolant, T_coolant_in : array_like
         Coolant entering the chiller [kg/s], [K].
 
     Inputs not given take the defaults of :data:`evtms.cycle.topology.INPUTS`;
-    a circuit ignores the inputs of branches it does not have.
+    a circuit ignores the inputs of components it does not have.
     superheat : array_like
         Thermostatic-valve superheat setpoint at each evaporating branch's outlet [K].
     subcooling : array_like
@@ -111,6 +113,8 @@ class OperatingPoints:
     RH_amb: np.ndarray = field(default=0.4)
     T_cabin: np.ndarray = field(default=300.15)
     RH_cabin: np.ndarray = field(default=0.5)
+    mdot_coolant_h: np.ndarray = field(default=0.2)
+    T_coolant_h_in: np.ndarray = field(default=313.15)
     mdot_coolant: np.ndarray = field(default=0.15)
     T_coolant_in: np.ndarray = field(default=303.15)
     superheat: np.ndarray = field(default=10.0)

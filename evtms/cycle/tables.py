@@ -6,6 +6,11 @@ solver asks for is built from the file's data the first time and kept in the
 user's cache (:mod:`evtms.luts.cache`, memory-mapped), so a later run
 neither decompresses the table nor computes its curvature columns again, and
 a single operating point touches only the pages of the cells it lands in.
+
+The WCC's tables are filled where its coolant is not below the refrigerant's
+saturation (:func:`not_condensing_fill`): the bench leaves those nodes NaN,
+and the heat pump condenses a few kelvin above its coolant, inside the cells
+that touch them.
 """
 
 from __future__ import annotations
@@ -29,6 +34,13 @@ if TYPE_CHECKING:
     from evtms.fluid import VapourTable
     from evtms.luts import Interpolator
     from evtms.luts.validate import LutMetadata
+
+
+#: Condensing components whose closure variables are filled at the nodes where the secondary is not
+#: below the refrigerant's saturation (:func:`not_condensing_fill`), by the status meaning of those nodes.
+NOT_CONDENSING = {"wcc": "coolant_inlet_not_colder_than_refrigerant_saturation"}
+#: The variables filled there.
+_FILLED = ("capacity_ratio", "p_out")
 
 
 def _short(recipe: dict) -> str:
@@ -90,11 +102,13 @@ class CycleLut:
             # The derived table depends on the vapour enthalpies and the transform it was computed with.
             recipe["vapour"] = vapour.digest()
             recipe["approach"] = {"superheat_min": SUPERHEAT_MIN, "approach_min": APPROACH_MIN, "version": 1}
+        if self.component in NOT_CONDENSING and set(_FILLED) & set(variables):
+            recipe["not_condensing_fill"] = {"variables": list(_FILLED), "version": 1}
 
         def build():
             from evtms.luts import open_lut
 
-            ds = open_lut(self.path, self.component, stored_variables(variables))
+            ds = open_lut(self.path, self.component, stored_variables(variables, self.component))
             return DatasetLut(ds, self.component).table_arrays(variables, tuple(curved), vapour)
 
         arrays, info = self._cached("itp", recipe, build)
@@ -164,6 +178,8 @@ class DatasetLut:
         tables = {}
         for v in variables:
             tables[v] = self._approach(vapour) if v == APPROACH else self._values(v)
+        if self.component in NOT_CONDENSING:
+            tables = not_condensing_fill(self.ds, self.component, self.dims, tables)
         axes = [(d, self.axes[d]) for d in self.dims]
         return Interpolator.table_arrays(axes, tables, "nan", curvature, self.fixed)
 
@@ -264,11 +280,52 @@ def made_with(lut: CycleLut | DatasetLut) -> Parameters:
     return lut._made_with
 
 
-def stored_variables(variables: list[str]) -> list[str]:
-    """The file's variables ``variables`` are read or derived from."""
+def stored_variables(variables: list[str], component: str | None = None) -> list[str]:
+    """The file's variables ``variables`` are read or derived from (of ``component``'s LUT)."""
+    if component in NOT_CONDENSING and "p_out" in variables:
+        variables = [*variables, "dp"]  # the drop that fills p_out (not_condensing_fill)
     if APPROACH not in variables:
         return variables
     return list(dict.fromkeys([v for v in variables if v != APPROACH] + [OUTLET, "p_out"]))
+
+
+def not_condensing_fill(ds, component: str, dims: tuple[str, ...], tables: dict[str, np.ndarray]) -> dict:
+    """``tables`` of a condensing LUT with its closure variables filled where it condenses nothing.
+
+    Where the secondary (the WCC's coolant) enters not below the refrigerant's saturation
+    temperature, the bench condenses nothing and leaves the node NaN (its status
+    :data:`NOT_CONDENSING`). The cycle condenses a few kelvin above the coolant, so
+    its roots lie in cells that touch such nodes: left NaN, those cells would read as
+    "no heat flow" (the closure's residual jumping to 1 across them) and put the discharge
+    pressure on the next node above the root. There the nodes take the limits the
+    bench's own outputs tend to as the saturation falls to the coolant temperature:
+    ``capacity_ratio`` 0 (the area to condense fully grows without bound as the
+    temperature difference vanishes; the bench gives 0 already where the coolant cannot
+    take the latent heat) and ``p_out`` the inlet pressure less the drop of the nearest
+    condensing node along the coolant-temperature axis (colder coolant; no drop where
+    there is none, the drop being a few kPa). Other variables stay NaN there.
+    """
+    if not set(_FILLED) & set(tables):
+        return tables
+    status = ds["status"].transpose(*dims).values
+    codes = [c for c, m in status_flags(ds["status"].attrs).items() if m == NOT_CONDENSING[component]]
+    off = np.isin(status, codes)
+    if not off.any():
+        return tables
+    tables = dict(tables)
+    if "capacity_ratio" in tables:
+        tables["capacity_ratio"] = np.where(off, 0.0, tables["capacity_ratio"])
+    if "p_out" in tables:
+        axis = dims.index("T_coolant_in")
+        dp = np.moveaxis(ds["dp"].transpose(*dims).values, axis, -1)
+        # The drop carried up the coolant axis from the warmest condensing node below each node.
+        filled = dp.copy()
+        for k in range(1, filled.shape[-1]):
+            filled[..., k] = np.where(np.isfinite(filled[..., k]), filled[..., k], filled[..., k - 1])
+        filled = np.moveaxis(np.nan_to_num(filled, nan=0.0), -1, axis)
+        p_in = ds["p_in"].values.reshape([-1 if d == "p_in" else 1 for d in dims])
+        tables["p_out"] = np.where(off, p_in - filled, tables["p_out"])
+    return tables
 
 
 def fluid_tables(luts: dict, kind: str, layout: list, build: Callable[[str, str], dict]) -> dict[str, np.ndarray]:

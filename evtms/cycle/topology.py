@@ -1,8 +1,10 @@
 """The circuits the cycle solver knows, and their operating inputs, declared once.
 
-A circuit has one compressor, one condenser with a receiver, and one or two
-evaporating branches in parallel, each behind its own thermostatic expansion
-valve (TXV) that holds the superheat at that branch's outlet:
+A circuit has one compressor, one condensing component with a receiver after
+it (the air-cooled front condenser, or the water-cooled condenser, WCC, that
+heats the heating loop's coolant), and one or two evaporating branches in
+parallel, each behind its own thermostatic expansion valve (TXV) that holds
+the superheat at that branch's outlet:
 
 - ``cabin``: the evaporator cools the cabin air (the thesis' loop);
 - ``chiller``: the chiller cools the battery coolant, the cabin blower off
@@ -13,7 +15,10 @@ valve (TXV) that holds the superheat at that branch's outlet:
   the compressor suction. A valve that would need more than its maximum
   opening sits at it, its branch's superheat floating while the other holds
   the setpoint; a branch that would need less than the least flow its model
-  covers has its valve closed (no flow, no heat).
+  covers has its valve closed (no flow, no heat);
+- ``hp``: the heat pump: the WCC heats the heating loop (H), the chiller
+  draws on the e-drive loop (E); the front condenser and the cabin
+  evaporator are shut, so no air input enters (system-v2 spec, section 6).
 
 :data:`INPUTS` declares every operating input once (units, meaning, allowed
 range, how the command line takes it); a topology lists the ones it uses.
@@ -81,6 +86,20 @@ INPUTS: dict[str, CycleInput] = {
         CycleInput("RH_amb", "1", "ambient relative humidity", 0.0, 1.0, 0.4),
         CycleInput("T_cabin", "K", "air temperature entering the evaporator", 253.15, 323.15, 300.15, celsius=True),
         CycleInput("RH_cabin", "1", "relative humidity of the air entering the evaporator", 0.0, 1.0, 0.5),
+        # Heating loop: the same coolant through the WCC; 0.2 kg/s is the WCC's sizing flow. The range
+        # is the heating loop's, from a cold soak to a warm heater core (the WCC LUT spans 5-75 degC).
+        CycleInput(
+            "mdot_coolant_h", "kg s-1", "heating-loop coolant mass flow through the WCC", 0.0, 2.0, 0.2, positive=True
+        ),
+        CycleInput(
+            "T_coolant_h_in",
+            "K",
+            "heating-loop coolant temperature entering the WCC",
+            253.15,
+            363.15,
+            313.15,
+            celsius=True,
+        ),
         # Battery loop: a 50 % ethylene-glycol coolant; 0.15 kg/s is about 8 l/min.
         CycleInput("mdot_coolant", "kg s-1", "coolant mass flow through the chiller", 0.0, 2.0, 0.15, positive=True),
         CycleInput(
@@ -119,28 +138,65 @@ class Branch:
 
 CABIN = Branch("evaporator", ("blower", "T_cabin", "RH_cabin"), "T_cabin", "cabin evaporator")
 BATTERY = Branch("chiller", ("mdot_coolant", "T_coolant_in"), "T_coolant_in", "battery chiller")
+#: The same chiller with its valve V_ch on the e-drive loop (the heat pump's source).
+EDRIVE = Branch("chiller", ("mdot_coolant", "T_coolant_in"), "T_coolant_in", "e-drive chiller")
 
-_COMMON_FRONT = ("speed", "fan")
+
+@dataclass(frozen=True)
+class Condensing:
+    """The condensing component ahead of the receiver: its bench and the secondary stream it heats.
+
+    Attributes
+    ----------
+    component : str
+        Bench name (``condenser``, ``wcc``).
+    inputs : tuple of str
+        Operating inputs of its secondary stream.
+    secondary_temperature : str
+        The input that is the secondary stream's inlet temperature: the
+        refrigerant must condense above it.
+    label : str
+        Short description for reasons and reports.
+    """
+
+    component: str
+    inputs: tuple[str, ...]
+    secondary_temperature: str
+    label: str
+
+
+#: The air-cooled front condenser (ambient air blown by the fan).
+AIR_CONDENSER = Condensing("condenser", ("fan", "T_amb", "RH_amb"), "T_amb", "condenser")
+#: The water-cooled condenser heating the heating loop's coolant.
+WCC = Condensing("wcc", ("mdot_coolant_h", "T_coolant_h_in"), "T_coolant_h_in", "water-cooled condenser")
+
+_COMMON_FRONT = ("speed",)
 _COMMON_BACK = ("superheat", "subcooling")
 
 
 @dataclass(frozen=True)
 class Topology:
-    """A refrigerant circuit: one compressor and condenser, one or two evaporating branches."""
+    """A refrigerant circuit: one compressor, one condensing component, one or two evaporating branches."""
 
     name: str
     branches: tuple[Branch, ...]
     description: str
+    condensing: Condensing = AIR_CONDENSER
 
     @property
     def components(self) -> tuple[str, ...]:
         """Components whose models (LUTs) the circuit needs."""
-        return ("condenser", *(b.component for b in self.branches), "expansion_valve", "compressor")
+        return (self.condensing.component, *(b.component for b in self.branches), "expansion_valve", "compressor")
 
     @property
     def inputs(self) -> tuple[str, ...]:
         """Its operating inputs, in :data:`INPUTS` order."""
-        used = {*_COMMON_FRONT, "T_amb", "RH_amb", *_COMMON_BACK, *(i for b in self.branches for i in b.inputs)}
+        used = {
+            *_COMMON_FRONT,
+            *self.condensing.inputs,
+            *_COMMON_BACK,
+            *(i for b in self.branches for i in b.inputs),
+        }
         return tuple(name for name in INPUTS if name in used)
 
     @property
@@ -154,6 +210,12 @@ TOPOLOGIES: dict[str, Topology] = {
         Topology("cabin", (CABIN,), "evaporator cooling the cabin air"),
         Topology("chiller", (BATTERY,), "chiller cooling the battery coolant, cabin blower off"),
         Topology("cabin+chiller", (CABIN, BATTERY), "evaporator and chiller in parallel behind their own valves"),
+        Topology(
+            "hp",
+            (EDRIVE,),
+            "heat pump: the WCC heats the heating loop, the chiller draws on the e-drive loop",
+            condensing=WCC,
+        ),
     )
 }
 
