@@ -651,12 +651,14 @@ BENCH = Bench(
         # T_coolant_in; 7 enthalpies (not 5) and the coolant every 2 K (not 2.5 K), paid for
         # with 6 coolant flows (not 7, the flattest axis), cut its rms error there from 1.1 to
         # 0.7 kJ/kg and the worst error in Q_chiller of a 60-point cycle check from 9 to 5 %.
+        # Below 0 degC (every 3 K, then 2 K near 0) for the heat pump, whose chiller draws on the
+        # e-drive loop down to -25 degC in the cold (the system spec's hp map).
         "cycle": {
             "mdot": tuple(0.001 * (150.0 ** (1 / 15)) ** np.arange(-3, 16)),
             "p_in": pressure_nodes(np.arange(-35.0, 30.0, 2.0)),
             "h_in": tuple(np.linspace(200e3, 350e3, 7)),
             "mdot_coolant": tuple(np.geomspace(0.05, 0.5, 6)),
-            "T_coolant_in": tuple(np.arange(0.0, 50.1, 2.0) + 273.15),
+            "T_coolant_in": tuple(np.concatenate((np.arange(-25.0, -9.0, 3.0), np.arange(-8.0, 50.1, 2.0))) + 273.15),
         },
     },
 )

@@ -290,11 +290,12 @@ BENCH = Bench(
         # suction grid is fine enough (2.5 K, < 2 K of saturation per pressure cell)
         # that no cell of a point superheated by 5 K or more touches a wet corner. Pressure
         # ratios from 1.02 (a -10 degC ambient with fan 1 runs at 1.0-1.2) and suction up to
-        # 42 degC saturation (the evaporator's 41 degC) for the system simulator's envelope.
+        # 42 degC saturation (the evaporator's 41 degC) for the system simulator's envelope;
+        # up to 17 for the heat pump (evaporating at -26 degC, condensing at 65 degC: 16.6).
         "cycle": {
             "speed": (0.1, 1.0),
             "T_in": tuple(np.linspace(240.0, 340.0, 41)),
-            "pr": (1.02, 1.1, *np.geomspace(1.2, 12.0, 14)),
+            "pr": (1.02, 1.1, *np.geomspace(1.2, 12.0, 14), 14.3, 17.0),
             "p_in": pressure_nodes(np.arange(-36.0, 44.0, 2.0)),
         },
     },

@@ -128,7 +128,7 @@ N_H = H_FALLBACK + 1
     M_COMP_ON, M_T_COMP, M_I_EV, M_FROST_OK, M_CH_FROST_OK, M_I_CH, M_I_PTC, M_I_PTCW, M_I_BLEND,
     M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
     M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3, M_STOP, M_RAD_IN,
-    M_HP_ON, M_T_HP, M_I_HP, M_U_HP, M_PS_LOW, M_HP_UNTIL, M_TRIP_1, M_TRIP_2, M_TRIP_3,
+    M_HP_ON, M_T_HP, M_I_HP, M_U_PS, M_PS_LOW, M_HP_UNTIL, M_TRIP_1, M_TRIP_2, M_TRIP_3,
     M_BACKUP, M_T_BACKUP, M_SRC_1, M_SRC_2, M_SRC_3, M_LAST_CIRCUIT,
     N_M,
 ) = range(60)  # fmt: skip
@@ -169,8 +169,9 @@ N_X = 6
     P_RAD_ON, P_RAD_OFF, P_JACKET_PR, P_MDOT_E_MAX, P_JACKET_M_RE1, P_JACKET_M_DL, P_JACKET_M_KA,
     P_JACKET_D_RE1, P_JACKET_D_DL, P_JACKET_D_KA,
     P_HP_T_MIN, P_HP_PS_MIN, P_HP_KP, P_HP_KI, P_HP_BACKUP_DELAY, P_HP_RAD_BAND, P_HP_RESTART, P_HP_TRIPS_MAX,
+    P_HP_PS_KP, P_HP_PS_KI,
     N_P,
-) = range(146)  # fmt: skip
+) = range(148)  # fmt: skip
 
 # States at the step boundaries.
 (
@@ -190,9 +191,9 @@ N_S = S_YF + N_Y + 4
     O_T_EVAP_AIR, O_T_VENT_TARGET, O_T_EVAP_TARGET, O_RECIRC, O_G_IN, O_T_IN_SRC, O_W_IN_SRC, O_G_BC, O_Q_EXT,
     O_Q_HC, O_P_PTCW, O_P_PUMP_H, O_BLEND, O_T_H_TARGET, O_COMP_ON, O_CIRCUIT, O_P_AUX, O_FAN, O_V_FRONT,
     O_P_PUMP_E, O_P_EDRIVE_AUX, O_Q_DRIVE, O_Q_DCDC, O_Q_RAD, O_T_AIR_RAD, O_U_PUMP_E, O_RAD_IN,
-    O_Q_WCC, O_Q_CH_E,
+    O_Q_WCC, O_Q_CH_E, O_HP_CEILING,
     N_O,
-) = range(64)  # fmt: skip
+) = range(65)  # fmt: skip
 
 #: State columns a mode model carries (:data:`evtms.system.mode_model.STATE_NAMES` order).
 SURROGATE_STATES = (
@@ -602,6 +603,7 @@ def run_loop(
         mem[M_CAB_OFF] = 1.0
         mem[M_RETRY_STEP] = -1.0
         mem[M_T_HP] = mem[M_HP_UNTIL] = -1e300
+        mem[M_U_PS] = 1.0
         mem[M_TRIP_1] = mem[M_TRIP_2] = mem[M_TRIP_3] = -1e300
     n_steps = dts.size
     n = start
@@ -888,8 +890,9 @@ def run_loop(
         # backup; off with a battery or cabin cooling request, below T_hp_min, after a suction trip until its
         # restart delay, and locked after too many trips.
         u_hp = 0.0
+        u_ps = np.nan
         hp_limited = False
-        hp_on, t_hp, i_hp = mem[M_HP_ON] > 0.0, mem[M_T_HP], mem[M_I_HP]
+        hp_on, t_hp, i_hp, i_ps = mem[M_HP_ON] > 0.0, mem[M_T_HP], mem[M_I_HP], mem[M_U_PS]
         ps_low, hp_until = mem[M_PS_LOW], mem[M_HP_UNTIL]
         trips_in_window = 0
         for m_trip in (M_TRIP_1, M_TRIP_2, M_TRIP_3):
@@ -919,13 +922,14 @@ def run_loop(
                 hp_on = True
                 t_hp = t
                 i_hp = u_min - par[P_HP_KP] * e_hp  # restart at the minimum speed
+                i_ps = 1.0
             if hp_on:
-                # Suction limiter: the speed ramps down while the filtered suction is within 10 kPa of its floor.
-                u_ps = 1.0
-                if ps_f < par[P_HP_PS_MIN] + 0.01e6:
-                    u_ps = max(u_min, mem[M_U_HP] - 0.02 * dt)
-                    hp_limited = True
+                # Suction limiter: a PI on the filtered suction's distance from its floor plus 10 kPa sets the
+                # speed's ceiling, so the heat pump slows before the guard trips it; the PI on T_H runs below it.
+                e_ps = ps_f - (par[P_HP_PS_MIN] + 0.01e6)
+                u_ps, i_ps, _ = _pi(e_ps, i_ps, par[P_HP_PS_KP], par[P_HP_PS_KI], dt, u_min, 1.0)
                 u_hp, i_hp, _ = _pi(e_hp, i_hp, par[P_HP_KP], par[P_HP_KI], dt, u_min, u_ps)
+                hp_limited = u_ps < 1.0 and u_hp >= u_ps
                 if u_hp <= u_min and T_H > T_H_t + par[P_DT_CYC] and t - t_hp >= par[P_T_ON_MIN]:
                     hp_on = False
                     t_hp = t
@@ -1428,7 +1432,7 @@ def run_loop(
         mem[M_RETRY_STEP] = -1.0
         mem[M_FAN_1], mem[M_FAN_2], mem[M_FAN_3] = fan_1, fan_2, fan_3
         mem[M_RAD_IN] = rad_in
-        mem[M_HP_ON], mem[M_T_HP], mem[M_I_HP], mem[M_U_HP] = hp_on, t_hp, i_hp, u_hp
+        mem[M_HP_ON], mem[M_T_HP], mem[M_I_HP], mem[M_U_PS] = hp_on, t_hp, i_hp, i_ps
         mem[M_PS_LOW], mem[M_HP_UNTIL] = ps_low, hp_until
         mem[M_BACKUP], mem[M_T_BACKUP] = backup, t_backup
         mem[M_SRC_1], mem[M_SRC_2], mem[M_SRC_3] = src_1, src_2, src_3
@@ -1500,6 +1504,7 @@ def run_loop(
         o[O_RAD_IN] = rad_in
         o[O_Q_WCC] = q_wcc
         o[O_Q_CH_E] = q_ch_e
+        o[O_HP_CEILING] = u_ps
         modes[n] = mode
         flags[n] = flag
         n += 1

@@ -457,7 +457,9 @@ class HeatPumpParams:
     the heater-core loop, the chiller draws on the e-drive loop) on a PI of
     the heater-core loop's temperature (``hp_kp`` [1/K], ``hp_ki``
     [1/(K s)]), limited so that the filtered suction pressure stays above
-    ``hp_p_suction_min`` [Pa] + 10 kPa; below ``T_hp_min`` [K] it does not
+    ``hp_p_suction_min`` [Pa] + 10 kPa (the speed's ceiling a PI on the
+    suction's distance from it, ``hp_ps_kp`` [1/Pa], ``hp_ps_ki``
+    [1/(Pa s)]); below ``T_hp_min`` [K] it does not
     run. A suction pressure below ``hp_p_suction_min`` for 30 s trips it; it
     restarts after ``hp_restart_delay`` [s], and after ``hp_trips_max`` trips
     within 10 min it stays off until the oldest is 10 min old. The coolant
@@ -475,6 +477,15 @@ class HeatPumpParams:
         0.10e6, 0.02e6, 1.0e6, "Pa", slot="HP_PS_MIN", source="A (R134a saturates at -26 degC at 0.10 MPa)"
     )
     hp_kp: float = param(0.05, 0.0, 10.0, "1/K", slot="HP_KP", source="A")
+    hp_ps_kp: float = param(
+        2e-5,
+        0.0,
+        1e-3,
+        "1/Pa",
+        slot="HP_PS_KP",
+        source="A: 0.6 of speed for 30 kPa below the limit (70-150 kPa of suction per unit speed in the cold)",
+    )
+    hp_ps_ki: float = param(2e-6, 0.0, 1e-4, "1/(Pa s)", slot="HP_PS_KI", source="A: integral time 10 s")
     hp_ki: float = param(0.002, 0.0, 10.0, "1/(K s)", slot="HP_KI", source="A")
     hp_backup_delay: float = param(60.0, 0.0, 3600.0, "s", slot="HP_BACKUP_DELAY", source="A")
     hp_rad_band: float = param(1.0, 0.0, 20.0, "K", slot="HP_RAD_BAND", source="A")

@@ -36,8 +36,8 @@ P_ATM = 101325.0  # [Pa]
 #: Most time steps one simulation may take (23 days at 1 s; the loop's arrays take ~0.7 kB per step).
 MAX_STEPS = 2_000_000
 #: Most bytes of the step and record arrays of one simulation (:func:`run_bytes`): nearly twice those of the
-#: longest run at the default 1 s (a week's cycle or range test after a day's preconditioning, 0.91 GB),
-#: and more than :data:`MAX_STEPS` steps with sparse records take (1.61 GB). Temporaries add about a quarter.
+#: longest run at the default 1 s (a week's cycle or range test after a day's preconditioning, 0.94 GB),
+#: and more than :data:`MAX_STEPS` steps with sparse records take (1.65 GB). Temporaries add about a quarter.
 MAX_RUN_BYTES = 1_750_000_000
 #: ``--mode``: auto, or a forced mode by name (:data:`evtms.system.mode_model.MODE_CODES`).
 MODES = {"auto": -1, **MODE_CODES}
@@ -97,6 +97,7 @@ RECORD_VARIABLES: dict[str, tuple[str, str]] = {
     "radiator_in": ("1", "share of the interval the radiator was in the loop (not bypassed)"),
     "Q_wcc": ("W", "heat pump: water-cooled condenser heat into the heater-core loop"),
     "Q_chiller_ed": ("W", "heat pump: chiller heat drawn from the e-drive loop"),
+    "hp_speed_ceiling": ("1", "heat pump: the suction limiter's speed ceiling (1: not limiting; NaN: off)"),
     "Q_evaporator": ("W", "evaporator heat flow from the cabin air, total (> 0 cooling)"),
     "Q_latent": ("W", "latent part of Q_evaporator (condensate)"),
     "Q_chiller": ("W", "chiller heat flow from the coolant (> 0 cooling)"),
@@ -191,6 +192,7 @@ _MEANS = {
     "radiator_in": L.O_RAD_IN,
     "Q_wcc": L.O_Q_WCC,
     "Q_chiller_ed": L.O_Q_CH_E,
+    "hp_speed_ceiling": L.O_HP_CEILING,
 }
 _STATES = {
     "SOC": L.S_SOC,
