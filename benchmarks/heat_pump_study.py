@@ -26,10 +26,9 @@ import numpy as np
 
 from evtms.system import loop as L  # noqa: N812
 from evtms.system.drive_cycles import DriveCycle, drive_cycle
-from evtms.system.edrive import MOTOR_REQUIREMENT
 from evtms.system.params import system_params_from_dict
 from evtms.system.refrigerant import load_refrigerant
-from evtms.system.simulate import heat_pump_metrics, simulate
+from evtms.system.simulate import MOTOR_TABLE, heat_pump_metrics, simulate
 
 AMBIENTS_C = (-10.0, 0.0, 10.0)
 HEATINGS = ("ptc_air", "ptc_coolant", "heat_pump")
@@ -106,7 +105,7 @@ def hot_hwfet(luts: str) -> dict:
     ref = load_refrigerant(luts, params)
     r = simulate(drive_cycle("hwfet"), 313.15, ref, params, dt=0.1, sun=600.0, keep_trace=True)
     st, out = r.trace["states"], r.trace["out"]
-    need = np.interp(st[:-1, L.S_TM], *(np.asarray(MOTOR_REQUIREMENT[k]) for k in ("T_motor", "command")))
+    need = np.interp(st[:-1, L.S_TM], *MOTOR_TABLE)
     pumping = out[:, L.O_U_PUMP_E] > 0
     return {
         "T_motor_max_degC": r.summary["T_motor_max_degC"],

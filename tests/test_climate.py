@@ -213,8 +213,11 @@ def test_v1_parameter_names_name_their_successors():
     for (table, name), msg in cases.items():
         with pytest.raises(EvtmsInputError, match=msg):
             system_params_from_dict({table: {name: 1.0}})
-    with pytest.raises(EvtmsInputError, match=r'heating = "heat_pump" is not allowed; allowed: ptc_air, ptc_coolant'):
-        system_params_from_dict({"hvac": {"heating": "heat_pump"}})
+    assert system_params_from_dict({"hvac": {"heating": "heat_pump"}}).hvac.heating == "heat_pump"
+    with pytest.raises(
+        EvtmsInputError, match=r'heating = "gas" is not allowed; allowed: ptc_air, ptc_coolant, heat_pump'
+    ):
+        system_params_from_dict({"hvac": {"heating": "gas"}})
 
 
 def test_a_humid_cabin_is_dried_with_reheat_only_while_the_compressor_runs(synthetic):  # noqa: F811

@@ -55,7 +55,7 @@ def _arguments(component: _LutComponent, names, rng, n: int) -> list[np.ndarray]
 def test_compiled_call_equals_the_step_by_step_path(models, component, detailed, monkeypatch):
     method, names = CALLS[component]
     lut = models.luts[component]
-    args = _arguments(lut, names, np.random.default_rng(len(component)), 400)
+    args = _arguments(lut, names, np.random.default_rng(len(component)), 600)
     models.detailed(detailed)
     try:
         fast = getattr(models, method)(*args)

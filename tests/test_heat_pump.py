@@ -94,10 +94,10 @@ def test_radiator_is_the_source_below_the_ambient_and_frost_is_flagged(refrigera
     assert np.any(out[hp & rad, L.O_Q_RAD] < 0.0)  # the air heats the loop: the ambient source
     assert r.summary["ambient_heat_kWh"] > 0.0
     # Frost: exactly the steps with the radiator as the source, its cold end below 0 degC and the ambient's
-    # frost point (the ambient's humidity ratio at 268.15 K, RH 0.9).
+    # frost point (the ambient's humidity ratio at 268.15 K, RH 0.9, saturating over ice).
     frost = (r.trace["flags"] & L.F_FROST_OUTSIDE) > 0
     assert frost.any() and r.summary["frost_time_s"] == pytest.approx(float(np.sum(r.trace["dts"][frost])))
-    T_fp = L.dew_point(L.humidity_ratio(268.15, 0.9, 101325.0), 101325.0)
+    T_fp = L.frost_point(L.humidity_ratio(268.15, 0.9, 101325.0), 101325.0)
     flowing = out[:, L.O_U_PUMP_E] > 0
     expected = rad & flowing & (T_E < 273.15) & (T_E < T_fp)
     assert np.array_equal(frost, expected)
@@ -112,9 +112,10 @@ def test_backup_fills_in_only_behind_a_heat_pump_running_flat_out(refrigerant): 
     hp = out[:, L.O_CIRCUIT] == L.CIRCUIT_HP
     # Split range: the coolant PTC heats with the heat pump running only while it is backing it up.
     assert np.all(out[hp & ~backup, L.O_P_PTCW] == 0.0)
-    # It starts only after the heat pump has run flat out (full speed, or held by its suction limiter) for the
+    # It starts only after the heat pump has run flat out (at the suction limiter's ceiling, or at 1) for the
     # backup delay (60 s), and it heats only while the heat pump was flat out within that delay.
-    flat = hp & (out[:, L.O_SPEED_CMD] >= out[:, L.O_HP_CEILING])
+    # (or with its target beyond the 70 degC the heat pump alone reaches: the map's warmest loop)
+    flat = hp & ((out[:, L.O_SPEED_CMD] >= out[:, L.O_HP_CEILING]) | (out[:, L.O_T_H_TARGET] > 343.15))
     for k in np.flatnonzero(backup[1:] & ~backup[:-1]) + 1:
         assert np.all(flat[k - 59 : k + 1]), k
     for k in np.flatnonzero(backup & (out[:, L.O_P_PTCW] > 0)):
@@ -195,3 +196,26 @@ def test_range_test_with_both_heatings_then_the_report_gives_the_gain(refrigeran
     bad = run("report", "range", out, "-o", tmp_path / "r3.png", "--heating", "ptc_coolant")
     one_error_line(bad, "--heating 'ptc_coolant': the file has no run of it")
     assert not (tmp_path / "r3.png").exists()
+
+
+def test_the_loops_crossflow_effectiveness_is_the_benches():
+    from evtms.hx.effectiveness import crossflow_one_mixed_effectiveness
+
+    rng = np.random.default_rng(5)
+    c_air, c_liq, ua = rng.uniform(10.0, 1500.0, 300), rng.uniform(10.0, 1500.0, 300), rng.uniform(1.0, 3000.0, 300)
+    loop = np.array([L.crossflow_effectiveness(a, b, u) for a, b, u in zip(c_air, c_liq, ua, strict=True)])
+    c_min, c_max = np.minimum(c_air, c_liq), np.maximum(c_air, c_liq)
+    bench = crossflow_one_mixed_effectiveness(ua / c_min, c_min / c_max, c_liq <= c_air)  # the liquid is mixed
+    np.testing.assert_allclose(loop, bench, rtol=1e-12)
+
+
+def test_a_heat_pump_cycling_at_part_load_comes_back_and_the_ptc_stays_off(refrigerant):  # noqa: F811
+    strong = with_hp(refrigerant, capacity=3.0)  # more than a mild day needs even at the minimum speed
+    r = simulate(WLTC, 288.15, strong, params(**HP), dt=1.0, keep_trace=True)
+    out = r.trace["out"]
+    hp = out[:, L.O_CIRCUIT] == L.CIRCUIT_HP
+    starts = np.flatnonzero(hp[1:] & ~hp[:-1])
+    assert starts.size >= 2  # off at its floor with the loop warm, and back on as it cools
+    heating = out[:, L.O_Q_HC] > 0
+    assert np.sum(out[:, L.O_P_PTCW]) < 0.02 * np.sum(out[heating, L.O_Q_HC])  # the heat pump holds it alone
+    assert max(r.ledgers.values()) <= 1e-9

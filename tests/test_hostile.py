@@ -365,7 +365,7 @@ CASES: list[Case] = [
     Case(
         "simulate-trace-fifo", ["simulate", "--cycle", "t.csv", "--t-amb", "30", "-o", "o.nc"], "t.csv", [fifo("t.csv")]
     ),
-    bad_params("simulate-params-unknown-table", "[heatpump]\nx = 1\n", "unknown table or key 'heatpump'", tuple(SIM)),
+    bad_params("simulate-params-unknown-table", "[boiler]\nx = 1\n", "unknown table or key 'boiler'", tuple(SIM)),
     bad_params(
         "simulate-params-shared-with-a-bench",
         "[cabin]\nblower_flow_max = 0.4\n",

@@ -237,7 +237,9 @@ def test_settings_and_names_are_checked(cycle_luts_dir):
     with pytest.raises(EvtmsInputError):
         MapSettings(superheat=-1.0)
     with pytest.raises(EvtmsInputError, match="unknown"):
-        load_maps(cycle_luts_dir, names=("hp",))
+        load_maps(cycle_luts_dir, names=("boiler",))
+    with pytest.raises(EvtmsInputError, match="u_H must be > 0"):
+        MapSettings(axes={"u_H": [0.0, 1.0]})
     s = MapSettings(axes={"T_amb": [290.0, 300.0], "ac+chiller.T_amb": [295.0]})
     assert s.override("ac", "T_amb") == (290.0, 300.0) and s.override("ac+chiller", "T_amb") == (295.0,)
 

@@ -104,7 +104,7 @@ VARIABLES = {
     "UA": ("W K-1", "overall conductance of the core"),
     "effectiveness": ("1", "Q over the largest heat flow the second law allows"),
     "T_coolant_out": ("K", "coolant temperature leaving the core"),
-    "T_surface_min": ("K", "coldest tube surface temperature (at the coolant inlet)"),
+    "T_surface_min": ("K", "tube surface at the coolant inlet: the coldest where the coolant is the colder stream"),
     "dp_coolant": ("Pa", "coolant pressure drop in the tubes (headers not included)"),
 }
 

@@ -61,7 +61,7 @@ def crossflow_one_mixed_effectiveness(NTU: np.ndarray, Cr: np.ndarray, mixed_is_
     References
     ----------
     Incropera, F. P., DeWitt, D. P., Bergman, T. L., Lavine, A. S. (2007).
-    Fundamentals of Heat and Mass Transfer, 6th ed., Wiley, Table 11.3, eqs. 11.34 and 11.35.
+    Fundamentals of Heat and Mass Transfer, 6th ed., Wiley, Table 11.3, eqs. 11.33 and 11.34.
     """
     NTU = np.maximum(np.asarray(NTU, float), 0.0)
     Cr = np.clip(np.asarray(Cr, float), 0.0, 1.0)

@@ -35,7 +35,8 @@ MathWorks (2024). Electric Vehicle Thermal Management (Simscape example,
 ``BEV_Thermal_Management``): motor, pump, radiator and fan blocks and the
 controls' lookup tables.
 Incropera, F. P. et al. (2007). Fundamentals of Heat and Mass Transfer, 6th
-ed. Wiley: eq. 8.57 (Hausen), eq. 8.62 (Gnielinski), eq. 11.32-11.33.
+ed. Wiley: eq. 8.57 (Hausen), eq. 8.62 (Gnielinski), eqs. 11.33-11.34 (cross flow, one
+fluid mixed).
 """
 
 from __future__ import annotations

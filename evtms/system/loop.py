@@ -64,8 +64,10 @@ Astrom, K. J., Hagglund, T. (2006). Advanced PID Control. ISA, section 3.5
 Alduchov, O. A., Eskridge, R. E. (1996). Improved Magnus form approximation
 of saturation vapor pressure. J. Appl. Meteorol. 35, 601-609.
 Incropera, F. P. et al. (2007). Fundamentals of Heat and Mass Transfer, 6th
-ed. Wiley: eq. 8.57 (Hausen's developing laminar flow), eq. 11.32 (cross
-flow, one fluid mixed).
+ed. Wiley: eq. 8.57 (Hausen's developing laminar flow), eq. 8.62
+(Gnielinski), Table 11.3 eqs. 11.33-11.34 (cross flow, one fluid mixed).
+Haaland, S. E. (1983). Simple and explicit formulas for the friction factor
+in turbulent pipe flow. J. Fluids Eng. 105(1), 89-90.
 """
 
 from __future__ import annotations
@@ -129,9 +131,9 @@ N_H = H_FALLBACK + 1
     M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
     M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3, M_STOP, M_RAD_IN,
     M_HP_ON, M_T_HP, M_I_HP, M_U_PS, M_PS_LOW, M_HP_UNTIL, M_TRIP_1, M_TRIP_2, M_TRIP_3,
-    M_BACKUP, M_T_BACKUP, M_SRC_1, M_SRC_2, M_SRC_3, M_LAST_CIRCUIT,
+    M_BACKUP, M_T_BACKUP, M_SRC_1, M_SRC_2, M_SRC_3, M_LAST_CIRCUIT, M_P_PTCW,
     N_M,
-) = range(60)  # fmt: skip
+) = range(61)  # fmt: skip
 
 # Why a run ended before its last step (``mem[M_STOP]``): not at all, SOC at its floor, or a mode model's state
 # left the physical range (the step that would have put it there is not done).
@@ -345,6 +347,15 @@ def dew_point(w: float, p: float) -> float:
 
 
 @jit
+def frost_point(w: float, p: float) -> float:
+    """Frost point [K] of air with humidity ratio ``w`` [kg/kg] at ``p`` [Pa]: where its vapour saturates over ice
+    (the Magnus form over ice of Alduchov and Eskridge 1996, inverted)."""
+    pw = max(w * p / (0.621945 + w), 1e-3)
+    g = math.log(pw / 611.21)
+    return 273.15 + 273.86 * g / (22.587 - g)
+
+
+@jit
 def plate_conductance(u_pump: float, re_1: float, pr: float, d_over_l: float, k_area: float, g_cp: float) -> float:
     """Pack-to-coolant conductance [W/K]: cells to plate ``g_cp`` in series with the channels' convection.
 
@@ -367,26 +378,28 @@ def plate_conductance(u_pump: float, re_1: float, pr: float, d_over_l: float, k_
 def jacket_conductance(u_pump: float, re_1: float, pr: float, d_over_l: float, k_area: float) -> float:
     """Coolant-side conductance [W/K] of a cooling jacket's channels at pump command ``u_pump`` [1].
 
-    ``Re = u_pump re_1``; laminar below 2300 by Hausen's developing flow
-    (Incropera eq. 8.57, ``Nu = 3.66 + 0.0668 Gz / (1 + 0.04 Gz^(2/3))``,
-    ``Gz = (D/L) Re Pr``), turbulent above 4000 by Gnielinski (eq. 8.62,
-    Petukhov's friction factor ``f = (0.790 ln Re - 1.64)^-2``), blended
-    linearly in Re between (spec v2 5.2); with the pump off ``Nu = 2``
-    (natural convection in the stagnant channels, A). ``k_area`` [W/K] is
-    ``k / D`` times the channels' wetted area.
+    ``Re = u_pump re_1``: Hausen's developing laminar flow (Incropera et al.
+    2007, eq. 8.57, ``Nu = 3.66 + 0.0668 Gz / (1 + 0.04 Gz^(2/3))``,
+    ``Gz = (D/L) Re Pr``) below Re 2300, Gnielinski (eq. 8.62) with Haaland's
+    smooth-pipe friction factor at ``max(Re, 4000)`` above, blended linearly
+    in Re between (spec v2 5.2): the benches' correlations
+    (:func:`evtms.hx.tube.single_phase_nusselt`,
+    :func:`evtms.hx.tube.hausen_nusselt`), written out here because the
+    simulate path imports no ``evtms.hx`` module (their SciPy). With the pump
+    off ``Nu = 2`` (natural convection in the stagnant channels, A).
+    ``k_area`` [W/K] is ``k / D`` times the channels' wetted area.
     """
     if u_pump <= 0.0:
         return _NU_STAGNANT * k_area
     re = u_pump * re_1
     gz = d_over_l * re * pr
     laminar = 3.66 + 0.0668 * gz / (1.0 + 0.04 * gz ** (2.0 / 3.0))
-    if re <= 2300.0:
-        nu = laminar
-    else:
-        re_t = max(re, 3000.0)  # Gnielinski's lower end; the blend's weight holds it to 0 at 2300
-        f = (0.790 * math.log(re_t) - 1.64) ** -2
-        turbulent = f / 8.0 * (re_t - 1000.0) * pr / (1.0 + 12.7 * math.sqrt(f / 8.0) * (pr ** (2.0 / 3.0) - 1.0))
-        w = min((re - 2300.0) / 1700.0, 1.0)
+    w = min(max((re - 2300.0) / 1700.0, 0.0), 1.0)
+    nu = laminar
+    if w > 0.0:
+        re_t = max(re, 4000.0)
+        f8 = (-1.8 * math.log10(6.9 / re_t)) ** -2 / 8.0  # Haaland (1983), smooth channel
+        turbulent = max(f8 * (re_t - 1000.0) * pr / (1.0 + 12.7 * math.sqrt(f8) * (pr ** (2.0 / 3.0) - 1.0)), laminar)
         nu = (1.0 - w) * laminar + w * turbulent
     return nu * k_area
 
@@ -454,7 +467,7 @@ def edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_ai
 
 @jit
 def crossflow_effectiveness(c_air: float, c_liquid: float, ua: float) -> float:
-    """Effectiveness [1] of a cross-flow coil, liquid mixed and air unmixed (Incropera eq. 11.32-11.33).
+    """Effectiveness [1] of a cross-flow coil, liquid mixed and air unmixed (Incropera eqs. 11.33-11.34).
 
     Air the smaller stream: ``eps = (1/C_r)(1 - exp(-C_r (1 - e^-NTU)))``;
     liquid the smaller: ``eps = 1 - exp(-(1 - e^(-C_r NTU))/C_r)``; both tend
@@ -778,10 +791,13 @@ def run_loop(
         rho_in = p_atm / (_R_AIR * T_in)
         # Heater capability for the blower cap: the heat pump's at full speed adds to its backup's.
         p_heat_max = par[P_PTC_MAX] if heating_opt == HEATING_PTC_AIR else par[P_PTCW_MAX]
-        if heating_opt == HEATING_HEAT_PUMP and source == SRC_MAPS:
-            x[0], x[1], x[2], x[3], x[4] = 1.0, 1.0, T_H, 0.5, s0[S_TE]
+        # The heater-core loop's return (the WCC's inlet): the node less what the heater core took last step.
+        T_H_ret = T_H - max(mem[M_Q_HEAT], 0.0) / (par[P_MDOT_H] * par[P_CP_H])
+        hp_available = T_amb >= par[P_HP_T_MIN] and t >= mem[M_HP_UNTIL] and source != SRC_SURROGATE
+        if heating_opt == HEATING_HEAT_PUMP and hp_available:
+            x[0], x[1], x[2], x[3], x[4] = 1.0, 1.0, T_H_ret, 0.5, s0[S_TE]
             map_interp(hp_knots, hp_starts, hp_table, x[:5], y_cap)
-            if math.isfinite(y_cap[Y_QCOND]) and T_amb >= par[P_HP_T_MIN]:
+            if math.isfinite(y_cap[Y_QCOND]):
                 p_heat_max += y_cap[Y_QCOND]
         blower = 0.0
         blower_prev = mem[M_BLOWER]
@@ -894,10 +910,8 @@ def run_loop(
         hp_limited = False
         hp_on, t_hp, i_hp, i_ps = mem[M_HP_ON] > 0.0, mem[M_T_HP], mem[M_I_HP], mem[M_U_PS]
         ps_low, hp_until = mem[M_PS_LOW], mem[M_HP_UNTIL]
-        trips_in_window = 0
-        for m_trip in (M_TRIP_1, M_TRIP_2, M_TRIP_3):
-            if t - mem[m_trip] < 600.0:
-                trips_in_window += 1
+        trip_1, trip_2, trip_3 = mem[M_TRIP_1], mem[M_TRIP_2], mem[M_TRIP_3]
+        trips_in_window = (t - trip_1 < 600.0) + (t - trip_2 < 600.0) + (t - trip_3 < 600.0)
         hp_locked = trips_in_window >= par[P_HP_TRIPS_MAX]
         if hp_locked:
             flag |= F_HP_LOCKED
@@ -911,25 +925,27 @@ def run_loop(
             and cab_heat
             and mdot_air > 0.0
             and not (cab_coil or chill or bc or crit)
-            and T_amb >= par[P_HP_T_MIN]
-            and t >= hp_until
+            and hp_available
             and not hp_locked
-            and source != SRC_SURROGATE
         )
+        backup_restart = False
         if hp_wanted:
-            e_hp = T_H_t - T_H
+            # The heat pump alone reaches at most its map's warmest loop (about 70 degC; the backup gives more).
+            T_H_hp = min(T_H_t, hp_knots[hp_starts[3] - 1])
+            e_hp = T_H_hp - T_H
             if not hp_on and T_H < T_H_t - par[P_DT_CYC] and t - t_hp >= par[P_T_OFF_MIN]:
                 hp_on = True
                 t_hp = t
                 i_hp = u_min - par[P_HP_KP] * e_hp  # restart at the minimum speed
                 i_ps = 1.0
+                backup_restart = mem[M_P_PTCW] > 0.0  # the coolant PTC was carrying the load: it backs up at once
             if hp_on:
                 # Suction limiter: a PI on the filtered suction's distance from its floor plus 10 kPa sets the
                 # speed's ceiling, so the heat pump slows before the guard trips it; the PI on T_H runs below it.
                 e_ps = ps_f - (par[P_HP_PS_MIN] + 0.01e6)
                 u_ps, i_ps, _ = _pi(e_ps, i_ps, par[P_HP_PS_KP], par[P_HP_PS_KI], dt, u_min, 1.0)
                 u_hp, i_hp, _ = _pi(e_hp, i_hp, par[P_HP_KP], par[P_HP_KI], dt, u_min, u_ps)
-                hp_limited = u_ps < 1.0 and u_hp >= u_ps
+                hp_limited = (u_ps < 1.0 and u_hp >= u_ps) or T_H_hp < T_H_t
                 if u_hp <= u_min and T_H > T_H_t + par[P_DT_CYC] and t - t_hp >= par[P_T_ON_MIN]:
                     hp_on = False
                     t_hp = t
@@ -941,7 +957,7 @@ def run_loop(
                     u_hp = 0.0
                     ps_low = 0.0
                     hp_until = t + par[P_HP_RESTART]
-                    mem[M_TRIP_1], mem[M_TRIP_2], mem[M_TRIP_3] = mem[M_TRIP_2], mem[M_TRIP_3], t
+                    trip_1, trip_2, trip_3 = trip_2, trip_3, t
         else:
             if hp_on:
                 t_hp = t
@@ -1000,11 +1016,19 @@ def run_loop(
         # The heat pump's source fan: a third per stage on at T_amb - T_E of 4, 7 and 10 K (each off 2 K lower),
         # while the radiator is the source and the compressor runs flat out.
         src_1, src_2, src_3 = mem[M_SRC_1], mem[M_SRC_2], mem[M_SRC_3]
-        if circuit == CIRCUIT_HP and mem[M_RAD_IN] > 0.0 and (u_hp >= 1.0 or hp_limited):
+        if circuit == CIRCUIT_HP and mem[M_RAD_IN] > 0.0:
+            # A stage switches on only with the compressor flat out, off on its own band: the fan's extra source
+            # lets the compressor off its limit, which must not switch the fan off again (a limit cycle).
             lift = T_amb - s0[S_TE]
-            src_1 = _relay(src_1, lift, 2.0, 2.0)
-            src_2 = _relay(src_2, lift, 5.0, 2.0)
-            src_3 = _relay(src_3, lift, 8.0, 2.0)
+            flat_out = u_hp >= 1.0 or hp_limited
+            new_1, new_2, new_3 = (
+                _relay(src_1, lift, 2.0, 2.0),
+                _relay(src_2, lift, 5.0, 2.0),
+                _relay(src_3, lift, 8.0, 2.0),
+            )
+            src_1, src_2, src_3 = (
+                (new_1, new_2, new_3) if flat_out else (min(new_1, src_1), min(new_2, src_2), min(new_3, src_3))
+            )
         else:
             src_1 = src_2 = src_3 = 0.0
         if circuit == CIRCUIT_HP:
@@ -1040,7 +1064,7 @@ def run_loop(
                     x[2], x[3], x[4], x[5] = blower, T_amb, T_in, rh_in
                 elif circuit == CIRCUIT_HP:
                     map_id, nx = MAP_HP, 5
-                    x[1], x[2], x[3], x[4] = 1.0, T_H, u_pump_e, s0[S_TE]
+                    x[1], x[2], x[3], x[4] = 1.0, T_H_ret, u_pump_e, s0[S_TE]
                 elif circuit == CIRCUIT_BOTH:
                     map_id, nx = MAP_ACCH, 7
                     x[2], x[3], x[4], x[5], x[6] = blower, u_pump, T_amb, T_in, Tc
@@ -1156,9 +1180,13 @@ def run_loop(
             kp_w, ki_w = par[P_PTCW_KP] * pmax, par[P_PTCW_KI] * pmax
             if u_hp > 0.0:
                 # The coolant PTC backs the heat pump up (split range): on once the HP has run flat out with the
-                # loop 2 K short for hp_backup_delay, holding 1 K below the target so the HP stays at full
-                # speed; off once it has given nothing, or the HP has had margin, for as long.
+                # loop 2 K short for hp_backup_delay (or at once when it restarts behind a PTC carrying the load),
+                # holding 1 K below the target so the HP stays at full speed; off once it has given nothing, or
+                # the HP has had margin, for as long.
                 flat_out = u_hp >= 1.0 or hp_limited
+                if backup_restart:
+                    backup = True
+                    t_backup = 0.0
                 if not backup:
                     t_backup = t_backup + dt if (flat_out and T_H < T_H_t - 2.0) else 0.0
                     if t_backup >= par[P_HP_BACKUP_DELAY]:
@@ -1176,6 +1204,10 @@ def run_loop(
                         t_backup = 0.0
                 else:
                     i_ptcw = 0.0
+            elif hp_wanted:  # the heat pump between its on phases holds the loop: no resistive heat
+                backup = False
+                t_backup = 0.0
+                i_ptcw = 0.0
             else:
                 backup = False
                 t_backup = 0.0
@@ -1387,11 +1419,14 @@ def run_loop(
         T_air_rad = T_amb
         if edrive_loop:
             T_E = s0[S_TE]
-            if ran == CIRCUIT_HP:
+            if circuit == CIRCUIT_HP:
                 # The heat pump's source: the radiator draws on the ambient while the loop is colder than it,
-                # and is bypassed while the loop is warmer (it keeps the drive's waste heat).
+                # and is bypassed while the loop is warmer (it keeps the drive's waste heat), unless the loop
+                # passes the radiator's own switch-on temperature (the drive's cooling comes first).
                 band_hp = par[P_HP_RAD_BAND]
                 rad_in = _relay(rad_in, T_amb - T_E, -band_hp, 2.0 * band_hp)
+                if T_E > par[P_RAD_ON]:
+                    rad_in = 1.0
             else:
                 rad_in = _relay(rad_in, T_E, par[P_RAD_OFF], par[P_RAD_ON] - par[P_RAD_OFF])
             mdot_e = u_pump_e * par[P_MDOT_E_MAX]
@@ -1408,7 +1443,7 @@ def run_loop(
                 g_rad = crossflow_effectiveness(c_front, c_e, ua_rad[0]) * min(c_front, c_e)
             q_rad = edrive_network(par, s0, s1, dt, T_amb, p_loss, q_dcdc, g_m, g_d, g_rad, T_air_rad, q_ch_e)
             # Frost on the radiator: it is the source, its cold end below 0 degC and the ambient's frost point.
-            if rad_in > 0.0 and mdot_e > 0.0 and T_E < 273.15 and T_E < dew_point(w_amb, p_atm):
+            if rad_in > 0.0 and mdot_e > 0.0 and T_E < 273.15 and T_E < frost_point(w_amb, p_atm):
                 flag |= F_FROST_OUTSIDE
         else:
             for k in (S_TM, S_TI, S_TD, S_TE):
@@ -1434,7 +1469,8 @@ def run_loop(
         mem[M_RAD_IN] = rad_in
         mem[M_HP_ON], mem[M_T_HP], mem[M_I_HP], mem[M_U_PS] = hp_on, t_hp, i_hp, i_ps
         mem[M_PS_LOW], mem[M_HP_UNTIL] = ps_low, hp_until
-        mem[M_BACKUP], mem[M_T_BACKUP] = backup, t_backup
+        mem[M_BACKUP], mem[M_T_BACKUP], mem[M_P_PTCW] = backup, t_backup, p_ptcw
+        mem[M_TRIP_1], mem[M_TRIP_2], mem[M_TRIP_3] = trip_1, trip_2, trip_3
         mem[M_SRC_1], mem[M_SRC_2], mem[M_SRC_3] = src_1, src_2, src_3
         if speed > 0.0:
             mem[M_LAST_CIRCUIT] = circuit
@@ -1497,7 +1533,7 @@ def run_loop(
         o[O_P_PUMP_E] = p_pump_e
         o[O_P_EDRIVE_AUX] = p_pump_e / eta_dc
         o[O_Q_DRIVE] = q_drive
-        o[O_Q_DCDC] = q_dcdc if edrive_loop else 0.0
+        o[O_Q_DCDC] = q_dcdc
         o[O_Q_RAD] = q_rad
         o[O_T_AIR_RAD] = T_air_rad
         o[O_U_PUMP_E] = u_pump_e

@@ -53,7 +53,11 @@ PHYSICS_TOLERANCE = {
 #: The loop's stand-in for a map not loaded (the heat pump's, unless ``hvac.heating`` is ``heat_pump``): one
 #: node of NaN outputs on each of its axes, which the loop never reads.
 _NO_MAP = {
-    name: (np.zeros(len(MAPS[name].axes)), np.arange(len(MAPS[name].axes) + 1, dtype=np.int64), np.full((1, 9), np.nan))
+    name: (
+        np.zeros(len(MAPS[name].axes)),
+        np.arange(len(MAPS[name].axes) + 1, dtype=np.int64),
+        np.full((1, L.N_Y), np.nan),
+    )
     for name in ("hp",)
 }
 

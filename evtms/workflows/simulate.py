@@ -306,6 +306,10 @@ def _plan(request: SimulationRequest, depletion: bool, named: bool):
     tree = load_parameter_tree(r.params)
     setup = sc.setup(tree.system, mode=r.mode, inputs=_option_inputs(r.inputs))
     heatings = heating_options(r.heating) or [setup.params.hvac.heating]
+    if r.mode == "ch-hp" and heatings != ["heat_pump"]:
+        raise EvtmsInputError(
+            f"`heating` {r.heating!r}: the mode ch-hp heats with the heat pump; leave out `heating` or give heat_pump"
+        )
     if depletion:
         from evtms.system.range_test import ccp_sequence, mct_sequence
 
