@@ -166,3 +166,19 @@ def test_heater_core_heats_cabin_air_as_a_heater_core_does():
     )
     assert 3e3 < out["Q"][0] < 9e3
     assert 20.0 < out["T_air_out"][0] - 283.15 < 50.0
+
+
+@pytest.mark.parametrize(
+    ("bench", "axis"),
+    [("radiator", "V_air=-1"), ("heater-core", "T_coolant_in=120degC"), ("radiator", "RH_air_in=1.5")],
+)
+def test_bad_axis_values_are_one_line_exit_2_and_write_nothing(tmp_path, bench, axis):
+    from conftest import one_error_line
+    from typer.testing import CliRunner
+
+    from evtms.cli import app
+
+    out = tmp_path / "core.nc"
+    res = CliRunner().invoke(app, ["bench", bench, "--axis", axis, "-o", str(out)])
+    one_error_line(res, axis.split("=")[0])
+    assert not out.exists() and not any(tmp_path.iterdir())

@@ -21,7 +21,7 @@ from evtms.errors import EvtmsInputError
 from evtms.system import inputs as inputs_module
 from evtms.system.drive_cycles import drive_cycle
 from evtms.system.inputs import FIELD_LABELS, Trace, check_inputs, per_step, read_trace
-from evtms.system.params import SystemParams
+from evtms.system.params import SystemParams, system_params_from_dict
 from evtms.system.scenarios import (
     SCENARIOS,
     Scenario,
@@ -342,6 +342,9 @@ def test_setup_overrides_and_the_heating_option():
     hp = SCENARIOS["t12-ch-1"].setup(mode="ch-hp")
     assert hp.mode == "ch" and hp.heating == "heat_pump" and hp.params.hvac.heating == "heat_pump"
     assert Scenario("", "udds", heating="heat_pump").setup().params.hvac.heating == "heat_pump"
+    # A scenario that names no heating keeps the parameters' (a --params file's [hvac] heating).
+    own = Scenario("", "udds").setup(system_params_from_dict({"hvac": {"heating": "ptc_coolant"}}))
+    assert own.heating == "ptc_coolant" and own.params.hvac.heating == "ptc_coolant"
 
 
 # --------------------------------------------------------------------------------------------- Table 12 columns

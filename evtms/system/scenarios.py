@@ -69,7 +69,7 @@ NAME_PATTERN = re.compile(r"[a-z0-9-]{1,64}")
 #: Most scenarios one file may hold.
 MAX_SCENARIOS = 1000
 #: Defaults of the keys a table leaves out.
-DEFAULTS = {"mode": "auto", "heating": "ptc_air", "rh_amb": 0.4, "sun": 0.0}
+DEFAULTS = {"mode": "auto", "rh_amb": 0.4, "sun": 0.0}
 
 
 @dataclass(frozen=True)
@@ -106,8 +106,8 @@ class Scenario:
         ``parked:SECONDS``, a built-in cycle or a CSV file (path as read: absolute or from the working folder).
     mode : str
         ``auto`` or a forced mode (:data:`SCENARIO_MODES`).
-    heating : str
-        ``ptc_air`` or ``ptc_coolant``.
+    heating : str or None
+        ``ptc_air``, ``ptc_coolant`` or ``heat_pump``; None: the parameters' ``[hvac] heating``.
     T_amb : float or None
         Ambient temperature [K] (None: the command line's ``--t-amb``).
     rh_amb : float
@@ -127,7 +127,7 @@ class Scenario:
     name: str
     cycle: str
     mode: str = "auto"
-    heating: str = "ptc_air"
+    heating: str | None = None
     T_amb: float | None = None
     rh_amb: float = 0.4
     sun: float = 0.0
@@ -138,7 +138,9 @@ class Scenario:
 
     def to_dict(self) -> dict[str, Any]:
         """The scenario's table (keys of :data:`SCENARIO_KEYS`; unset ones left out)."""
-        out: dict[str, Any] = {"cycle": self.cycle, "mode": self.mode, "heating": self.heating}
+        out: dict[str, Any] = {"cycle": self.cycle, "mode": self.mode}
+        if self.heating is not None:
+            out["heating"] = self.heating
         if self.T_amb is not None:
             out["T_amb"] = self.T_amb
         out["rh_amb"], out["sun"] = self.rh_amb, self.sun
@@ -183,7 +185,7 @@ class Scenario:
             params = system_params_from_dict(self._initial_tables(), params)
         except EvtmsInputError as exc:
             raise EvtmsInputError(f"{where}: {exc}") from None
-        heating = self.heating
+        heating = self.heating if self.heating is not None else params.hvac.heating
         if mode == "ch-hp":  # forced cabin heating on the heat pump (spec v2 3): mode ch, heating heat_pump
             mode, heating = "ch", "heat_pump"
         params = apply_heating(params, heating)
@@ -381,7 +383,9 @@ def scenario_from_dict(name: str, table: Any, *, base: str | Path | None = None,
         except EvtmsInputError as exc:
             raise EvtmsInputError(f"{at} cycle: {exc}") from None
     mode = check_choice(f"{at} mode", table.get("mode", DEFAULTS["mode"]), SCENARIO_MODES)
-    heating = check_choice(f"{at} heating", table.get("heating", DEFAULTS["heating"]), HEATING)
+    heating = table.get("heating")
+    if heating is not None:  # else the parameters' [hvac] heating
+        heating = check_choice(f"{at} heating", heating, HEATING)
     T_amb = table.get("T_amb")
     if T_amb is not None:
         T_amb = _number(f"{at} T_amb", T_amb, *T_AMB_RANGE, "K (TOML temperatures are in K)")
