@@ -106,11 +106,12 @@ def hot_hwfet(luts: str) -> dict:
     r = simulate(drive_cycle("hwfet"), 313.15, ref, params, dt=0.1, sun=600.0, keep_trace=True)
     st, out = r.trace["states"], r.trace["out"]
     need = np.interp(st[:-1, L.S_TM], *MOTOR_TABLE)
+    pump_min = params.edrive.pump_min
     pumping = out[:, L.O_U_PUMP_E] > 0
     return {
         "T_motor_max_degC": r.summary["T_motor_max_degC"],
         "T_coolant_ed_max_degC": float(np.max(st[:, L.S_TE]) - 273.15),
-        "pump_follows_table": bool(np.allclose(out[pumping, L.O_U_PUMP_E], np.clip(need[pumping], 0.3, 1.0))),
+        "pump_follows_table": bool(np.allclose(out[pumping, L.O_U_PUMP_E], np.clip(need[pumping], pump_min, 1.0))),
         "fan_at_least_motor_need": bool(np.all(out[:, L.O_FAN] >= need - 1e-12)),
         "radiator_in_share": float(np.mean(out[:, L.O_RAD_IN])),
         "Q_radiator_mean_W": float(np.mean(out[:, L.O_Q_RAD])),
