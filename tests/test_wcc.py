@@ -266,3 +266,91 @@ def test_cli_writes_a_lut_and_refuses_bad_input(tmp_path):
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and "T_coolant_in" in lines[0]
     assert list(bad.iterdir()) == []
+
+
+# --- the compiled solve ------------------------------------------------------------------------
+
+#: Outputs of solve_wcc that are masks (compared exactly; outside_range on valid points only, where
+#: the invalid points' zone fractions differ: 0 in the array solve, inf in the kernel).
+_MASKS = (
+    "inlet_subcooled",
+    "supercritical",
+    "not_below_saturation",
+    "bad_dp",
+    "bad_flow",
+    "coolant_freezes",
+    "coolant_outside",
+    "bad_props",
+)
+
+
+@pytest.fixture(scope="module")
+def compiled_and_references(fluid, params):
+    """The compiled solve and solve_wcc on the same tables and on CoolProp, at 400 points over and
+    beyond the envelope (tiny flows, two-phase and subcooled inlets, coolant warmer than saturation)."""
+    from evtms._jit import numba_enabled
+    from evtms.benches.wcc import solve_wcc_compiled
+    from evtms.fluid_tables_dome import DomeTabulatedFluid
+
+    if not numba_enabled():
+        pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set): only the array path exists")
+    rng = np.random.default_rng(3)
+    n = 400
+    args = (
+        np.exp(rng.uniform(np.log(5e5), np.log(3.4e6), n)),
+        rng.uniform(300e3, 540e3, n),
+        np.exp(rng.uniform(np.log(1e-4), np.log(0.2), n)),
+        np.exp(rng.uniform(np.log(0.03), np.log(0.5), n)),
+        rng.uniform(260.0, 350.0, n),
+    )
+    hx = params.wcc
+    return (
+        solve_wcc_compiled(fluid, hx, *args),
+        solve_wcc(DomeTabulatedFluid(fluid), hx, *args),
+        solve_wcc(fluid, hx, *args),
+    )
+
+
+def _valid(res):
+    return ~np.any([res[k] for k in _MASKS], axis=0)
+
+
+def test_compiled_wcc_is_the_array_solve_on_the_same_tables(compiled_and_references):
+    compiled, tabulated, _ = compiled_and_references
+    for key in _MASKS:
+        np.testing.assert_array_equal(compiled[key], tabulated[key], err_msg=key)
+    valid = _valid(tabulated)
+    assert 0.5 < valid.mean() < 0.9  # valid points and several kinds of invalid one
+    assert compiled["inlet_subcooled"].any() and compiled["not_below_saturation"].any()
+    np.testing.assert_array_equal(compiled["outside_range"][valid], tabulated["outside_range"][valid])
+    for key, value in tabulated.items():
+        if key not in (*_MASKS, "outside_range"):
+            np.testing.assert_allclose(compiled[key][valid], value[valid], rtol=1e-9, atol=0.0, err_msg=key)
+
+
+def test_compiled_wcc_is_coolprop_within_the_tables_tolerance(compiled_and_references):
+    compiled, _, coolprop = compiled_and_references
+    valid = _valid(coolprop)
+    np.testing.assert_array_equal(_valid(compiled), valid)
+    for key in ("Q", "h_out", "dp", "h_out_continued", "T_coolant_out", "UA", "capacity_ratio"):
+        np.testing.assert_allclose(compiled[key][valid], coolprop[key][valid], rtol=1e-4, atol=0.0, err_msg=key)
+    np.testing.assert_allclose(compiled["T_out"][valid], coolprop["T_out"][valid], rtol=0.0, atol=2e-3)
+
+
+def test_compiled_wcc_hands_states_beyond_its_tables_to_coolprop(fluid, params):
+    """Between the tables' top (90 % of the critical pressure) and the critical pressure the
+    compiled solve gives CoolProp's answer; at and above the critical pressure both refuse."""
+    from evtms._jit import numba_enabled
+    from evtms.benches.wcc import solve_wcc_compiled
+
+    if not numba_enabled():
+        pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set): only the array path exists")
+    p = np.array([0.95 * fluid.p_crit, 1.01 * fluid.p_crit, 1.2e6])
+    h, m, m_c, T_c = np.array([440e3, 460e3, 440e3]), np.full(3, 0.03), np.full(3, 0.2), np.full(3, 303.15)
+    got = solve_wcc_compiled(fluid, params.wcc, p, h, m, m_c, T_c)
+    ref = solve_wcc(fluid, params.wcc, p, h, m, m_c, T_c)
+    assert np.isfinite(ref["Q"][0]) and ref["Q"][0] > 0 and not ref["bad_props"][0]  # CoolProp has the state
+    for key, value in ref.items():
+        np.testing.assert_allclose(got[key][:2], value[:2], rtol=1e-12, err_msg=key)
+    assert got["supercritical"][1] and not got["supercritical"][0]
+    np.testing.assert_allclose(got["Q"][2], ref["Q"][2], rtol=1e-4)

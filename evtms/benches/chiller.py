@@ -494,21 +494,21 @@ def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
     from evtms.fluid_tables import tables_for
 
     return (
-        _geometry(hx),
-        *_coolant_tables(hx.coolant_mass_fraction),
+        kernel_geometry(hx),
+        *kernel_coolant_tables(hx.coolant_mass_fraction),
         fluid.p_triple,
         float(fluid.saturation_curve().p[0]),
         tables_for(fluid).arrays,
-        _GAUSS,
+        KERNEL_GAUSS,
     )
 
 
 #: Gauss-Legendre nodes and weights on [0, 1] (:mod:`evtms.hx.tube`), as the kernel reads them.
-_GAUSS = (np.ascontiguousarray(tube.GAUSS_NODES), np.ascontiguousarray(tube.GAUSS_WEIGHTS))
+KERNEL_GAUSS = (np.ascontiguousarray(tube.GAUSS_NODES), np.ascontiguousarray(tube.GAUSS_WEIGHTS))
 
 
 @functools.lru_cache(maxsize=16)
-def _geometry(hx: PlateHXParams) -> np.ndarray:
+def kernel_geometry(hx: PlateHXParams) -> np.ndarray:
     """The kernel's geometry argument (:data:`evtms.benches._chiller_kernel.GEOMETRY`), kept per
     geometry: a cycle solver calls the chiller a point at a time."""
     from evtms.benches import _chiller_kernel as kernel
@@ -528,7 +528,7 @@ def _geometry(hx: PlateHXParams) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=4)
-def _coolant_tables(mass_fraction: float) -> tuple:
+def kernel_coolant_tables(mass_fraction: float) -> tuple:
     """The coolant's tables as the compiled chiller reads them, its freezing point and table top [K].
 
     Kept per glycol fraction: indexing the tables costs more than a one-point solve."""

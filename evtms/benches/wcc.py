@@ -62,10 +62,10 @@ enthalpy (:meth:`evtms.fluid.Coolant.enthalpy`). Second law: the refrigerant
 never leaves colder than the coolant enters, nor the coolant warmer than the
 refrigerant enters (the core needs infinite area for either).
 
-Computation: the NumPy path on CoolProp (the chiller's compiled kernel is
-not replicated); refrigerant properties at the grid's few distinct
-pressure-enthalpy and pressure-temperature pairs, the heat-rate search
-compiled where numba is (:func:`evtms.hx.counterflow.solve_counterflow_condenser`).
+Computation: where numba is, per point in machine code on tabulated
+refrigerant properties (:func:`solve_wcc_compiled`,
+:mod:`evtms.benches._wcc_kernel`), within 1e-4 of CoolProp's; otherwise, and
+as its reference, the NumPy path on CoolProp (:func:`solve_wcc`).
 
 References
 ----------
@@ -85,10 +85,12 @@ configuration. Appl. Therm. Eng. 79, 192-201.
 
 from __future__ import annotations
 
+import functools
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms._jit import numba_enabled
 from evtms.benches.base import (
     COMMON_FLAGS,
     STATUS_OUTSIDE_FLUID_RANGE,
@@ -98,7 +100,16 @@ from evtms.benches.base import (
     first_code,
     pressure_nodes,
 )
-from evtms.benches.chiller import PlateHXParams, martin_htc, plate_geometry, plate_outlet, refrigerant_props
+from evtms.benches.chiller import (
+    KERNEL_GAUSS,
+    PlateHXParams,
+    kernel_coolant_tables,
+    kernel_geometry,
+    martin_htc,
+    plate_geometry,
+    plate_outlet,
+    refrigerant_props,
+)
 from evtms.fluid import Fluid, coolant
 from evtms.hx import plate, tube
 from evtms.hx.counterflow import LIQUID, TWO_PHASE, VAPOUR, RefrigerantPath, solve_counterflow_condenser
@@ -314,6 +325,69 @@ def solve_wcc(
     }
 
 
+def solve_wcc_compiled(
+    fluid: Fluid,
+    hx: PlateHXParams,
+    p_in: np.ndarray,
+    h_in: np.ndarray,
+    mdot: np.ndarray,
+    mdot_coolant: np.ndarray,
+    T_coolant_in: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """:func:`solve_wcc` per point in machine code, on tabulated refrigerant properties.
+
+    The kernel (:mod:`evtms.benches._wcc_kernel`) reads the refrigerant tables
+    of :mod:`evtms.fluid_tables` and the coolant's own tables, as the compiled
+    chiller does; points whose states leave the refrigerant tables are solved
+    by :func:`solve_wcc` with ``fluid`` itself. Same parameters and outputs as
+    :func:`solve_wcc`; the results equal ``solve_wcc`` fed with those tables
+    (:class:`evtms.fluid_tables_dome.DomeTabulatedFluid`) to round-off and
+    CoolProp's within the tables' tolerance. Needs numba.
+    """
+    from evtms.benches import _wcc_kernel as kernel
+    from evtms.fluid_tables import tables_for
+
+    p_in, h_in, mdot, m_c, T_c_in = (
+        np.ascontiguousarray(np.asarray(a, float).reshape(-1)) for a in (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
+    )
+    cool, T_freeze, T_max = kernel_coolant_tables(hx.coolant_mass_fraction)
+    constants = (
+        kernel_geometry(hx),
+        cool,
+        _mirrored_coolant_table(hx.coolant_mass_fraction),
+        T_freeze,
+        T_max,
+        fluid.p_triple,
+        fluid.p_crit,
+        float(fluid.saturation_curve().p[0]),
+        plate.YAN_LIO_LIN_G_RANGE,
+        tables_for(fluid).arrays,
+        KERNEL_GAUSS,
+    )
+    cols = kernel.solve_points(p_in, h_in, mdot, m_c, T_c_in, *constants)
+    rows = cols.T.copy()  # one copy; each output a contiguous row of it
+    out = {name: rows[j] for j, name in enumerate(kernel.COLUMNS) if not name.startswith("f_")}
+    out["fractions"] = cols[:, [kernel.COLUMNS.index(f"f_{z}") for z in ("liquid", "two_phase", "vapour")]]
+    for key in kernel.COLUMNS[kernel.COLUMNS.index("outside_range") :]:
+        out[key] = out[key] != 0.0
+    rest = np.nonzero(out.pop("outside_tables"))[0]
+    if rest.size:  # states beyond the tables: CoolProp decides them
+        ref = solve_wcc(fluid, hx, p_in[rest], h_in[rest], mdot[rest], m_c[rest], T_c_in[rest])
+        for key, value in out.items():
+            value[rest] = ref[key]
+    return out
+
+
+@functools.lru_cache(maxsize=4)
+def _mirrored_coolant_table(mass_fraction: float) -> tuple:
+    """The coolant's (h, T) table reflected (``-h`` rising, ``-T``), as the condensing solve reads it
+    (:func:`evtms.hx.counterflow.solve_counterflow_condenser`)."""
+    from evtms.hx._counterflow_kernels import bucket_table
+
+    table = coolant(mass_fraction=mass_fraction).tables()
+    return bucket_table(-table["h"][::-1], -table["T"][::-1])
+
+
 def wcc_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Fluid) -> dict[str, np.ndarray]:
     """Steady-state water-cooled condenser response over arrays of bench inputs.
 
@@ -351,7 +425,9 @@ def wcc_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Flui
         h_in = fluid.state("PT", p_in, inputs["T_in"], ("H",))["H"]
     supercritical = p_in >= fluid.p_crit
     inlet_bad = ~np.isfinite(h_in) | ~(p_in > fluid.p_triple)
-    res = solve_wcc(
+    # Compiled on tabulated properties where numba is (the array solve is its reference).
+    solve = solve_wcc_compiled if numba_enabled() else solve_wcc
+    res = solve(
         fluid,
         params.wcc,
         p_in,
@@ -437,7 +513,7 @@ BENCH = Bench(
         # of the hp cycle's discharge pressure, on 100 random points of its envelope with the chiller's
         # physics direct, from 1.74 to 0.51 % and of its COP from 1.96 to 0.87 % (6 coolant flows at 2.5 K:
         # 1.96 / 2.01 %; 11 flows at 5 K: 1.18 / 1.32 %; 11 flows with the pressure every 2 K: 0.62 / 1.08 %;
-        # 1.1 million points, about 40 s).
+        # 1.1 million points, about 10 s compiled).
         "cycle": {
             "mdot": tuple(np.geomspace(0.002, 0.15, 13)),
             "p_in": pressure_nodes(np.arange(20.0, 93.0, 4.0)),
