@@ -60,6 +60,23 @@ def test_yan_lin_friction_branches_meet_at_6000():
     assert lo == pytest.approx(hi, rel=0.05)  # the published fits meet within 5 %
 
 
+def test_yan_lin_friction_below_its_data_is_laminar_and_meets_the_fit_at_2000():
+    """Below Re_eq 2000 the factor goes as 1/Re_eq at a fixed quality (Re_eq / Re fixed), so the
+    frictional drop f G^2 falls in proportion to the flow, and it is the fit's at the range's end."""
+    ratio = 8.0  # Re_eq / Re at one quality
+    at_end = plate.yan_lin_friction_factor(2000.0, 2000.0 / ratio)
+    assert plate.yan_lin_friction_factor(2000.0 * (1 - 1e-12), 2000.0 * (1 - 1e-12) / ratio) == pytest.approx(at_end)
+    assert plate.yan_lin_friction_factor(3000.0, 3000.0 / ratio) == pytest.approx(
+        6.947e5 * 3000.0**-1.109 * (3000.0 / ratio) ** -0.5, rel=1e-14
+    )  # inside the data: the published fit
+    for scale in (0.5, 0.1, 0.01):
+        f = plate.yan_lin_friction_factor(2000.0 * scale, 2000.0 * scale / ratio)
+        assert f == pytest.approx(at_end / scale, rel=1e-12)
+        # the drop ~ f G^2 against the fit continued, which keeps it nearly flat in G (G^0.39)
+        continued = 6.947e5 * (2000.0 * scale) ** -1.109 * (2000.0 * scale / ratio) ** -0.5
+        assert f * scale**2 < continued * scale**2 and f * scale**2 == pytest.approx(at_end * scale)
+
+
 # --- the counter-flow core against analytic effectiveness-NTU ----------------------------------
 
 

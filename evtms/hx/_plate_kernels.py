@@ -85,11 +85,12 @@ def yan_lin_friction_factor(Re_eq: float, Re: float) -> float:
     """One point of :func:`evtms.hx.plate.yan_lin_friction_factor`: two-phase friction factor [1]."""
     Re_eq = nan_max(Re_eq, 1e-12)
     Re = nan_max(Re, 1e-12)
+    below = nan_max(_RE_EQ_LO / Re_eq, 1.0)  # the laminar continuation below the data
     if Re_eq < 6000.0:
-        f = 6.947e5 * Re_eq**-1.109
+        f = 6.947e5 * (Re_eq * below) ** -1.109 * below * (Re * below) ** -0.5
     else:
-        f = 31.21 * nan_max(Re_eq, 6000.0) ** 0.04557
-    return f * Re**-0.5
+        f = 31.21 * nan_max(Re_eq, 6000.0) ** 0.04557 * Re**-0.5
+    return f
 
 
 @jit
