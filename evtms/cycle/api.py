@@ -285,8 +285,14 @@ def run_cycle(
     params: Parameters | None = None,
     fluid: Fluid | None = None,
     circuit: Topology | str = "cabin",
+    compiled: bool | None = None,
 ) -> CycleResult:
     """Solve operating points of a circuit on LUTs, or with the bench physics if ``luts`` is None.
+
+    ``compiled``: interpolate through the compiled kernels (True) or on the NumPy path
+    (False); None chooses by the batch's size (:data:`COMPILED_FROM_POINTS`). The two
+    agree to round-off, so a job that must give the same bits however it is split into
+    batches (the simulator's maps) fixes it.
 
     Returns the solver's result (see :meth:`CycleSolver.solve`) with
     ``balance_residual`` and ``balance_relative`` (:func:`energy_balance`).
@@ -301,7 +307,7 @@ def run_cycle(
         fluid = fluid or Fluid(params.fluid, params.backend)
         models, saturation = DirectModels(params, fluid), fluid.saturation_curve()
     else:  # no CoolProp needed where the cache has the saturation curve
-        compiled = len(points) >= COMPILED_FROM_POINTS
+        compiled = len(points) >= COMPILED_FROM_POINTS if compiled is None else compiled
         models, saturation = LutModels(luts, circuit.components, compiled), saturation_curve(luts, fluid)
     solver = CycleSolver(models, saturation, circuit)
     result = solver.solve(points)

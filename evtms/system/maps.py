@@ -620,7 +620,9 @@ def solve_nodes(luts: dict, topology: str, inputs: Mapping[str, np.ndarray], par
     from evtms.cycle.api import run_cycle
     from evtms.cycle.solver import OperatingPoints
 
-    res = run_cycle(OperatingPoints(**inputs), luts, circuit=topology, params=params)
+    # One interpolation path whatever the chunk's size: a map's bits do not depend on how its
+    # nodes were split between chunks and worker processes.
+    res = run_cycle(OperatingPoints(**inputs), luts, circuit=topology, params=params, compiled=True)
     return {k: np.asarray(res[k]) for k in _RESULT_KEYS}
 
 
