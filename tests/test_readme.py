@@ -97,7 +97,7 @@ def test_the_guides_exist_in_pipeline_order():
     assert not set((ROOT / "docs" / "guide").glob("*.md")) - set(GUIDES), "a guide the tests do not run"
 
 
-def test_every_documented_command_works_in_a_fresh_folder(tmp_path, monkeypatch, cycle_luts_dir):
+def test_every_documented_command_works_in_a_fresh_folder(tmp_path, monkeypatch, cycle_luts_dir, small_map_luts):
 
     from evtms.system import refrigerant
 
@@ -122,9 +122,11 @@ def test_every_documented_command_works_in_a_fresh_folder(tmp_path, monkeypatch,
             continue  # pip and pytest: see the module notes
         if argv[1] == "demo":  # the demo's cycle LUTs, where it writes them (see the module notes)
             link_luts(cycle_luts_dir, Path(argv[argv.index("-o") + 1]) / "luts" / "cycle")
+            copy_small_maps(small_map_luts, Path(argv[argv.index("-o") + 1]) / "luts" / "cycle")
             continue
         if argv[1:4] == ["bench", "all", "--grid"] and argv[4] == "cycle":
             link_luts(cycle_luts_dir, Path(argv[argv.index("-o") + 1]))
+            copy_small_maps(small_map_luts, Path(argv[argv.index("-o") + 1]))
             continue
         res = runner.invoke(app, argv[1:] + lighter.get(tuple(argv[1:3]), lighter.get(tuple(argv[1:2]), [])))
         assert res.exit_code == 0, f"{shlex.join(argv)}\n{res.output}"
@@ -141,6 +143,16 @@ def link_luts(luts: Path, out: Path) -> None:
         (out / f.name).unlink(missing_ok=True)  # 'bench all' replaces a file there
         same_device = f.stat().st_dev == out.stat().st_dev
         os.link(f, out / f.name) if same_device else shutil.copy(f, out / f.name)
+
+
+def copy_small_maps(shared: Path, luts: Path) -> None:
+    """The small-axes maps other tests built from the session's LUTs, copied beside ``luts`` (links to
+    the same LUT files, so the same maps): 'evtms simulate' then builds only those not built yet.
+    Building maps is the maps' and the simulate command's tests' business; copies, as a build
+    replaces a map whose recipe differs."""
+    (luts / "maps").mkdir(exist_ok=True)
+    for f in (shared / "maps").glob("*.nc"):
+        shutil.copy2(f, luts / "maps" / f.name)
 
 
 def run_python(source: str, code: str) -> None:
