@@ -60,6 +60,7 @@ _PERFORMANCE = (
     ("Q_latent", "  of which latent", -1.0, "W", "W"),
     ("Q_chiller", "battery cooling |Q_chiller|", -1.0, "W", "W"),
     ("Q_cond", "Q_cond", 1.0, "W", "W"),
+    ("Q_wcc", "  of which to the WCC", 1.0, "W", "W"),
     ("W", "compressor shaft power W", 1.0, "W", "W"),
     ("COP", "cooling COP", 1.0, "-", "1"),
     ("dp_valve", "valve pressure drop", 1e-3, "kPa", "Pa"),
@@ -77,6 +78,7 @@ _PERFORMANCE_NEEDS = {
     "Q_latent": ("evaporator",),
     "Q_chiller": ("chiller",),
     "valve_opening_chiller": ("evaporator", "chiller"),
+    "Q_wcc": ("wcc", "condenser"),
 }
 #: The heat pump's rows (a circuit with the WCC): its heat flows named by the loops they serve.
 _HP_PERFORMANCE = (
@@ -97,7 +99,7 @@ _HP_PERFORMANCE = (
 def _performance(components: tuple[str, ...]) -> list[tuple]:
     """The performance rows that apply to a circuit of ``components``."""
     have = set(components)
-    if "wcc" in have:
+    if "wcc" in have and "condenser" not in have:  # the WCC alone condenses: the heat pump
         return list(_HP_PERFORMANCE)
     return [row for row in _PERFORMANCE if set(_PERFORMANCE_NEEDS.get(row[0], ())) <= have]
 
@@ -174,7 +176,8 @@ def cycle_run(json_out: JsonOut = False, **options) -> None:
         return
     v = p.values
     typer.echo(f"{'state':<26} {'p [MPa]':>9} {'T [degC]':>9} {'h [kJ/kg]':>10}")
-    for s, label in (_HP_STATES if "wcc" in p.components else _STATES).items():
+    heat_pump = "wcc" in p.components and "condenser" not in p.components
+    for s, label in (_HP_STATES if heat_pump else _STATES).items():
         typer.echo(f"{label:<26} {v['p_' + s] / 1e6:9.4f} {v['T_' + s] - 273.15:9.2f} {v['h_' + s] / 1e3:10.2f}")
     for key, label, scale, unit, _ in rows:
         typer.echo(f"{label:<26} {scale * v[key]:10.4g} {unit}")

@@ -40,8 +40,10 @@ RESULT_VARIABLES = {
     "Q_chiller": ("W", "chiller heat flow from refrigerant to coolant (< 0: cooling; 0 without one)"),
     "Q_cond": (
         "W",
-        "condenser heat flow from refrigerant to air (to the heating-loop coolant where the WCC condenses, hp)",
+        "condensing heat flow from refrigerant to air (to the WCC's coolant where it condenses alone, hp; "
+        "to both in series, cabin+wcc)",
     ),
+    "Q_wcc": ("W", "the part of Q_cond the WCC gives its coolant (0 without one)"),
     "W": ("W", "compressor shaft power"),
     "W_fluid": ("W", "power given to the refrigerant, mdot (h_B - h_A)"),
     "COP": ("1", "cooling coefficient of performance (|Q_evap| + |Q_chiller|) / W"),

@@ -49,6 +49,7 @@ from evtms.cycle.status import (
     STATUS_OUTSIDE_ENVELOPE,
     VALID_CYCLE_FLAGS,
 )
+from evtms.hx.counterflow import CAPACITY_RATIO_MAX
 
 #: Figures every valid point has finite (a closed branch's are 0; its superheat and opening may be NaN).
 _MUST_BE_FINITE = ("p_A", "p_B", "mdot", "Q_evap", "Q_latent", "Q_chiller", "Q_cond", "W", "COP")
@@ -74,6 +75,13 @@ _CONDENSER_LOW = {
         "the water-cooled condenser outlet condition lies below the discharge pressure",
     ),
 }
+# A chain (the WCC ahead of the condenser) is searched from condensing just above its warmest secondary:
+# below it one of the two condenses nothing (the WCC's bench refuses such a point).
+_CONDENSER_LOW["chain"] = (
+    "the condensing chain condenses more than the cycle needs even just above its warmest secondary inlet "
+    "(the WCC's coolant or the air): the cycle would condense below it, where one of the two takes no part",
+    _CONDENSER_LOW["condenser"][1],
+)
 _CONDENSER_HIGH = {
     "condenser": (
         "the condenser cannot reach its outlet condition up to the highest discharge pressure searched",
@@ -189,18 +197,46 @@ class SuctionEval:
     evap: EvaporatingSide
 
 
-def condensing(ctx: SolveContext, ops: Ops, mdot, p_in, h_in) -> dict:
-    """The circuit's condensing component at refrigerant flow ``mdot`` [kg/s], inlet ``(p_in, h_in)``
-    [Pa, J/kg]: the air-cooled condenser against the ambient air, or the WCC against the heating loop."""
-    if ctx.circuit.condensing.component == "wcc":
+def _condensing_stage(ctx: SolveContext, ops: Ops, component: str, mdot, p_in, h_in) -> dict:
+    """One condensing component at refrigerant flow ``mdot`` [kg/s], inlet ``(p_in, h_in)`` [Pa, J/kg]:
+    the air-cooled condenser against the ambient air, or the WCC against its coolant loop."""
+    if component == "wcc":
         return ctx.models.wcc(mdot, p_in, h_in, ops["mdot_coolant_h"], ops["T_coolant_h_in"])
     return ctx.models.condenser(mdot, ops["fan"], p_in, h_in, ops["T_amb"], ops["RH_amb"])
 
 
+def condensing(ctx: SolveContext, ops: Ops, mdot, p_in, h_in) -> dict:
+    """The circuit's condensing chain at refrigerant flow ``mdot`` [kg/s], inlet ``(p_in, h_in)`` [Pa, J/kg].
+
+    One component: its result. Two in series (the WCC ahead of the condenser): the second's
+    result at the first's outlet, with ``Q_first`` [W], the heat the first takes. Where the
+    first condenses the refrigerant to liquid on its own (its capacity ratio 1 or more), the
+    chain holds more area than it needs whatever the second does: its ``capacity_ratio`` is
+    then the largest the models give (:data:`evtms.hx.counterflow.CAPACITY_RATIO_MAX`, a liquid
+    inlet's), so that the closure's residual keeps falling with the discharge pressure; a
+    first component that condenses nothing (its coolant not colder than the refrigerant's
+    saturation, NaN) leaves the chain without a state.
+    """
+    chain = ctx.circuit.chain
+    first = _condensing_stage(ctx, ops, chain[0].component, mdot, p_in, h_in)
+    if len(chain) == 1:
+        return first
+    # The first's outlet is the second's inlet; a liquid outlet gives the second a liquid inlet.
+    second = _condensing_stage(ctx, ops, chain[1].component, mdot, first["p_out"], first["h_out"])
+    out = dict(second)
+    done = first["capacity_ratio"] >= 1.0
+    out["capacity_ratio"] = np.where(done, CAPACITY_RATIO_MAX, second["capacity_ratio"])
+    out["no_heat_flow"] = ~done & np.asarray(second.get("no_heat_flow", False))
+    out["Q_first"] = mdot * (h_in - first["h_out"])
+    out["reason"] = np.where(first["reason"] != "", first["reason"], np.where(done, "", second["reason"]))
+    return out
+
+
 def condensing_secondary(ctx: SolveContext, ops: Ops) -> np.ndarray:
-    """The condensing component's secondary inlet temperature [K] (ambient air or heating-loop
-    coolant): the refrigerant must condense above it."""
-    return ops[ctx.circuit.condensing.secondary_temperature]
+    """The warmest secondary inlet temperature of the condensing chain [K] (ambient air, a coolant
+    loop): the refrigerant must condense above it in each of the chain's components (a WCC whose
+    coolant is not colder than the saturation condenses nothing, its bench's status 3)."""
+    return np.max([ops[c.secondary_temperature] for c in ctx.circuit.chain], axis=0)
 
 
 def discharge_side(ctx: SolveContext, ops: Ops, p_A: np.ndarray, p_B: np.ndarray) -> dict:
@@ -268,8 +304,9 @@ def solve_discharge(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndar
     )
     state.slope[idx] = np.where(br.slope < 0, br.slope, state.slope[idx])
     component = ctx.circuit.condensing.component
+    low = _CONDENSER_LOW["chain" if len(ctx.circuit.chain) > 1 else component]
     status, reason = range_status(
-        br, lo, lo_axis, hi, hi_axis, STATUS_CONDENSER_NO_ROOT, _CONDENSER_LOW[component], _CONDENSER_HIGH[component]
+        br, lo, lo_axis, hi, hi_axis, STATUS_CONDENSER_NO_ROOT, low, _CONDENSER_HIGH[component]
     )
     status[~np.isfinite(p_A)] = STATUS_OUTSIDE_ENVELOPE
     p_B = np.full(n, np.nan)
@@ -659,6 +696,7 @@ def _figures(ctx: SolveContext, ops: Ops, p_A, fin: SuctionEval, p_C, T_C, h_C) 
         "Q_latent": evaporator["Q_latent"] if "evaporator" in branches else zero,
         "Q_chiller": heat.get("chiller", zero),
         "Q_cond": mdot * (h_B - h_C),
+        "Q_wcc": _wcc_heat(ctx, fin.side["cond"], mdot * (h_B - h_C), zero),
         "W": comp["W"],
         "W_fluid": mdot * (h_B - comp["h_in"]),
         "h_A_evap": evap.h_out,
@@ -673,6 +711,15 @@ def _figures(ctx: SolveContext, ops: Ops, p_A, fin: SuctionEval, p_C, T_C, h_C) 
         res["COP"] = -(res["Q_evap"] + res["Q_chiller"]) / res["W"]
         res["COP_heating"] = res["Q_cond"] / res["W"]
     return res
+
+
+def _wcc_heat(ctx: SolveContext, cond: dict, Q_cond: np.ndarray, zero: np.ndarray) -> np.ndarray:
+    """The heat the WCC gives its coolant [W]: all of ``Q_cond`` where it condenses alone (hp), its
+    share ahead of the condenser (cabin+wcc), 0 in a circuit without it."""
+    chain = [c.component for c in ctx.circuit.chain]
+    if "wcc" not in chain:
+        return zero
+    return Q_cond if len(chain) == 1 else cond["Q_first"]
 
 
 def branch_superheats(ctx: SolveContext, ops: Ops, p_A, p_B, comp: dict, evap: EvaporatingSide) -> dict:

@@ -102,7 +102,7 @@ COMPONENT_OUTPUTS = {
     "condenser": ("p_out", "capacity_ratio", "h_out_continued"),
     "evaporator": ("Q_latent", "h_out_continued", "p_out"),
     "chiller": ("h_out_continued", "p_out"),
-    "wcc": ("p_out", "capacity_ratio", "h_out_continued"),
+    "wcc": ("p_out", "capacity_ratio", "h_out_continued", "h_out"),
 }
 
 
@@ -533,6 +533,13 @@ class LutModels:
             "compressor": ("p_in", "pr"),
         }
         components = components or ("condenser", "evaporator", "expansion_valve", "compressor")
+        if sum(c in CONDENSING for c in components) > 1:
+            raise EvtmsInputError(
+                "a condensing chain (the WCC ahead of the condenser, cabin+wcc) runs on the direct physics only: "
+                "on LUTs, with a condenser LUT extended to two-phase inlets, its discharge pressure was up to 7 % "
+                "off the physics (the condenser taking the WCC's two-phase outlet a few kelvin above the air); "
+                "allowed on LUTs: one condensing component"
+            )
         need = {c: searched[c] for c in components}
         self.luts = {}
         evaporating = [c for c in components if c in SECONDARY_INLET and c in luts]

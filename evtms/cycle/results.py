@@ -37,6 +37,7 @@ RESULT_KEYS = (
     "Q_latent",
     "Q_chiller",
     "Q_cond",
+    "Q_wcc",
     "W",
     "W_fluid",
     "h_A_evap",
@@ -124,9 +125,12 @@ class CycleResult(Mapping):
     mdot : numpy.ndarray
         Compressor refrigerant flow [kg/s].
     Q_cond, W, W_fluid : numpy.ndarray
-        Heat flow out of the condensing component (to the air, or to the
-        heating loop's coolant in the WCC), compressor shaft power and
+        Heat flow out of the condensing chain (to the air, to the WCC's
+        coolant, or to both in series), compressor shaft power and
         ``mdot (h_B - h_A)`` [W].
+    Q_wcc : numpy.ndarray
+        The part of ``Q_cond`` the WCC gives its coolant [W] (0 in a circuit
+        without one).
     COP : numpy.ndarray
         Cooling coefficient of performance (|Q_evap| + |Q_chiller|) / W [1].
     COP_heating : numpy.ndarray
@@ -158,6 +162,7 @@ class CycleResult(Mapping):
     h_D: np.ndarray
     mdot: np.ndarray
     Q_cond: np.ndarray
+    Q_wcc: np.ndarray
     W: np.ndarray
     W_fluid: np.ndarray
     h_A_evap: np.ndarray

@@ -279,7 +279,7 @@ def _outside_axes(ctx: SolveContext, ops: Ops) -> np.ndarray:
     Of parallel branches none is checked: the search may close a branch whose model cannot
     take its stream (coolant below the chiller LUT, colder than the cabin's evaporation)."""
     branches = [] if ctx.parallel else list(ctx.names)
-    components = ["compressor", ctx.circuit.condensing.component, *branches]
+    components = ["compressor", *(c.component for c in ctx.circuit.chain), *branches]
     reasons = np.full(ops["speed"].size, "", dtype=object)
     for component in components:
         why = ctx.models.outside_axes(component, ops)

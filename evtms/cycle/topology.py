@@ -18,7 +18,13 @@ the superheat at that branch's outlet:
   covers has its valve closed (no flow, no heat);
 - ``hp``: the heat pump: the WCC heats the heating loop (H), the chiller
   draws on the e-drive loop (E); the front condenser and the cabin
-  evaporator are shut, so no air input enters (system-v2 spec, section 6).
+  evaporator are shut, so no air input enters (system-v2 spec, section 6);
+- ``cabin+wcc``: the cabin loop with the WCC ahead of the front condenser
+  in series: the discharge gas gives heat to a coolant loop first (the
+  e-drive loop rejecting, or the heating loop reheating), the condenser
+  condenses the rest into the receiver. A WCC whose coolant is not colder
+  than the condensing refrigerant takes no part (the WCC bench's status 3):
+  such points lie outside the circuit's envelope.
 
 :data:`INPUTS` declares every operating input once (units, meaning, allowed
 range, how the command line takes it); a topology lists the ones it uses.
@@ -176,24 +182,35 @@ _COMMON_BACK = ("superheat", "subcooling")
 
 @dataclass(frozen=True)
 class Topology:
-    """A refrigerant circuit: one compressor, one condensing component, one or two evaporating branches."""
+    """A refrigerant circuit: one compressor, a condensing chain of one or two components in series
+    ahead of the receiver, one or two evaporating branches."""
 
     name: str
     branches: tuple[Branch, ...]
     description: str
-    condensing: Condensing = AIR_CONDENSER
+    chain: tuple[Condensing, ...] = (AIR_CONDENSER,)
+
+    @property
+    def condensing(self) -> Condensing:
+        """The chain's last component: the one whose outlet the receiver holds at its condition."""
+        return self.chain[-1]
 
     @property
     def components(self) -> tuple[str, ...]:
         """Components whose models (LUTs) the circuit needs."""
-        return (self.condensing.component, *(b.component for b in self.branches), "expansion_valve", "compressor")
+        return (
+            *(c.component for c in self.chain),
+            *(b.component for b in self.branches),
+            "expansion_valve",
+            "compressor",
+        )
 
     @property
     def inputs(self) -> tuple[str, ...]:
         """Its operating inputs, in :data:`INPUTS` order."""
         used = {
             *_COMMON_FRONT,
-            *self.condensing.inputs,
+            *(i for c in self.chain for i in c.inputs),
             *_COMMON_BACK,
             *(i for b in self.branches for i in b.inputs),
         }
@@ -214,7 +231,13 @@ TOPOLOGIES: dict[str, Topology] = {
             "hp",
             (EDRIVE,),
             "heat pump: the WCC heats the heating loop, the chiller draws on the e-drive loop",
-            condensing=WCC,
+            chain=(WCC,),
+        ),
+        Topology(
+            "cabin+wcc",
+            (CABIN,),
+            "evaporator cooling the cabin air, the WCC ahead of the condenser giving heat to a coolant loop",
+            chain=(WCC, AIR_CONDENSER),
         ),
     )
 }

@@ -1,0 +1,111 @@
+"""The condensing chain ``cabin+wcc``: the WCC ahead of the front condenser, in series, on the bench physics."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import one_error_line
+from typer.testing import CliRunner
+
+from evtms.cli import app
+from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
+from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
+from evtms.cycle.topology import TOPOLOGIES
+
+runner = CliRunner()
+
+#: A cabin at 27 degC against a 35 degC ambient; the WCC's coolant at 0.05 / 0.2 / 0.36 kg/s and 28 degC,
+#: then at 0.2 kg/s and 22 degC.
+FLOWS = (0.05, 0.2, 0.36, 0.2)
+T_COOLANT = (301.15, 301.15, 301.15, 295.15)
+
+
+def _points(**over) -> OperatingPoints:
+    n = len(FLOWS)
+    values = {
+        "speed": 0.6,
+        "fan": 0.5,
+        "blower": 0.4,
+        "T_amb": 308.15,
+        "RH_amb": 0.4,
+        "T_cabin": 300.15,
+        "RH_cabin": 0.5,
+        "mdot_coolant_h": np.array(FLOWS),
+        "T_coolant_h_in": np.array(T_COOLANT),
+        "superheat": 10.0,
+    } | over
+    return OperatingPoints(**{k: np.broadcast_to(np.asarray(v, float), (n,)).copy() for k, v in values.items()})
+
+
+@pytest.fixture(scope="module")
+def chain():
+    return run_cycle(_points(), circuit="cabin+wcc")
+
+
+@pytest.fixture(scope="module")
+def cabin_alone():
+    pts = _points()
+    inputs = {k: getattr(pts, k) for k in TOPOLOGIES["cabin"].inputs if k != "subcooling"}
+    return run_cycle(OperatingPoints(**inputs), circuit="cabin")
+
+
+def test_the_chain_is_declared_wcc_first():
+    circuit = TOPOLOGIES["cabin+wcc"]
+    assert [c.component for c in circuit.chain] == ["wcc", "condenser"]
+    assert circuit.condensing.component == "condenser"  # the receiver holds the condenser's outlet
+    assert circuit.components == ("wcc", "condenser", "evaporator", "expansion_valve", "compressor")
+    assert {"fan", "T_amb", "mdot_coolant_h", "T_coolant_h_in", "blower", "T_cabin"} <= set(circuit.inputs)
+
+
+def test_the_chain_closes_its_energy_balance_and_splits_the_heat(chain):
+    assert np.isin(chain["status"], VALID_CYCLE_FLAGS).all(), chain["reason"]
+    assert np.all(np.abs(chain["balance_relative"]) < 1e-5)
+    q_in = -chain["Q_evap"] + chain["W_fluid"]
+    np.testing.assert_allclose(chain["Q_cond"], q_in, rtol=1e-5)
+    # Both condense: the WCC takes a share, the condenser the rest.
+    assert np.all(chain["Q_wcc"] > 0) and np.all(chain["Q_wcc"] < chain["Q_cond"])
+    # The WCC's share is mdot (h_B - h at its outlet): between the discharge and the liquid line.
+    assert np.all(chain["Q_wcc"] < chain["mdot"] * (chain["h_B"] - chain["h_C"]))
+
+
+def test_more_or_colder_coolant_takes_more_heat_and_lowers_the_discharge(chain):
+    q, p_b = chain["Q_wcc"], chain["p_B"]
+    assert q[0] < q[1] < q[2] and p_b[0] > p_b[1] > p_b[2]  # more coolant flow
+    assert q[3] > q[1] and p_b[3] < p_b[1]  # colder coolant
+
+
+def test_the_wcc_ahead_beats_the_condenser_alone(chain, cabin_alone):
+    """A second heat sink colder than the condensing refrigerant lowers the discharge pressure, so the
+    compressor works less and the cycle's COP rises (the same cabin load, about the same cooling)."""
+    assert np.isin(cabin_alone["status"], VALID_CYCLE_FLAGS).all()
+    assert np.all(chain["p_B"] < cabin_alone["p_B"])
+    assert np.all(chain["W"] < cabin_alone["W"])
+    assert np.all(chain["COP"] > cabin_alone["COP"])
+    assert np.all(cabin_alone["Q_wcc"] == 0.0)
+
+
+def test_a_coolant_not_colder_than_the_condensing_refrigerant_has_no_state():
+    """The WCC condenses nothing with its coolant at 60 degC against refrigerant condensing near 45 degC
+    (its bench's status 3): the chain's discharge search starts above the warmest of its secondaries
+    and finds no state where both condense at this speed; the point says why."""
+    res = run_cycle(_points(T_coolant_h_in=333.15, speed=0.2), circuit="cabin+wcc")
+    bad = ~np.isin(res["status"], VALID_CYCLE_FLAGS)
+    assert bad.all(), [CYCLE_FLAGS[s] for s in res["status"]]
+    assert all("warmest secondary inlet" in r for r in res["reason"]) and np.isnan(res["Q_wcc"]).all()
+
+
+def test_the_chain_is_refused_on_luts_with_the_reason(cycle_luts_dir):
+    with pytest.raises(Exception, match="runs on the direct physics only") as info:
+        run_cycle(_points(), load_cycle_luts(cycle_luts_dir, "cabin+wcc"), circuit="cabin+wcc")
+    assert type(info.value).__name__ == "EvtmsInputError"
+
+
+def test_cli_runs_the_chain_directly_and_refuses_it_on_luts(cycle_luts_dir):
+    args = ["cycle", "run", "--topology", "cabin+wcc", "--t-amb", "35", "--t-coolant-h", "28"]
+    res = runner.invoke(app, [*args, "--direct", "--json"])
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.output)
+    assert out["topology"] == "cabin+wcc" and 0 < out["Q_wcc"] < out["Q_cond"]
+    one_error_line(runner.invoke(app, [*args, "--luts", str(cycle_luts_dir)]), "direct physics only")
