@@ -194,6 +194,35 @@ def _resistances(T_c_mean, ref, geo, cool, s, gauss):
 
 
 @jit
+def plate_outlet_point(tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple):
+    """One point of :func:`evtms.benches.chiller.plate_outlet`: the ports' loss (1.4 velocity heads each
+    at the inlet's and the outlet's density, Shah and Focke 1988) added to the channels' drop, and the
+    outlet state at the outlet pressure (``s`` is overwritten with its saturation row).
+
+    Returns ``dp`` [Pa], ``p_out`` [Pa], ``bad_dp``, ``x_out`` [1], ``T_out`` [K] and the outlet's
+    density at the inlet pressure [kg/m3] (NaN where the outlet is not a state)."""
+    meta, sat, vap, liq = tables
+    x_hx = (h_out - h_l) / h_lv
+    if x_hx >= 0.0 and x_hx <= 1.0:
+        rho_out = 1.0 / (x_hx / s[_RHO_V] + (1.0 - x_hx) / s[_RHO_L])
+    elif math.isfinite(h_out):
+        rho_out = ph_density(meta, sat, vap, liq, p_in, h_out)
+    else:
+        rho_out = math.nan
+    G_port = mdot / geo[_PORT]
+    dp = dp_channels + geo[_HEADS] * G_port**2 / 2.0 * (1.0 / rho_in + 1.0 / rho_out)
+    p_out = p_in - dp
+    bad_dp = not (p_out > p_triple)
+    p_ok = math.nan if bad_dp else p_out
+    saturation(meta, sat, p_ok, s)
+    x_out = (h_out - s[_HL]) / (s[_HV] - s[_HL])
+    T_out = s[_T]
+    if not (x_out >= 0.0 and x_out <= 1.0):
+        T_out = ph_temperature(meta, sat, vap, liq, p_ok, h_out)
+    return dp, p_out, bad_dp, x_out, T_out, rho_out
+
+
+@jit
 def solve_point_chiller(
     p_in, h_in, mdot, m_c, T_c_in, geo, cool, T_freeze, T_max_c, p_triple, curve_p_min, tables, gauss, out
 ):
@@ -260,26 +289,11 @@ def solve_point_chiller(
     x0 = _clip01((nan_max(h_in, h_l) - h_l) / h_lv)
     x1 = _clip01((nan_min(h_out, h_v) - h_l) / h_lv)
     grad_tp = _two_phase_gradient(G, D_h, s, x0, x1, nodes, weights)
-    dp = grad_l * (f0 * L) + grad_tp * (f1 * L) + grad_v * (f2 * L)
-    x_hx = (h_out - h_l) / h_lv
-    if x_hx >= 0.0 and x_hx <= 1.0:
-        rho_out = 1.0 / (x_hx / s[_RHO_V] + (1.0 - x_hx) / s[_RHO_L])
-    elif math.isfinite(h_out):
-        rho_out = ph_density(meta, sat, vap, liq, p_in, h_out)
-    else:
-        rho_out = math.nan
-    G_port = mdot / geo[_PORT]
-    dp = dp + geo[_HEADS] * G_port**2 / 2.0 * (1.0 / rho_in + 1.0 / rho_out)
-
-    # --- outlet states -----------------------------------------------------------------
-    p_out = p_in - dp
-    bad_dp = not (p_out > p_triple)
+    dp_channels = grad_l * (f0 * L) + grad_tp * (f1 * L) + grad_v * (f2 * L)
+    dp, p_out, bad_dp, x_out, T_out, rho_out = plate_outlet_point(
+        tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple
+    )
     p_ok = math.nan if bad_dp else p_out
-    saturation(meta, sat, p_ok, s)
-    x_out = (h_out - s[_HL]) / (s[_HV] - s[_HL])
-    T_out = s[_T]
-    if not (x_out >= 0.0 and x_out <= 1.0):
-        T_out = ph_temperature(meta, sat, vap, liq, p_ok, h_out)
     coolant_freezes = coolant_freezes or T_c_out < T_freeze
 
     outside = martin_outside_range(Re_c, angle)

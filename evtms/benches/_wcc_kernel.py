@@ -40,19 +40,18 @@ from evtms.benches._chiller_kernel import (
     _FLOW_REF,
     _FOUL_C,
     _FOUL_REF,
-    _HEADS,
     _HL,
     _HV,
     _K_L,
     _LENGTH,
     _MU_L,
-    _PORT,
     _R_WALL,
     _RHO_L,
     _RHO_V,
     _T,
     _martin_htc,
     _phase_props,
+    plate_outlet_point,
 )
 from evtms.benches.wcc import _COOLANT_TOP_MARGIN, _PASSES
 from evtms.fluid_tables import SAT_COLUMNS, ph_temperature, pt_state, saturation
@@ -233,26 +232,11 @@ def solve_point_wcc(
     L = geo[_LENGTH]
     grad_l = martin_friction_factor(Re_liq, angle) * G**2 / (2.0 * rho_lq * D_h)
     grad_v = martin_friction_factor(Re_vap, angle) * G**2 / (2.0 * rho_vp * D_h)
-    dp = grad_l * (f0 * L) + grad_tp * (f1 * L) + grad_v * (f2 * L)
-    x_hx = (h_out - h_l) / h_lv
-    if x_hx >= 0.0 and x_hx <= 1.0:
-        rho_out = 1.0 / (x_hx / s[_RHO_V] + (1.0 - x_hx) / s[_RHO_L])
-    elif math.isfinite(h_out):
-        rho_out = ph_density(meta, sat, vap, liq, p_in, h_out)
-    else:
-        rho_out = math.nan
-    G_port = mdot / geo[_PORT]
-    dp = dp + geo[_HEADS] * G_port**2 / 2.0 * (1.0 / rho_in + 1.0 / rho_out)
-
-    # --- outlet states -----------------------------------------------------------------
-    p_out = p_in - dp
-    bad_dp = not (p_out > p_triple)
+    dp_channels = grad_l * (f0 * L) + grad_tp * (f1 * L) + grad_v * (f2 * L)
+    dp, p_out, bad_dp, x_out, T_out, rho_out = plate_outlet_point(
+        tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple
+    )
     p_ok = math.nan if bad_dp else p_out
-    saturation(meta, sat, p_ok, s)
-    x_out = (h_out - s[_HL]) / (s[_HV] - s[_HL])
-    T_out = s[_T]
-    if not (x_out >= 0.0 and x_out <= 1.0):
-        T_out = ph_temperature(meta, sat, vap, liq, p_ok, h_out)
     coolant_outside = coolant_outside or (math.isfinite(T_c_ok) and not (T_c_out < T_max_c - _COOLANT_TOP_MARGIN))
 
     outside = martin_outside_range(Re_c, angle)
