@@ -109,3 +109,15 @@ def test_cli_runs_the_chain_directly_and_refuses_it_on_luts(cycle_luts_dir):
     out = json.loads(res.output)
     assert out["topology"] == "cabin+wcc" and 0 < out["Q_wcc"] < out["Q_cond"]
     one_error_line(runner.invoke(app, [*args, "--luts", str(cycle_luts_dir)]), "direct physics only")
+
+
+def test_a_subcooled_target_is_the_chains_outlet(chain):
+    """With 3 K of subcooling asked the chain's outlet (the condenser's) leaves 3 K below its saturation,
+    at a higher discharge pressure than with a saturated outlet (more area for the liquid)."""
+    from evtms.fluid import Fluid
+
+    sub = run_cycle(_points(subcooling=3.0), circuit="cabin+wcc")
+    assert np.isin(sub["status"], VALID_CYCLE_FLAGS).all(), sub["reason"]
+    T_sat = Fluid("R134a").saturation_curve().temperature(sub["p_C"])
+    np.testing.assert_allclose(T_sat - sub["T_C"], 3.0, atol=0.05)
+    assert np.all(sub["p_B"] > chain["p_B"]) and np.all(np.abs(sub["balance_relative"]) < 1e-5)

@@ -226,6 +226,10 @@ def condensing(ctx: SolveContext, ops: Ops, mdot, p_in, h_in) -> dict:
     out = dict(second)
     done = first["capacity_ratio"] >= 1.0
     out["capacity_ratio"] = np.where(done, CAPACITY_RATIO_MAX, second["capacity_ratio"])
+    # The condenser may refuse a liquid inlet colder than its air: there the WCC's outlet is the chain's.
+    for key in ("p_out", "h_out_continued"):
+        if key in second:
+            out[key] = np.where(done & ~np.isfinite(second[key]), first[key], second[key])
     out["no_heat_flow"] = ~done & np.asarray(second.get("no_heat_flow", False))
     out["Q_first"] = mdot * (h_in - first["h_out"])
     out["reason"] = np.where(first["reason"] != "", first["reason"], np.where(done, "", second["reason"]))
