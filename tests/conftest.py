@@ -2,6 +2,15 @@
 
 from __future__ import annotations
 
+import os
+
+# One OpenBLAS thread per process, set before NumPy or SciPy load it (subprocesses, dask workers and
+# the background job inherit it). The suite shares two cores with the background LUT build, and
+# OpenBLAS's second thread spin-waits for a core at every small product (each step of a simulation
+# has some): in-process simulations ran about ten times slower beside the build (test_compare's
+# runs: 2.5 s alone, 28-38 s beside it). Every process of the run uses the same single thread.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import pytest
 
 from evtms.benches import BENCHES
