@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -265,16 +266,20 @@ def test_a_model_file_evtms_wrote_reads_back_exactly(tmp_path):
 # --- Ctrl-C while the cycle maps build ------------------------------------------------------------
 
 _SLOW_MAPS = """
+import os
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 import evtms.system.maps as maps
 
 # A slow solver (the workers are forked: they run it too) on chunks of 500 of the maps' 100,000
-# nodes: 200 chunks, a minute and a half on two workers if the build ran to its end.
+# nodes: 200 chunks, a minute and a half on two workers if the build ran to its end. Each process
+# that solves leaves a mark in the working folder as it starts its first chunk.
 def slow(folder, topology, inputs):
+    Path(f"solving-{os.getpid()}").touch()
     time.sleep(0.8)
     return {k: np.zeros(next(iter(inputs.values())).size) for k in maps._RESULT_KEYS}
 
@@ -307,10 +312,13 @@ main()
 )
 
 
-def _interrupt_map_build(cwd: Path, script: str, *args: str, started: bytes) -> tuple[int, float, str, str]:
-    """Run ``script args`` in its own process group, SIGINT the group (a terminal's Ctrl-C) 2 s after
-    ``started`` appears in its output; (exit code, seconds from SIGINT to exit, stdout, stderr).
-    Checks that none of its processes (the map workers) outlive it."""
+def _interrupt_map_build(
+    cwd: Path, script: str, *args: str, started: bytes, workers: int
+) -> tuple[int, float, str, str]:
+    """Run ``script args`` in its own process group, SIGINT the group (a terminal's Ctrl-C) once
+    ``started`` appears in its output and ``workers`` processes are solving a chunk; (exit code,
+    seconds from SIGINT to exit, stdout, stderr). Checks that none of its processes (the map
+    workers) outlive it."""
     import os
     import signal
     import time
@@ -329,10 +337,10 @@ def _interrupt_map_build(cwd: Path, script: str, *args: str, started: bytes) -> 
         )
         try:
             deadline = time.monotonic() + 120
-            while started not in out.read_bytes() + err.read_bytes():
+            while started not in out.read_bytes() + err.read_bytes() or len(list(cwd.glob("solving-*"))) < workers:
                 assert proc.poll() is None and time.monotonic() < deadline, err.read_text()
                 time.sleep(0.05)
-            time.sleep(2.0)  # both workers in the middle of a chunk
+            time.sleep(0.2)  # the workers in the middle of a chunk (0.8 s each)
             sent = time.monotonic()
             os.killpg(proc.pid, signal.SIGINT)
             proc.wait(timeout=60)
@@ -350,7 +358,7 @@ def test_ctrl_c_while_the_cycle_maps_build_stops_at_once(tmp_path, tiny_luts):
     """Two workers build the maps when Ctrl-C comes: they finish their chunk, the others are
     dropped, and the build raises EvtmsInterrupted (a KeyboardInterrupt) saying what stopped."""
     shutil.copytree(tiny_luts, tmp_path / "luts")
-    code, stopped, out, err = _interrupt_map_build(tmp_path, _LOAD_MAPS, "luts", started=b"building")
+    code, stopped, out, err = _interrupt_map_build(tmp_path, _LOAD_MAPS, "luts", started=b"building", workers=2)
     assert code == 130, (out, err)
     assert stopped < 10, stopped  # one chunk per worker (0.8 s), not the 200 queued ones
     assert "EvtmsInterrupted: interrupted while building the cycle maps ac, chiller, ac+chiller of 'luts'" in out
@@ -361,7 +369,9 @@ def test_ctrl_c_while_the_cycle_maps_build_stops_at_once(tmp_path, tiny_luts):
 def test_ctrl_c_while_simulate_builds_the_maps_exits_130_at_once(tmp_path, tiny_luts):
     shutil.copytree(tiny_luts, tmp_path / "luts")
     args = ["simulate", "--cycle", "wltc3b", "--t-amb", "30", "--luts", "luts", "-o", "o.nc"]
-    code, stopped, out, err = _interrupt_map_build(tmp_path, _CLI_MAPS, *args, started=b"building cycle map")
+    code, stopped, out, err = _interrupt_map_build(
+        tmp_path, _CLI_MAPS, *args, started=b"building cycle map", workers=min(2, os.cpu_count() or 1)
+    )
     assert code == 130 and stopped < 10, (code, stopped, err)
     assert "Traceback" not in err and out == ""
     assert err.splitlines()[-1].startswith("error: interrupted while building the cycle maps"), err
