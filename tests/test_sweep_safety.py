@@ -24,11 +24,13 @@ import netCDF4
 import numpy as np
 import pytest
 from conftest import sigint_default
+from typer.testing import CliRunner
 
 from evtms.benches import BENCHES
 from evtms.benches.chunked import ChunkPlan, SweepInterrupted, sweep_to_file
 from evtms.benches.parameters import Parameters
 from evtms.benches.partial import LOCK, MAGIC, MARKER, lock_partial
+from evtms.cli import app
 from evtms.errors import EvtmsInputError
 
 CONDENSER = BENCHES["condenser"]
@@ -176,13 +178,10 @@ def test_a_second_sweep_to_the_same_output_refuses_naming_the_running_one(tmp_pa
     )
     try:
         _wait_for(running, first)  # it holds the lock and has saved a chunk; it waits at the gate
-        second = subprocess.run(
-            [sys.executable, "-m", "evtms.cli", "bench", "condenser", *CLI_AXES, "-q", "-o", str(out)],
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-        assert second.returncode == 2, second.stderr
+        # The second sweep from this process (another process than the first, as the lock sees it): a
+        # process of its own would spend 2-3 s loading CoolProp before it reaches the lock.
+        second = CliRunner().invoke(app, ["bench", "condenser", *CLI_AXES, "-q", "-o", str(out)])
+        assert second.exit_code == 2, second.output
         line = second.stderr.strip()
         assert "\n" not in line and "another sweep" in line and "is running" in line
         assert f"pid {first.pid} " in line and f"on host {socket.gethostname()}" in line and "started " in line
@@ -202,7 +201,8 @@ from pathlib import Path
 from evtms.benches.partial import lock_partial
 from evtms.errors import EvtmsInputError
 
-partial, go, done = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
+partial, go, done, ready = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3]), Path(sys.argv[4])
+ready.touch()
 while not go.exists():
     pass
 try:
@@ -227,13 +227,20 @@ def test_racing_sweeps_create_and_lock_the_partial_folder_exactly_once(tmp_path,
         if existing:  # an interrupted sweep's folder, unlocked
             partial.mkdir()
             (partial / MARKER).write_text(json.dumps({"magic": MAGIC}))
+        ready = [tmp_path / f"ready{round_}-{i}" for i in range(4)]  # outside the folder checked below
         procs = [
             subprocess.Popen(
-                [sys.executable, "-c", RACER, str(partial), str(go), str(done)], stdout=subprocess.PIPE, text=True
+                [sys.executable, "-c", RACER, str(partial), str(go), str(done), str(r)],
+                stdout=subprocess.PIPE,
+                text=True,
             )
-            for _ in range(4)
+            for r in ready
         ]
-        time.sleep(1.0)  # let them import and spin on the start signal
+        # All four imported and spinning on the start signal (not a fixed wait, which a loaded machine can outlast).
+        deadline = time.monotonic() + 120
+        while not all(r.exists() for r in ready):
+            assert all(p.poll() is None for p in procs) and time.monotonic() < deadline
+            time.sleep(0.01)
         go.touch()
         results = []
         for proc in procs:
@@ -382,10 +389,6 @@ def test_a_damaged_chunk_is_recomputed_on_resume(tmp_path, lone):
 
 
 def test_sigint_to_a_cli_sweep_leaves_a_resumable_state(tmp_path):
-    from typer.testing import CliRunner
-
-    from evtms.cli import app
-
     out = tmp_path / "evap.nc"
     partial = tmp_path / "evap.nc.partial"
     axes = ["-a", "mdot=0.004:0.008:8", "-a", "blower=0.2:0.5:6", "-a", "p_in=0.1:0.25:5MPa"]
