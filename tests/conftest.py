@@ -21,6 +21,19 @@ from evtms.fluid import Fluid
 
 
 @pytest.fixture(scope="session", autouse=True)
+def _forkserver_preload():
+    """The fork server that ``PoolRunner``'s workers start from loads CoolProp and the benches once.
+
+    Every worker of every pool would import them itself (about 2 s of CPU each, beside the
+    background build); forked from a server that holds them, it starts with them and computes
+    the same chunks. Set before any test starts a pool: the server starts with the first one.
+    """
+    import multiprocessing
+
+    multiprocessing.set_forkserver_preload(["CoolProp", "evtms.benches", "evtms.benches.chunked"])
+
+
+@pytest.fixture(scope="session", autouse=True)
 def private_cache(tmp_path_factory):
     """The session's own cache of derived LUT tables (subprocesses inherit it), never the user's."""
     import os
