@@ -81,7 +81,7 @@ CURVED = {
     "compressor": ("mdot", "h_out", "T_out", "W"),
     "condenser": ("capacity_ratio", "h_out_continued"),
     "evaporator": ("h_out_continued", "Q_latent"),
-    "chiller": ("h_out_continued",),
+    "chiller": ("h_out_continued", "p_out"),
     "wcc": ("capacity_ratio", "h_out_continued"),
 }
 
