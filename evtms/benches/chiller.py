@@ -652,9 +652,14 @@ BENCH = Bench(
         # with 6 coolant flows (not 7, the flattest axis), cut its rms error there from 1.1 to
         # 0.7 kJ/kg and the worst error in Q_chiller of a 60-point cycle check from 9 to 5 %.
         # Below 0 degC (every 3 K, then 2 K near 0) for the heat pump, whose chiller draws on the
-        # e-drive loop down to -25 degC in the cold (the system spec's hp map).
+        # e-drive loop down to -25 degC in the cold (the system spec's hp map). Refrigerant flows
+        # 1.18x apart (37, not 19 at 1.40x): at the heat pump's e-drive loop of -16 to 6 degC the
+        # chiller evaporates 10-25 K below its coolant and the suction pressure follows the outlet
+        # steeply; with the outlet pressure curvature-corrected as well, the hp cycle's worst
+        # Q_chiller error on 100 random points fell from 1.30 to 0.95 % (p_A 0.95 to 0.71 %);
+        # 1.9 million points, about 15 s compiled.
         "cycle": {
-            "mdot": tuple(0.001 * (150.0 ** (1 / 15)) ** np.arange(-3, 16)),
+            "mdot": tuple(0.001 * (150.0 ** (1 / 30)) ** np.arange(-6, 31)),
             "p_in": pressure_nodes(np.arange(-35.0, 30.0, 2.0)),
             "h_in": tuple(np.linspace(200e3, 350e3, 7)),
             "mdot_coolant": tuple(np.geomspace(0.05, 0.5, 6)),

@@ -513,10 +513,12 @@ BENCH = Bench(
         # of the hp cycle's discharge pressure, on 100 random points of its envelope with the chiller's
         # physics direct, from 1.74 to 0.51 % and of its COP from 1.96 to 0.87 % (6 coolant flows at 2.5 K:
         # 1.96 / 2.01 %; 11 flows at 5 K: 1.18 / 1.32 %; 11 flows with the pressure every 2 K: 0.62 / 1.08 %;
-        # 1.1 million points, about 10 s compiled).
+        # 1.1 million points, about 10 s compiled). The pressure every 2 K (not 4 K): with the chiller's
+        # physics in place of its LUT the WCC's part of the hp cycle's worst error fell from 1.02 to 0.50 %
+        # (discharge pressure) and from 1.41 to 0.93 % (COP); 2.1 million points, about 19 s compiled.
         "cycle": {
             "mdot": tuple(np.geomspace(0.002, 0.15, 13)),
-            "p_in": pressure_nodes(np.arange(20.0, 93.0, 4.0)),
+            "p_in": pressure_nodes(np.arange(20.0, 93.0, 2.0)),
             "h_in": tuple(np.linspace(405e3, 535e3, 14)),
             "mdot_coolant": tuple(np.geomspace(0.05, 0.36, 11)),
             "T_coolant_in": tuple(278.15 + 2.5 * np.arange(29)),
