@@ -471,19 +471,27 @@ def solve_chiller_compiled(
     """
     from evtms.benches import _chiller_kernel as kernel
 
-    p_in, h_in, mdot, m_c, T_c_in = (
-        np.ascontiguousarray(np.asarray(a, float).reshape(-1)) for a in (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
-    )
-    cols = kernel.solve_points(p_in, h_in, mdot, m_c, T_c_in, *_kernel_constants(fluid, hx))
+    inputs = (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
+    return solve_plate_points(kernel, _kernel_constants(fluid, hx), solve_chiller, fluid, hx, *inputs)
+
+
+def solve_plate_points(kernel, constants: tuple, reference, fluid: Fluid, hx: PlateHXParams, *inputs) -> dict:
+    """A compiled plate core's points (``kernel.solve_points`` after the inputs ``constants``) as the
+    array solve ``reference`` returns them; the points whose states leave the refrigerant tables (the
+    kernel's ``outside_tables``) solved by ``reference`` with ``fluid`` itself.
+
+    ``inputs``: ``p_in`` [Pa], ``h_in`` [J/kg], ``mdot``, ``mdot_coolant`` [kg/s], ``T_coolant_in`` [K].
+    The kernel's columns (``kernel.COLUMNS``) end with its masks, from ``outside_range`` on."""
+    p_in, h_in, mdot, m_c, T_c_in = (np.ascontiguousarray(np.asarray(a, float).reshape(-1)) for a in inputs)
+    cols = kernel.solve_points(p_in, h_in, mdot, m_c, T_c_in, *constants)
     rows = cols.T.copy()  # one copy; each output a contiguous row of it
     out = {name: rows[j] for j, name in enumerate(kernel.COLUMNS) if not name.startswith("f_")}
     out["fractions"] = cols[:, [kernel.COLUMNS.index(f"f_{z}") for z in ("liquid", "two_phase", "vapour")]]
-    masks = ("outside_range", "bad_direction", "bad_dp", "bad_flow", "coolant_freezes", "coolant_outside", "bad_props")
-    for key in (*masks, "outside_tables"):
+    for key in kernel.COLUMNS[kernel.COLUMNS.index("outside_range") :]:
         out[key] = out[key] != 0.0
     rest = np.nonzero(out.pop("outside_tables"))[0]
     if rest.size:  # states beyond the tables: CoolProp decides them
-        ref = solve_chiller(fluid, hx, p_in[rest], h_in[rest], mdot[rest], m_c[rest], T_c_in[rest])
+        ref = reference(fluid, hx, p_in[rest], h_in[rest], mdot[rest], m_c[rest], T_c_in[rest])
         for key, value in out.items():
             value[rest] = ref[key]
     return out

@@ -109,6 +109,7 @@ from evtms.benches.chiller import (
     plate_geometry,
     plate_outlet,
     refrigerant_props,
+    solve_plate_points,
 )
 from evtms.fluid import Fluid, coolant
 from evtms.hx import plate, tube
@@ -347,9 +348,6 @@ def solve_wcc_compiled(
     from evtms.benches import _wcc_kernel as kernel
     from evtms.fluid_tables import tables_for
 
-    p_in, h_in, mdot, m_c, T_c_in = (
-        np.ascontiguousarray(np.asarray(a, float).reshape(-1)) for a in (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
-    )
     cool, T_freeze, T_max = kernel_coolant_tables(hx.coolant_mass_fraction)
     constants = (
         kernel_geometry(hx),
@@ -364,18 +362,8 @@ def solve_wcc_compiled(
         tables_for(fluid).arrays,
         KERNEL_GAUSS,
     )
-    cols = kernel.solve_points(p_in, h_in, mdot, m_c, T_c_in, *constants)
-    rows = cols.T.copy()  # one copy; each output a contiguous row of it
-    out = {name: rows[j] for j, name in enumerate(kernel.COLUMNS) if not name.startswith("f_")}
-    out["fractions"] = cols[:, [kernel.COLUMNS.index(f"f_{z}") for z in ("liquid", "two_phase", "vapour")]]
-    for key in kernel.COLUMNS[kernel.COLUMNS.index("outside_range") :]:
-        out[key] = out[key] != 0.0
-    rest = np.nonzero(out.pop("outside_tables"))[0]
-    if rest.size:  # states beyond the tables: CoolProp decides them
-        ref = solve_wcc(fluid, hx, p_in[rest], h_in[rest], mdot[rest], m_c[rest], T_c_in[rest])
-        for key, value in out.items():
-            value[rest] = ref[key]
-    return out
+    inputs = (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
+    return solve_plate_points(kernel, constants, solve_wcc, fluid, hx, *inputs)
 
 
 @functools.lru_cache(maxsize=4)
