@@ -63,6 +63,7 @@ from evtms.benches.base import (
     first_code,
     pressure_nodes,
 )
+from evtms.benches.condenser import inlet_enthalpy
 from evtms.fluid import Fluid, coolant, quality
 from evtms.hx import plate, tube
 from evtms.hx.counterflow import LIQUID, TWO_PHASE, VAPOUR, RefrigerantPath, solve_counterflow_evaporator
@@ -575,10 +576,7 @@ def chiller_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: 
         ``status`` (int8, see :data:`FLAGS`; 0 and 11 are valid).
     """
     p_in = np.asarray(inputs["p_in"], float)
-    if "h_in" in inputs:
-        h_in = np.asarray(inputs["h_in"], float).copy()
-    else:
-        h_in = fluid.state("PT", p_in, inputs["T_in"], ("H",))["H"]
+    h_in = inlet_enthalpy(inputs, fluid)
     # An evaporator needs a saturation state at its inlet pressure.
     inlet_bad = ~np.isfinite(h_in) | ~((p_in > fluid.p_triple) & (p_in < fluid.p_crit))
     # Compiled on tabulated properties where numba is (the array solve is its reference).

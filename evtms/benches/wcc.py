@@ -111,6 +111,7 @@ from evtms.benches.chiller import (
     refrigerant_props,
     solve_plate_points,
 )
+from evtms.benches.condenser import inlet_enthalpy
 from evtms.fluid import Fluid, coolant
 from evtms.hx import plate, tube
 from evtms.hx.counterflow import LIQUID, TWO_PHASE, VAPOUR, RefrigerantPath, solve_counterflow_condenser
@@ -407,10 +408,7 @@ def wcc_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Flui
         ``status`` (int8, see :data:`FLAGS`; 0 and 11 are valid).
     """
     p_in = np.asarray(inputs["p_in"], float)
-    if "h_in" in inputs:
-        h_in = np.asarray(inputs["h_in"], float).copy()
-    else:
-        h_in = fluid.state("PT", p_in, inputs["T_in"], ("H",))["H"]
+    h_in = inlet_enthalpy(inputs, fluid)
     supercritical = p_in >= fluid.p_crit
     inlet_bad = ~np.isfinite(h_in) | ~(p_in > fluid.p_triple)
     # Compiled on tabulated properties where numba is (the array solve is its reference).
