@@ -240,7 +240,10 @@ def condensing_secondary(ctx: SolveContext, ops: Ops) -> np.ndarray:
     """The warmest secondary inlet temperature of the condensing chain [K] (ambient air, a coolant
     loop): the refrigerant must condense above it in each of the chain's components (a WCC whose
     coolant is not colder than the saturation condenses nothing, its bench's status 3)."""
-    return np.max([ops[c.secondary_temperature] for c in ctx.circuit.chain], axis=0)
+    chain = ctx.circuit.chain
+    if len(chain) == 1:  # the usual circuit: its one secondary as it is (a hot path)
+        return ops[chain[0].secondary_temperature]
+    return np.maximum.reduce([ops[c.secondary_temperature] for c in chain])
 
 
 def discharge_side(ctx: SolveContext, ops: Ops, p_A: np.ndarray, p_B: np.ndarray) -> dict:
