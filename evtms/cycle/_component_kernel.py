@@ -21,7 +21,7 @@ import numpy as np
 
 from evtms._jit import load_numba
 from evtms.cycle.approach import compiled_outlet_kernel
-from evtms.luts._kernels import NAN, interpolate
+from evtms.luts._kernels import NAN, interpolate_in, scratch
 
 numba = load_numba()
 
@@ -32,6 +32,47 @@ _outlet_points = compiled_outlet_kernel()
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def evaluate(
     pts, lo, hi, floats, ints, values, out, first_off, check_row, approach_row, p_out_row, t_sec, vapour, dh, sh_min
+):
+    """:func:`evaluate_in` with its work arrays made here."""
+    work = (np.zeros(pts.shape[1], np.bool_), *scratch(ints, values, pts.shape[0]))
+    return evaluate_in(
+        pts,
+        lo,
+        hi,
+        floats,
+        ints,
+        values,
+        out,
+        first_off,
+        check_row,
+        approach_row,
+        p_out_row,
+        t_sec,
+        vapour,
+        dh,
+        sh_min,
+        work,
+    )
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def evaluate_in(
+    pts,
+    lo,
+    hi,
+    floats,
+    ints,
+    values,
+    out,
+    first_off,
+    check_row,
+    approach_row,
+    p_out_row,
+    t_sec,
+    vapour,
+    dh,
+    sh_min,
+    work,
 ):
     """Interpolate a component LUT at ``pts``, NaN outside its axes, the outlet from its approach.
 
@@ -58,6 +99,9 @@ def evaluate(
     vapour : tuple
         The vapour table's ``log_p0, dlog_p, T, h_v, step``; ``dh``, its superheat rise, and ``sh_min`` [K]
         the least superheat of the transform (:func:`evtms.cycle.approach.outlet_enthalpy`).
+    work : tuple
+        Work arrays: ``(outside, corners, t, bows)``, a flag per point and the interpolation's
+        (:func:`evtms.luts._kernels.scratch`); a caller asking one point at a time makes them once.
 
     Returns
     -------
@@ -65,10 +109,11 @@ def evaluate(
         Bit 0: some point lies outside an axis; bit 1: some point inside them has NaN in ``check_row``.
     """
     d, n = pts.shape
-    outside = np.zeros(n, np.bool_)
+    outside, corners, t, bows = work
     any_off = False
     for p in range(n):
         first_off[p] = -1
+        outside[p] = False
         for j in range(d):
             x = pts[j, p]
             if not (x >= lo[j] and x <= hi[j]):  # NaN counts as outside
@@ -76,7 +121,7 @@ def evaluate(
                 outside[p] = True
                 any_off = True
                 break
-    interpolate(pts, NAN, outside, floats, ints, values, out)
+    interpolate_in(pts, NAN, outside, floats, ints, values, out, corners, t, bows)
     if approach_row >= 0:
         log_p0, dlog_p, T, h_v, step = vapour
         row = out[approach_row]

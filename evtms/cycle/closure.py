@@ -62,6 +62,16 @@ _SUCTION_LOW_FLOOR = 243.15
 #: Typical slopes of the closures in saturation temperature [1/K]: condenser, suction superheat.
 INNER_SLOPE = -0.075
 OUTER_SLOPE = -4.0
+#: First guesses without a previous solution [K]: condensing this far above the condensing side's
+#: secondary inlet, evaporating this far below the branch's (the middle of the default envelope).
+DISCHARGE_GUESS_ABOVE = 13.0
+SUCTION_GUESS_BELOW = 23.0
+#: The discharge search's low end: condensing this far [K] above the condensing side's secondary inlet.
+DISCHARGE_FLOOR_ABOVE = 0.5
+#: Largest first secant step of each search [K], and how far a cold search overshoots it [1].
+INNER_MAX_STEP = 10.0
+OUTER_MAX_STEP = 15.0
+COLD_OVERSHOOT = 1.5
 
 #: Why a closure has no root in its range: (physical bound, LUT axis) texts at its low and high end,
 #: the condensing side's by its component.
@@ -294,7 +304,7 @@ def solve_discharge(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndar
         return r["residual"], r["reason"]
 
     known = np.isfinite(state.p_B[idx])
-    t_guess = np.where(known, sat.temperature(state.p_B[idx]), condensing_secondary(ctx, ops) + 13.0)
+    t_guess = np.where(known, sat.temperature(state.p_B[idx]), condensing_secondary(ctx, ops) + DISCHARGE_GUESS_ABOVE)
     slope = np.where(known & (state.slope[idx] < 0), state.slope[idx], INNER_SLOPE)
     if state.warm:
         t_guess = _extrapolated_discharge(state, sat.temperature(p_A), idx, t_guess)
@@ -305,8 +315,8 @@ def solve_discharge(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndar
         sat.temperature(hi),
         t_guess,
         slope,
-        10.0,
-        WARM_OVERSHOOT if state.warm else 1.5,
+        INNER_MAX_STEP,
+        WARM_OVERSHOOT if state.warm else COLD_OVERSHOOT,
         INNER_FTOL if state.warm else None,
     )
     state.slope[idx] = np.where(br.slope < 0, br.slope, state.slope[idx])
@@ -363,7 +373,7 @@ def _discharge_range(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.nda
     (pr_lo, pr_hi), axes = state.pr, state.axes
     lo, lo_axis = tightest_bound(
         [
-            (ctx.sat.pressure(condensing_secondary(ctx, ops) + 0.5), None),
+            (ctx.sat.pressure(condensing_secondary(ctx, ops) + DISCHARGE_FLOOR_ABOVE), None),
             (pr_lo * p_A, axes["pr"][0]),
             (state.p_discharge[0], axes["p_discharge"][0]),
         ],
@@ -541,7 +551,8 @@ def solve_at(
 
     # First guess: evaporating 23 K below the cabin air, the middle of the default
     # circuit's envelope; the superheat falls about 4 K per kelvin above it.
-    t_guess = T_sec - 23.0 if t_guess is None else np.where(np.isfinite(t_guess), t_guess, T_sec - 23.0)
+    cold = T_sec - SUCTION_GUESS_BELOW
+    t_guess = cold if t_guess is None else np.where(np.isfinite(t_guess), t_guess, cold)
     slopes = np.broadcast_to(np.asarray(outer_slope, float), (n,))
     if warm is not None:  # the previous root and the closure's local slope there
         t_guess = np.where(np.isfinite(warm.t_A), warm.t_A, t_guess)
@@ -553,8 +564,8 @@ def solve_at(
         ctx.sat.temperature(hi),
         t_guess,
         slopes,
-        15.0,
-        WARM_OVERSHOOT if state.warm else 1.5,
+        OUTER_MAX_STEP,
+        WARM_OVERSHOOT if state.warm else COLD_OVERSHOOT,
         OUTER_FTOL if state.warm else None,
     )
     status, reason = range_status(

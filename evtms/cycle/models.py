@@ -72,6 +72,15 @@ ITERATION_OUTPUTS = {
     "wcc": ("capacity_ratio", "p_out"),
 }
 
+#: Each component model's arguments, in the order its method takes them, as the LUT axes they are.
+MODEL_AXES = {
+    "compressor": ("speed", "T_in", "p_in", "pr"),
+    "condenser": ("mdot", "fan", "p_in", "h_in", "T_air_in", "RH_air_in"),
+    "wcc": ("mdot", "p_in", "h_in", "mdot_coolant", "T_coolant_in"),
+    "evaporator": ("mdot", "blower", "p_in", "h_in", "T_air_in", "RH_air_in"),
+    "chiller": ("mdot", "p_in", "h_in", "mdot_coolant", "T_coolant_in"),
+}
+
 #: The condensing components (:class:`~evtms.cycle.topology.Condensing`): the same closure variables.
 CONDENSING = ("condenser", "wcc")
 
@@ -352,7 +361,7 @@ class _LutComponent:
                 continue
             x = query[d]
             if not (type(x) is np.ndarray and x.ndim == 1 and x.size == n and x.dtype == np.float64):
-                x = np.broadcast_to(np.asarray(x, float), (n,))
+                x = np.broadcast_to(np.asarray(x, float), (n))
             off = ~((x >= lo) & (x <= hi))
             if off.any():
                 outside.append((off, lambda i, d=d, x=x, lo=lo, hi=hi: _outside_axis(self.component, d, x[i], lo, hi)))
@@ -360,7 +369,7 @@ class _LutComponent:
         outside += self._fixed_off(query, n)
         out = itp(cols)
         if self.secondary is not None:
-            T_sec = np.broadcast_to(np.asarray(query[self.secondary], float), (n,))
+            T_sec = np.broadcast_to(np.asarray(query[self.secondary], float), (n))
             out[OUTLET] = outlet_enthalpy(out.pop(APPROACH), out["p_out"], T_sec, self.vapour, self.compiled)
         if self.detailed and self.extra is not None:
             out.update(self.extra(cols))
@@ -376,7 +385,7 @@ class _LutComponent:
         for axis in self._fixed_axes:
             if axis in query:
                 fixed = self.fixed[axis]
-                x = np.broadcast_to(np.asarray(query[axis], float), (n,))
+                x = np.broadcast_to(np.asarray(query[axis], float), (n))
                 off = ~(np.abs(x - fixed) <= 1e-9 * max(abs(fixed), 1.0))
                 if off.any():
                     outside.append(
@@ -575,27 +584,22 @@ class LutModels:
             self.luts[self.condensing].needs_subcooled = on
 
     def compressor(self, speed, T_in, p_in, pr) -> Result:
-        return self.luts["compressor"]({"speed": speed, "T_in": T_in, "p_in": p_in, "pr": pr})
+        return self._ask("compressor", (speed, T_in, p_in, pr))
 
     def condenser(self, mdot, fan, p_in, h_in, T_air, RH_air) -> Result:
-        return self.luts["condenser"](
-            {"mdot": mdot, "fan": fan, "p_in": p_in, "h_in": h_in, "T_air_in": T_air, "RH_air_in": RH_air}
-        )
+        return self._ask("condenser", (mdot, fan, p_in, h_in, T_air, RH_air))
 
     def wcc(self, mdot, p_in, h_in, mdot_coolant, T_coolant_in) -> Result:
-        return self.luts["wcc"](
-            {"mdot": mdot, "p_in": p_in, "h_in": h_in, "mdot_coolant": mdot_coolant, "T_coolant_in": T_coolant_in}
-        )
+        return self._ask("wcc", (mdot, p_in, h_in, mdot_coolant, T_coolant_in))
 
     def evaporator(self, mdot, blower, p_in, h_in, T_air, RH_air) -> Result:
-        return self.luts["evaporator"](
-            {"mdot": mdot, "blower": blower, "p_in": p_in, "h_in": h_in, "T_air_in": T_air, "RH_air_in": RH_air}
-        )
+        return self._ask("evaporator", (mdot, blower, p_in, h_in, T_air, RH_air))
 
     def chiller(self, mdot, p_in, h_in, mdot_coolant, T_coolant_in) -> Result:
-        return self.luts["chiller"](
-            {"mdot": mdot, "p_in": p_in, "h_in": h_in, "mdot_coolant": mdot_coolant, "T_coolant_in": T_coolant_in}
-        )
+        return self._ask("chiller", (mdot, p_in, h_in, mdot_coolant, T_coolant_in))
+
+    def _ask(self, component: str, args: tuple) -> Result:
+        return self.luts[component](dict(zip(MODEL_AXES[component], args, strict=True)))
 
     def outside_axes(self, component: str, ops: dict[str, np.ndarray]) -> np.ndarray:
         """Per point, why its operating inputs lie outside ``component``'s LUT axes
@@ -607,7 +611,7 @@ class LutModels:
             if axis not in lut.ranges or name not in ops:
                 continue
             lo, hi = lut.ranges[axis]
-            x = np.broadcast_to(np.asarray(ops[name], float), (n,))
+            x = np.broadcast_to(np.asarray(ops[name], float), (n))
             for i in np.nonzero(~((x >= lo) & (x <= hi)) & (reasons == ""))[0]:
                 reasons[i] = _outside_axis(component, axis, x[i], lo, hi)
         return reasons

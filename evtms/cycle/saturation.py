@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from evtms.cycle.closure import solve_at
+from evtms.cycle.compiled import solve_closure
 from evtms.cycle.roots import bracketed_root
 from evtms.cycle.state import Ops, SolveContext, WarmStart, take
 from evtms.cycle.status import STATUS_CONVERGED, STATUS_NOT_CONVERGED, STATUS_OUTSIDE_ENVELOPE
@@ -145,13 +145,13 @@ class _FloatingCycles:
         if self.warm:  # the solve warm-started: so are its trial cycles, from the guesses
             drops = {c: v[i] for c, v in self.dp_branch.items()}
             start = WarmStart(g["t"], outer, g["p_B"], self.slopes["inner"][i], g["dp"], drops, self.split[i])
-            r, state = solve_at(self.ctx, ops_i, warm=start)
+            r, state = solve_closure(self.ctx, ops_i, warm=start)
             ok = r["status"] == STATUS_CONVERGED
             self.split[i[ok]] = state.split[ok]
             for c, v in state.dp_branch.items():
                 self.dp_branch.setdefault(c, np.full(self.split.size, np.nan))[i[ok]] = v[ok]
         else:
-            r, state = solve_at(
+            r, state = solve_closure(
                 self.ctx, ops_i, t_guess=g["t"], p_B_guess=g["p_B"], dp_guess=g["dp"], outer_slope=outer
             )
         for k, v in r.items():

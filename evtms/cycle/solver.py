@@ -103,7 +103,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from evtms.cycle.closure import solve_at
+from evtms.cycle.compiled import solve_closure
 from evtms.cycle.limits import ValveLimits, parallel_limits
 from evtms.cycle.results import BranchResult, CycleResult, mark_invalid
 from evtms.cycle.roots import bracketed_root
@@ -242,7 +242,7 @@ class CycleSolver:
         # Operating inputs beyond a LUT's axes (a cabin at -20 degC against an evaporator LUT from
         # 10 degC): no refrigerant state helps; said up front, not as whichever bound the search met.
         outside = _outside_axes(ctx, ops)
-        res, first = solve_at(ctx, ops, warm=warm)
+        res, first = solve_closure(ctx, ops, warm=warm)
         self.warm_start = WarmStart.of(ctx.sat, res, first)
         self.max_opening = ctx.max_opening
         if ctx.parallel:

@@ -100,6 +100,21 @@ def pack(axes, strides, uniform, buckets, curved_axes, curved_vars):
 # and gives what NumPy's would.
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def interpolate(pts, policy, outside, floats, ints, values, out):
+    """Multilinear interpolation with the optional curvature correction, all points in one loop
+    (:func:`interpolate_in` with its work arrays made here)."""
+    d = pts.shape[0]
+    return interpolate_in(pts, policy, outside, floats, ints, values, out, *scratch(ints, values, d))
+
+
+@numba.njit(cache=True, nogil=True)
+def scratch(ints, values, d):
+    """The work arrays of :func:`interpolate_in` for a table and ``d`` axes: the cell's corners
+    (each corner's columns in a row), the cell coordinates and the curvature weights."""
+    return np.empty(ints[1] * values.shape[1]), np.empty(d), np.zeros(d)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def interpolate_in(pts, policy, outside, floats, ints, values, out, corners, t, bows):
     """Multilinear interpolation with the optional curvature correction, all points in one loop.
 
     Parameters
@@ -118,6 +133,9 @@ def interpolate(pts, policy, outside, floats, ints, values, out):
         column per curved variable.
     out : (nv, n) float64
         Results, one row per variable (written).
+    corners, t, bows : numpy.ndarray
+        Work arrays (:func:`scratch`): a caller that interpolates one point at a time
+        makes them once.
 
     Returns
     -------
@@ -146,9 +164,6 @@ def interpolate(pts, policy, outside, floats, ints, values, out):
                 x = pts[j, p]
                 if not (x >= lo and x <= hi):  # NaN counts as outside
                     return j * n + p
-    corners = np.empty(ncorners * ncols)  # row c: corner c's columns
-    t = np.empty(d)
-    bows = np.zeros(d)
     flagged = outside.shape[0] > 0
     for p in range(n):
         skip = flagged and outside[p]

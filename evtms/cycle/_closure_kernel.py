@@ -1,0 +1,438 @@
+"""The cycle's two pressure closures compiled (numba), point by point, on the component LUTs.
+
+The same closure as :func:`evtms.cycle.closure.solve_at` for a circuit of one
+condensing component and one evaporating branch (``cabin``, ``chiller``,
+``hp``) with a saturated-liquid condenser outlet: the suction pressure is the
+root of the superheat residual, each suction iterate finds the discharge
+pressure where the condensing component's capacity ratio is 1, and the
+branch's pressure drop is the fixed point of its model. The searches are
+those of :mod:`evtms.cycle.roots` (a first guess and one overshot secant step,
+else the range's ends; modified regula falsi in saturation temperature, with
+the Anderson-Bjorck scaling), the guesses and tolerances those of
+:mod:`evtms.cycle.closure`, and each component is interpolated by the
+kernel the Python path calls (:func:`evtms.cycle._component_kernel.evaluate`).
+
+Each point's closure runs one evaluation after another, as the Python path
+runs it; :data:`IN_FLIGHT` points run side by side and each round asks each
+LUT once for all the points waiting for it, so that the memory reads of
+different points overlap. A point's result does not depend on the others'.
+
+A search meets NaN where a model leaves its envelope: at an end of its range
+that end's sign is taken as known and the steps bisect, as in
+:func:`evtms.cycle.roots.bracketed_root`. A point whose search ends without a
+root (one sign over the range, NaN at both ends or inside a finite bracket, no
+convergence), a subcooled condenser target, or an input a LUT holds fixed at
+another value, is handed back unsolved: the Python path solves it and says
+why it fails. The roots are the Python path's to round-off where both see the
+same residuals; where a LUT cell next to no-heat nodes gives the Python path a
+residual of 1 and this one NaN, they are the same to the closures' tolerances
+(within 4e-6 relative on 2,000 envelope points).
+
+References
+----------
+Anderson, N., Bjorck, A. (1973). A new high order method of regula falsi type
+for computing a root of an equation. BIT 13, 253-264.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from evtms._jit import load_numba
+from evtms.cycle._component_kernel import evaluate_in
+from evtms.luts._kernels import scratch
+
+numba = load_numba()
+# error_model="numpy": a division by zero gives inf or NaN, as NumPy's, which the searches read as
+# a failed step (a secant through two equal residuals), not an exception.
+_njit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+# The root search's state vector (reverse communication: the caller evaluates, the search says
+# where next), indices into a float64 array of _SIZE.
+_A, _B, _FA, _FB, _KEPT, _PHASE, _TG, _FG, _SLOPE, _NEED_A, _NEED_B, _LO_END, _HI_END, _NSLOPE, _IT = range(15)
+_SIZE = 15
+#: A search's state: its size, and the entry holding its phase (:data:`DONE`, :data:`FAILED` at the end).
+STATE_SIZE, PHASE = _SIZE, _PHASE
+# Phases: the guess, the secant step from it, the range's ends, regula falsi; then done or failed.
+_GUESS, _SECANT, _END_A, _END_B, _FALSI, DONE, FAILED = range(7)
+_MAXITER = 80
+
+
+@_njit
+def _t_sat(p, log_p, T):
+    """Saturation temperature [K] at ``p`` [Pa], linear in ln p; NaN outside the table."""
+    x = math.log(p) if p > 0 else np.nan
+    if not (x >= log_p[0] and x <= log_p[-1]):
+        return np.nan
+    return np.interp(x, log_p, T)
+
+
+@_njit
+def _p_sat(t, log_p, T):
+    """Saturation pressure [Pa] at ``t`` [K]; NaN outside the table."""
+    if not (t >= T[0] and t <= T[-1]):
+        return np.nan
+    return math.exp(np.interp(t, T, log_p))
+
+
+@_njit
+def _at_p(p, log_p, table):
+    """A saturation property at ``p`` [Pa], linear in ln p; NaN outside the table."""
+    x = math.log(p) if p > 0 else np.nan
+    if not (x >= log_p[0] and x <= log_p[-1]):
+        return np.nan
+    return np.interp(x, log_p, table)
+
+
+@_njit
+def _falsi_x(s):
+    """The regula falsi trial of the bracket: the secant through its ends, or its midpoint."""
+    a, b, fa, fb = s[_A], s[_B], s[_FA], s[_FB]
+    xs = b - fb * (b - a) / (fb - fa)
+    if math.isfinite(xs) and xs > min(a, b) and xs < max(a, b):
+        return xs
+    return 0.5 * (a + b)
+
+
+@_njit
+def _take(s, t, f):
+    """A trial of the bracketing phase: it becomes the end of its sign where it narrows the range."""
+    if f > 0 and t > s[_A]:
+        s[_A], s[_FA], s[_NEED_A] = t, f, 0.0
+    elif f <= 0 and t < s[_B]:
+        s[_B], s[_FB], s[_NEED_B] = t, f, 0.0
+
+
+@_njit
+def _next_end(s):
+    """The next range end to evaluate, or the first regula falsi trial once the bracket holds a root."""
+    if s[_NEED_A] > 0:
+        s[_PHASE] = _END_A
+        return s[_A]
+    if s[_NEED_B] > 0:
+        s[_PHASE] = _END_B
+        return s[_B]
+    # One sign up to an end of the range, or NaN at both ends: no root the search can find.
+    fa, fb = s[_FA], s[_FB]
+    if (s[_LO_END] > 0 and fa <= 0) or (s[_HI_END] > 0 and fb >= 0) or not (math.isfinite(fa) or math.isfinite(fb)):
+        s[_PHASE] = FAILED
+        return np.nan
+    s[_PHASE] = _FALSI
+    return _falsi_x(s)
+
+
+@_njit
+def root_begin(s, t_lo, t_hi, t_guess, slope):
+    """Start a search for the root of a residual falling in ``t`` on ``[t_lo, t_hi]`` [K] from
+    ``t_guess`` with the estimated ``slope`` [1/K]; returns the first ``t`` to evaluate."""
+    s[:] = np.nan
+    s[_A], s[_B], s[_KEPT], s[_IT] = t_lo, t_hi, 0.0, 0.0
+    s[_NEED_A] = s[_NEED_B] = 1.0
+    s[_SLOPE] = slope
+    if t_guess > t_lo and t_guess < t_hi:  # False for NaN
+        s[_PHASE], s[_TG] = _GUESS, t_guess
+        return t_guess
+    s[_LO_END] = s[_HI_END] = 1.0
+    return _next_end(s)
+
+
+@_njit
+def root_next(s, t, f, max_step, overshoot, xtol, ftol):
+    """Take the residual ``f`` at ``t``, the trial :func:`root_begin` or this function asked for;
+    returns the next ``t`` to evaluate. ``s[PHASE]`` is then :data:`DONE` (``t`` was the root) or
+    :data:`FAILED` (no root the search can find, a NaN it cannot go round, no convergence) where
+    the search ends.
+
+    A NaN residual at an end of the range leaves that end's sign as known and the steps bisect
+    until both ends are finite; a NaN inside the bracket replaces the NaN end (as
+    :func:`evtms.cycle.roots.bracketed_root`).
+    """
+    phase = s[_PHASE]
+    finite = math.isfinite(f)
+    if phase == _GUESS:
+        if not finite:  # no step from it: the whole range
+            s[_LO_END] = s[_HI_END] = 1.0
+            return _next_end(s)
+        s[_FG] = f
+        step = -overshoot * f / s[_SLOPE] + math.copysign(0.01, f) if f != 0 else 0.0
+        if not math.isfinite(step):
+            step = 0.0
+        t2 = min(max(t + min(max(step, -max_step), max_step), s[_A]), s[_B])
+        s[_PHASE] = _SECANT
+        return t2
+    if phase == _SECANT:
+        s[_NSLOPE] = (f - s[_FG]) / (t - s[_TG])
+        _take(s, s[_TG], s[_FG])
+        _take(s, t, f)
+        s[_LO_END], s[_HI_END] = s[_NEED_A], s[_NEED_B]
+        return _next_end(s)
+    if phase == _END_A:
+        s[_FA], s[_NEED_A] = f, 0.0
+        return _next_end(s)
+    if phase == _END_B:
+        s[_FB], s[_NEED_B] = f, 0.0
+        return _next_end(s)
+    a, b = s[_A], s[_B]
+    small = abs(b - a) < xtol * abs(t)
+    finite_ends = math.isfinite(s[_FA]) and math.isfinite(s[_FB])
+    if not finite:  # joins the NaN end; with both ends finite, or the bracket closed, the search ends
+        if small or finite_ends:
+            s[_PHASE] = FAILED
+            return np.nan
+        if not math.isfinite(s[_FB]):
+            s[_B] = t
+        else:
+            s[_A] = t
+    elif abs(f) < ftol or (small and finite_ends):
+        s[_PHASE] = DONE
+        return t
+    elif small:  # closed onto a NaN end with the residual away from zero: the root lies beyond it
+        s[_PHASE] = FAILED
+        return np.nan
+    elif f > 0:  # replaces the low end; a high end kept twice in a row is scaled down
+        m = 1.0 - f / s[_FA]
+        s[_A], s[_FA] = t, f
+        if s[_KEPT] == 1:
+            s[_FB] *= m if m > 0 else 0.5
+        s[_KEPT] = 1
+    else:
+        m = 1.0 - f / s[_FB]
+        s[_B], s[_FB] = t, f
+        if s[_KEPT] == -1:
+            s[_FA] *= m if m > 0 else 0.5
+        s[_KEPT] = -1
+    s[_IT] += 1
+    if s[_IT] >= _MAXITER:
+        s[_PHASE] = FAILED
+        return np.nan
+    return _falsi_x(s)
+
+
+# Each point in flight holds its closure's scalars in a row of these columns: the suction and
+# discharge iterates [K], the suction pressure [Pa] and temperature [K], the compressor's flow and
+# suction enthalpy, the discharge pressure [Pa], the condensing outlet pressure, the valve-outlet
+# enthalpy, the latest finite suction residual and its iterate, the suction closure's slope, the
+# drop's pass, and what it carries from one suction iterate to the next (the discharge pressure,
+# the discharge closure's slope, the branch's drop).
+_TA, _TB, _PA, _TSUC, _MDOT, _HA, _PB_TRIAL, _PC, _HD, _LAT_T, _LAT_F, _OSLOPE, _PASS, _PB, _ISLOPE, _DP = range(16)
+_NV = 16
+# What a point waits for: the compressor, the condensing component, the branch for its drop, the
+# branch for the superheat; and which LUT each asks.
+_W_COMP, _W_COND, _W_DROP, _W_SH = range(4)
+_ASKS = (0, 1, 2, 2)
+#: Points in flight at once: their LUT cells are fetched together, so that the memory reads of
+#: different points overlap (one point's evaluations depend on each other's results).
+IN_FLIGHT = 32
+
+
+@_njit
+def _ask(v, dyn, wait, g, what, mdot, p_in, h_in, T_in, pr):
+    """Point slot ``g`` waits for ``what`` at the closure's variables (mdot, p_in, h_in, T_in, pr)."""
+    dyn[g, 0], dyn[g, 1], dyn[g, 2], dyn[g, 3], dyn[g, 4] = mdot, p_in, h_in, T_in, pr
+    wait[g] = what
+
+
+@_njit
+def _discharge_trial(v, dyn, wait, g, t_B, sat):
+    """Ask the compressor at discharge saturation ``t_B`` [K] (the discharge search's next trial)."""
+    v[g, _TB] = t_B
+    p_B = _p_sat(t_B, sat[0], sat[1])
+    v[g, _PB_TRIAL] = p_B
+    p_A = v[g, _PA]
+    _ask(v, dyn, wait, g, _W_COMP, np.nan, p_A, np.nan, v[g, _TSUC], p_B / p_A)
+
+
+@_njit
+def _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol):
+    """Start the discharge search at the suction iterate ``v[g, _TA]``."""
+    log_p, T = sat[0], sat[1]
+    p_A = _p_sat(v[g, _TA], log_p, T)
+    v[g, _PA] = p_A
+    v[g, _TSUC] = _t_sat(p_A, log_p, T) + ops[5, i]
+    lo_B = max(_p_sat(ops[4, i] + tol[9], log_p, T), tol[6] * p_A, ops[8, i])
+    hi_B = min(ops[9, i], tol[7] * p_A)
+    known = math.isfinite(v[g, _PB])
+    t_guess = _t_sat(v[g, _PB], log_p, T) if known else ops[4, i] + tol[10]
+    slope = v[g, _ISLOPE] if (known and v[g, _ISLOPE] < 0) else tol[8]
+    t_B = root_begin(si[g], _t_sat(lo_B, log_p, T), _t_sat(hi_B, log_p, T), t_guess, slope)
+    _discharge_trial(v, dyn, wait, g, t_B, sat)
+
+
+@_njit
+def _begin(v, so, si, dyn, wait, point, g, i, ops, sat, tol, out):
+    """Put point ``i`` in slot ``g``; False where it is not served (handed back at once)."""
+    out[:, i] = np.nan
+    out[5, i] = 0.0
+    if not (ops[0, i] < ops[1, i]):  # not served, or an empty range
+        return False
+    point[g] = i
+    v[g, :] = np.nan
+    v[g, _PB], v[g, _DP] = ops[6, i], ops[7, i]
+    v[g, _TA] = root_begin(so[g], ops[0, i], ops[1, i], ops[2, i], ops[3, i])
+    _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol)
+    return True
+
+
+@_njit
+def _suction_residual(v, so, si, dyn, wait, point, g, f, ops, sat, tol, out):
+    """The superheat residual ``f`` at the slot's suction iterate: the next iterate, or the end of
+    its point (written to ``out``; the slot is then free, ``point[g]`` -1)."""
+    i = point[g]
+    t_A = v[g, _TA]
+    if math.isfinite(f):  # the local slope, for a warm start from this solution
+        chord = (f - v[g, _LAT_F]) / (t_A - v[g, _LAT_T])
+        if math.isfinite(chord) and chord < 0 and abs(t_A - v[g, _LAT_T]) > tol[15]:
+            v[g, _OSLOPE] = chord
+        v[g, _LAT_T], v[g, _LAT_F] = t_A, f
+    t_A = root_next(so[g], t_A, f, tol[12], tol[13], tol[2], tol[0])
+    if so[g, _PHASE] < DONE:
+        v[g, _TA] = t_A
+        _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol)
+        return
+    if so[g, _PHASE] == DONE:
+        out[0, i], out[1, i], out[2, i] = _p_sat(t_A, sat[0], sat[1]), v[g, _PB], v[g, _DP]
+        out[3, i], out[4, i], out[5, i] = v[g, _OSLOPE], v[g, _ISLOPE], 1.0
+    point[g] = -1
+
+
+@_njit
+def _take_result(r, rows, v, so, si, dyn, wait, point, g, ops, sat, tol, out):
+    """The LUT's answer ``r`` to what slot ``g`` waited for: its next step."""
+    what = wait[g]
+    if what == _W_COMP:
+        v[g, _MDOT], v[g, _HA] = r[rows[4]], r[rows[5]]
+        _ask(v, dyn, wait, g, _W_COND, r[rows[4]], v[g, _PB_TRIAL], r[rows[6]], np.nan, np.nan)
+    elif what == _W_COND:
+        v[g, _PC] = r[rows[5]]
+        phase = si[g, _PHASE]
+        t_B = root_next(si[g], v[g, _TB], 1.0 - r[rows[4]], tol[11], tol[13], tol[2], tol[1])
+        if phase == _SECANT and si[g, _NSLOPE] < 0:
+            v[g, _ISLOPE] = si[g, _NSLOPE]
+        if si[g, _PHASE] < DONE:
+            _discharge_trial(v, dyn, wait, g, t_B, sat)
+        elif si[g, _PHASE] == DONE:  # the discharge root: the branch's drop from the last iterate's
+            v[g, _PB] = _p_sat(t_B, sat[0], sat[1])
+            v[g, _HD] = _at_p(v[g, _PC], sat[0], sat[2])
+            v[g, _PASS] = 0.0
+            _ask(v, dyn, wait, g, _W_DROP, v[g, _MDOT], v[g, _PA] + v[g, _DP], v[g, _HD], np.nan, np.nan)
+        else:  # no discharge root: the superheat residual is NaN here
+            _suction_residual(v, so, si, dyn, wait, point, g, np.nan, ops, sat, tol, out)
+    elif what == _W_DROP:  # a pass of the drop's fixed point, then the superheat at it
+        p_in, dp, p_out = dyn[g, 1], v[g, _DP], r[rows[5]]
+        new = p_in - p_out if math.isfinite(p_out) else dp
+        moving = abs(new - dp) > tol[4]
+        v[g, _DP] = new
+        v[g, _PASS] += 1.0
+        step = _W_DROP if (moving and v[g, _PASS] < tol[5]) else _W_SH
+        _ask(v, dyn, wait, g, step, v[g, _MDOT], v[g, _PA] + new, v[g, _HD], np.nan, np.nan)
+    else:
+        f = (r[rows[4]] - v[g, _HA]) / tol[3]
+        _suction_residual(v, so, si, dyn, wait, point, g, f, ops, sat, tol, out)
+
+
+@_njit
+def _serve(c, cid, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, work):
+    """Evaluate LUT ``c`` (number ``cid``) for every slot waiting for it, in one call; hand each
+    slot its answer. Returns how many were served."""
+    lo, hi, floats, ints, values, rows, src, base, tsec = c
+    G = point.size
+    slots = np.empty(G, np.int64)
+    m = 0
+    for g in range(G):
+        if point[g] >= 0 and _ASKS[wait[g]] == cid:
+            slots[m] = g
+            m += 1
+    if m == 0:
+        return 0
+    d = lo.size
+    pts = np.empty((d, m))
+    ts = np.empty(m)
+    for k in range(m):
+        g = slots[k]
+        i = point[g]
+        ts[k] = tsec[i]
+        for j in range(d):
+            pts[j, k] = dyn[g, src[j]] if src[j] >= 0 else base[j, i]
+    res = np.empty((rows[3], m))
+    first = np.empty(m, np.int64)
+    outside = np.empty(m, np.bool_)
+    evaluate_in(
+        pts,
+        lo,
+        hi,
+        floats,
+        ints,
+        values,
+        res,
+        first,
+        rows[0],
+        rows[1],
+        rows[2],
+        ts,
+        vapour,
+        dh,
+        sh_min,
+        (outside, work[0], work[1], work[2]),
+    )
+    for k in range(m):
+        if first[k] >= 0:  # outside an axis: no value (an invalid cell leaves NaN where it weighs)
+            res[:, k] = np.nan
+        _take_result(res[:, k], rows, v, so, si, dyn, wait, point, slots[k], ops, sat, tol, out)
+    return m
+
+
+@_njit
+def solve_points(comp, cond, evap, ops, sat, vapour, dh, sh_min, tol, out):
+    """The closure at every point: suction and discharge roots and the branch's drop.
+
+    Each point's closure runs as in :func:`evtms.cycle.closure.solve_at`, one evaluation after
+    another; :data:`IN_FLIGHT` points run side by side, and each round asks each LUT once for
+    every point waiting for it. A point's result does not depend on the others'.
+
+    Parameters
+    ----------
+    comp, cond, evap : tuple
+        The compressor's, the condensing component's and the evaporating branch's LUTs:
+        ``(lo, hi, floats, ints, values, rows, src, base, tsec)`` (see
+        :func:`evtms.cycle.compiled.packed`).
+    ops : (10, n) float64
+        Per point: the suction search's ends [K] (NaN: not served), its first guess [K] and
+        slope [1/K], the condensing side's secondary inlet [K], the superheat setpoint [K], the
+        first guesses of the discharge pressure [Pa] (NaN: none) and of the branch's drop [Pa],
+        and the condensing LUT's discharge-pressure range [Pa] (a hair inside its axis).
+    sat : tuple
+        ``(ln p, T, h_l)`` of the saturation table.
+    vapour, dh, sh_min
+        The evaporating branch's approach transform (:func:`evtms.cycle._component_kernel.evaluate`).
+    tol : (16,) float64
+        ``OUTER_FTOL, INNER_FTOL, XTOL, CP_SCALE, DP_TOL, DP_PASSES``, the compressor's
+        pressure-ratio range searched, the condensing closure's typical slope [1/K], the
+        discharge search's floor and first guess above the secondary inlet [K], the two
+        searches' largest first steps [K], the overshoot of their secant step [1], and
+        the least span of the suction slope's chord [K].
+    out : (6, n) float64
+        Written: ``p_A, p_B`` [Pa], the branch's drop [Pa], the two closures' slopes [1/K] and
+        1 where the point is solved, 0 where it is handed back.
+    """
+    n = ops.shape[1]
+    G = max(1, min(n, IN_FLIGHT))
+    v = np.empty((G, _NV))
+    so, si = np.empty((G, _SIZE)), np.empty((G, _SIZE))
+    dyn = np.empty((G, 5))
+    wait = np.zeros(G, np.int64)
+    point = np.full(G, -1, np.int64)
+    works = (scratch(comp[3], comp[4], comp[0].size), scratch(cond[3], cond[4], cond[0].size))
+    work_e = scratch(evap[3], evap[4], evap[0].size)
+    nxt = 0
+    while True:
+        for g in range(G):  # free slots take the next points
+            while point[g] < 0 and nxt < n:
+                _begin(v, so, si, dyn, wait, point, g, nxt, ops, sat, tol, out)
+                nxt += 1
+        busy = _serve(comp, 0, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, works[0])
+        busy += _serve(cond, 1, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, works[1])
+        busy += _serve(evap, 2, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, work_e)
+        if busy == 0 and nxt >= n:
+            break

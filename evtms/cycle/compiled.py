@@ -1,0 +1,306 @@
+"""The closure on the two pressures, compiled where the circuit and the models allow it.
+
+:func:`solve_closure` is what the solver calls in place of
+:func:`evtms.cycle.closure.solve_at`. On LUTs whose interpolation is compiled,
+for a circuit of one condensing component and one evaporating branch
+(``cabin``, ``chiller``, ``hp``), it finds each point's roots in one compiled
+loop (:mod:`evtms.cycle._closure_kernel`), then evaluates the components at
+the roots with every output variable as the Python path does
+(:func:`evtms.cycle.closure.final_states`). The points the kernel hands back
+(a model's envelope met on the way, no root in the range, a subcooled
+condenser target) and every other circuit or model go through
+:func:`~evtms.cycle.closure.solve_at`, which says why a point fails.
+
+The roots agree with the Python path's to within the closures' tolerances
+(:data:`~evtms.cycle.state.OUTER_FTOL` on the superheat residual,
+:data:`~evtms.cycle.state.INNER_FTOL` on the capacity ratio); a point's
+result does not depend on the other points of its batch.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from evtms.cycle.approach import APPROACH, OUTLET, SUPERHEAT_MIN
+from evtms.cycle.branches import secondary_temperature
+from evtms.cycle.closure import (
+    COLD_OVERSHOOT,
+    DISCHARGE_FLOOR_ABOVE,
+    DISCHARGE_GUESS_ABOVE,
+    INNER_MAX_STEP,
+    INNER_SLOPE,
+    OUTER_MAX_STEP,
+    OUTER_SLOPE,
+    SUCTION_GUESS_BELOW,
+    _suction_range,
+    condensing_secondary,
+    final_states,
+    solve_at,
+)
+from evtms.cycle.models import MODEL_AXES
+from evtms.cycle.state import (
+    CP_SCALE,
+    DP_PASSES,
+    DP_TOL,
+    INNER_FTOL,
+    OUTER_FTOL,
+    SLOPE_SPAN,
+    XTOL,
+    Ops,
+    SolveContext,
+    SolveState,
+    WarmStart,
+    take,
+)
+from evtms.cycle.status import STATUS_CONVERGED
+
+#: The closure's own variables, in the kernel's order (its ``dyn`` slots); a model's other
+#: arguments are operating inputs, fixed per point.
+CLOSURE_VARIABLES = ("mdot", "p_in", "h_in", "T_in", "pr")
+
+#: The variables the kernel reads of each role's component, in its order.
+_WANTED = {
+    "compressor": ("mdot", "h_in", "h_out"),
+    "condensing": ("capacity_ratio", "p_out"),
+    "evaporating": (OUTLET, "p_out"),
+}
+
+
+def _eligible(ctx: SolveContext) -> bool:
+    """A circuit and models the kernel serves: LUTs, one condensing component, one branch."""
+    return getattr(ctx.models, "name", "") == "lut" and not ctx.parallel and len(ctx.circuit.chain) == 1
+
+
+def packed(ctx: SolveContext, component: str, inputs: tuple[str, ...], ops: Ops, role: str):
+    """Component ``component``'s LUT as the kernel takes it, and the points whose operating inputs
+    the LUT holds fixed at another value (handed back); None where its interpolation is not compiled.
+
+    ``inputs`` are the operating inputs of its model's arguments that are not closure variables, in
+    the model's order (:data:`evtms.cycle.models.MODEL_AXES`): ``Branch.inputs``, ``Condensing.inputs``,
+    or ``("speed",)`` for the compressor.
+    """
+    lut = ctx.models.luts[component]
+    itp = lut.fast
+    if lut._kernel_for(itp) is None:
+        return None
+    n = ops["speed"].size
+    operating = [a for a in MODEL_AXES[component] if a not in CLOSURE_VARIABLES]
+    source = dict(zip(operating, inputs, strict=True))
+    if any(a in CLOSURE_VARIABLES and a not in lut.dims for a in MODEL_AXES[component]):
+        return None
+    src = np.full(len(lut.dims), -1, np.int64)
+    base = np.empty((len(lut.dims), n))
+    for j, d in enumerate(lut.dims):
+        if d in CLOSURE_VARIABLES:
+            src[j] = CLOSURE_VARIABLES.index(d)
+        elif d == "T_res" and d not in source:  # no effect in steady state; any grid value will do
+            base[j] = lut._lo[j]
+        else:
+            base[j] = ops[source[d]]
+    fixed = {a: ops[source[a]] for a in lut._fixed_axes if a in source}
+    off = np.zeros(n, bool)
+    for mask, _ in lut._fixed_off(fixed, n):
+        off |= mask
+    names = [APPROACH if (v == OUTLET and lut.secondary) else v for v in _WANTED[role]]
+    variables = itp.variables
+    approach = (variables.index(APPROACH), variables.index("p_out")) if lut.secondary else (-1, -1)
+    check = approach[0] if lut.secondary else 0
+    rows = np.array([check, *approach, len(variables), *(variables.index(v) for v in names)], np.int64)
+    tsec = ops[source[lut.secondary]].copy() if lut.secondary else np.zeros(n)
+    return (lut._lo, lut._hi, itp._floats, itp._ints, itp._kernel_values, rows, src, base, tsec), off
+
+
+@dataclass(frozen=True)
+class CompiledRoots:
+    """The compiled closure's roots per point (NaN where handed back).
+
+    Attributes
+    ----------
+    p_A, p_B : numpy.ndarray
+        Suction and discharge pressures [Pa].
+    dp : numpy.ndarray
+        The branch's pressure drop [Pa].
+    outer_slope, inner_slope : numpy.ndarray
+        The suction and discharge closures' slopes in saturation temperature [1/K].
+    solved : numpy.ndarray
+        False where the point is handed back to the Python path.
+    """
+
+    p_A: np.ndarray
+    p_B: np.ndarray
+    dp: np.ndarray
+    outer_slope: np.ndarray
+    inner_slope: np.ndarray
+    solved: np.ndarray
+
+
+def compiled_roots(
+    ctx: SolveContext,
+    ops: Ops,
+    t_guess: np.ndarray | None = None,
+    p_B_guess: np.ndarray | None = None,
+    dp_guess: np.ndarray | None = None,
+    outer_slope: np.ndarray | float = OUTER_SLOPE,
+) -> CompiledRoots | None:
+    """The roots of :func:`~evtms.cycle.closure.solve_at` (the same guesses) from the compiled
+    kernel; None where the circuit or models are not served (see the module's text)."""
+    parts = _parts(ctx, ops) if _eligible(ctx) else None
+    if parts is None:
+        return None
+    from evtms.cycle import _closure_kernel as kernel
+
+    n, limits = ops["speed"].size, ctx.models.limits()
+    state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess)
+    guesses = {"t_guess": t_guess, "outer_slope": outer_slope}
+    rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses)
+    vapour, dh = ctx.models.luts[ctx.names[0]]._vapour_args
+    sat = (ctx.sat._log_p, ctx.sat.T, ctx.sat.h_l)
+    out = np.empty((6, n))
+    kernel.solve_points(*(p[0] for p in parts), rows, sat, vapour, dh, SUPERHEAT_MIN, _tolerances(state), out)
+    return CompiledRoots(*out[:5], solved=out[5] == 1.0)
+
+
+def solve_closure(
+    ctx: SolveContext,
+    ops: Ops,
+    t_guess: np.ndarray | None = None,
+    p_B_guess: np.ndarray | None = None,
+    dp_guess: np.ndarray | None = None,
+    outer_slope: np.ndarray | float = OUTER_SLOPE,
+    warm: WarmStart | None = None,
+) -> tuple[dict, SolveState]:
+    """:func:`~evtms.cycle.closure.solve_at` (the same arguments, results and state), through the
+    compiled kernel where the circuit and models allow it; the points it hands back, and every
+    point of a warm start, through the Python path."""
+    guesses = {"t_guess": t_guess, "p_B_guess": p_B_guess, "dp_guess": dp_guess, "outer_slope": outer_slope}
+    roots = compiled_roots(ctx, ops, **guesses) if warm is None else None
+    if roots is None:
+        return solve_at(ctx, ops, warm=warm, **guesses)
+    n = ops["speed"].size
+    limits = ctx.models.limits()
+    k = np.nonzero(roots.solved)[0]
+    rest = np.nonzero(~roots.solved)[0]
+    if rest.size == 0:  # the usual batch: every point served
+        return _final(ctx, ops, roots, k, limits), _served_state(roots, k, limits, ctx)
+    state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess)
+    res = None
+    if k.size:
+        res = _scatter(None, n, k, _final(ctx, take(ops, k), roots, k, limits))
+        _put_state(state, k, _served_state(roots, k, limits, ctx))
+    if rest.size:
+        part = {name: v if v is None or np.ndim(v) == 0 else np.asarray(v)[rest] for name, v in guesses.items()}
+        r, sub = solve_at(ctx, take(ops, rest), **part)
+        res = _scatter(res, n, rest, r)
+        _put_state(state, rest, sub)
+    return res, state
+
+
+def _served_state(roots: CompiledRoots, k: np.ndarray, limits: dict, ctx: SolveContext) -> SolveState:
+    """The solve's state at the served points ``k``, as the Python path leaves it at its roots."""
+    state = SolveState.start(k.size, limits, ctx.names)
+    state.p_B[:], state.dp[:] = roots.p_B[k], roots.dp[k]
+    state.outer_slope[:], state.slope[:] = roots.outer_slope[k], roots.inner_slope[k]
+    return state
+
+
+def _final(ctx: SolveContext, ops: Ops, roots: CompiledRoots, k: np.ndarray, limits: dict) -> dict:
+    """The components at the served points' roots with every output (``ops`` of those points)."""
+    ctx.models.subcooled_targets(False)
+    status = np.full(k.size, STATUS_CONVERGED, np.int8)
+    return final_states(ctx, _served_state(roots, k, limits, ctx), ops, roots.p_A[k], status, _reasons(k.size))
+
+
+def _parts(ctx: SolveContext, ops: Ops) -> list | None:
+    """The compressor's, condensing component's and branch's packed LUTs, or None where one is
+    not compiled."""
+    circuit = ctx.circuit
+    parts = [
+        packed(ctx, "compressor", ("speed",), ops, "compressor"),
+        packed(ctx, circuit.condensing.component, circuit.condensing.inputs, ops, "condensing"),
+        packed(ctx, circuit.branches[0].component, circuit.branches[0].inputs, ops, "evaporating"),
+    ]
+    return None if any(p is None for p in parts) else parts
+
+
+def _kernel_inputs(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, parts: list, guesses: dict):
+    """The kernel's per-point rows (:func:`evtms.cycle._closure_kernel.solve_points`)."""
+    sat = ctx.sat
+    T_sec = secondary_temperature(ctx, ops)
+    lo, _, hi, _ = _suction_range(ctx, ops, limits, T_sec)
+    # Subcooled targets, and inputs a LUT holds fixed at another value: the Python path.
+    served = ops["subcooling"] <= 0
+    for _, off in parts:
+        served &= ~off
+    cold = T_sec - SUCTION_GUESS_BELOW
+    given = guesses["t_guess"]
+    t_guess = cold if given is None else np.where(np.isfinite(given), given, cold)
+    return np.stack(
+        np.broadcast_arrays(
+            np.where(served, sat.temperature(lo), np.nan),
+            sat.temperature(hi),
+            t_guess,
+            np.asarray(guesses["outer_slope"], float),
+            condensing_secondary(ctx, ops),
+            ops["superheat"],
+            state.p_B,
+            state.dp,
+            state.p_discharge[0],
+            state.p_discharge[1],
+        )
+    ).astype(float)
+
+
+def _tolerances(state: SolveState) -> np.ndarray:
+    """The kernel's constants, in its order (:func:`evtms.cycle._closure_kernel.solve_points`)."""
+    return np.array(
+        [
+            OUTER_FTOL,
+            INNER_FTOL,
+            XTOL,
+            CP_SCALE,
+            DP_TOL,
+            DP_PASSES,
+            *state.pr,
+            INNER_SLOPE,
+            DISCHARGE_FLOOR_ABOVE,
+            DISCHARGE_GUESS_ABOVE,
+            INNER_MAX_STEP,
+            OUTER_MAX_STEP,
+            COLD_OVERSHOOT,
+            SLOPE_SPAN,
+        ],
+        float,
+    )
+
+
+def _reasons(n: int) -> np.ndarray:
+    return np.full(n, "", dtype=object)
+
+
+def _scatter(res: dict | None, n: int, idx: np.ndarray, part: dict) -> dict:
+    """``part``'s arrays (of the points ``idx``) into ``res``, made for ``n`` points where None."""
+    if res is None:
+        res = {k: _blank(v, n) for k, v in part.items()}
+    for k, v in part.items():
+        res[k][idx] = v
+    return res
+
+
+def _blank(v: np.ndarray, n: int) -> np.ndarray:
+    """An array of ``n`` points like ``v``: '' for text, NaN for floats, 0 for codes."""
+    if v.dtype == object:
+        return np.full(n, "", dtype=object)
+    return np.full(n, np.nan) if v.dtype.kind == "f" else np.zeros(n, v.dtype)
+
+
+def _put_state(state: SolveState, idx: np.ndarray, part: SolveState) -> None:
+    """The per-point arrays of ``part`` (of the points ``idx``) into ``state``."""
+    for f in dataclasses.fields(state):
+        v = getattr(part, f.name)
+        if isinstance(v, np.ndarray):
+            getattr(state, f.name)[..., idx] = v
+    for c, a in part.dp_branch.items():
+        state.dp_branch[c][idx] = a
