@@ -5,7 +5,6 @@ import math
 import numpy as np
 import pytest
 
-import evtms.cycle.saturation as saturation
 import evtms.cycle.solver as solver_module
 from evtms.cycle import CycleSolver, OperatingPoints, load_cycle_luts
 from evtms.cycle._closure_kernel import DONE, FAILED, PHASE, STATE_SIZE, root_begin, root_next
@@ -53,14 +52,9 @@ def solvers(cycle_luts_dir):
     return out
 
 
-def python_path(monkeypatch):
-    """The solver with every closure on the Python path."""
-
-    def plain(ctx, ops, warm=None, **guesses):
-        return solve_at(ctx, ops, warm=warm, **guesses)
-
-    monkeypatch.setattr(solver_module, "solve_closure", plain)
-    monkeypatch.setattr(saturation, "solve_closure", plain)
+def python_path(solver: CycleSolver) -> CycleSolver:
+    """The same solver with every closure on the vectorised Python path."""
+    return CycleSolver(solver.models, solver.sat, solver.circuit, closure="python")
 
 
 @pytest.mark.parametrize("name", list(RANGES))
@@ -80,11 +74,10 @@ def test_compiled_roots_are_the_python_roots(solvers, name):
 
 
 @pytest.mark.parametrize("name", list(RANGES))
-def test_solver_figures_match_the_python_path(solvers, name, monkeypatch):
+def test_solver_figures_match_the_python_path(solvers, name):
     pts = points(name, seed=5)
     fast = solvers[name].solve(pts)
-    python_path(monkeypatch)
-    slow = solvers[name].solve(pts)
+    slow = python_path(solvers[name]).solve(pts)
     np.testing.assert_array_equal(fast["status"], slow["status"])
     np.testing.assert_array_equal(fast["reason"], slow["reason"])
     ok = np.isfinite(slow["COP"])
@@ -93,7 +86,7 @@ def test_solver_figures_match_the_python_path(solvers, name, monkeypatch):
         np.testing.assert_allclose(fast[key][ok], slow[key][ok], rtol=2e-5, atol=1e-9, err_msg=key)
 
 
-def test_points_the_kernel_hands_back_keep_the_python_reasons(solvers, monkeypatch):
+def test_points_the_kernel_hands_back_keep_the_python_reasons(solvers):
     pts = points("cabin", n=6, seed=7)
     pts.subcooling[:2] = 3.0  # a subcooled target: the Python path's
     pts.T_amb[2] = 333.15  # beyond the condenser LUT's air axis
@@ -103,11 +96,32 @@ def test_points_the_kernel_hands_back_keep_the_python_reasons(solvers, monkeypat
     roots = compiled_roots(ctx, pts.subset(np.arange(6)))
     assert not roots.solved[:4].any()
     fast = solver.solve(pts)
-    python_path(monkeypatch)
-    slow = solver.solve(pts)
+    slow = python_path(solver).solve(pts)
     np.testing.assert_array_equal(fast["status"], slow["status"])
     np.testing.assert_array_equal(fast["reason"], slow["reason"])
     assert (fast["reason"][2:4] != "").all()
+
+
+def test_the_solver_takes_the_kernel_for_small_batches_only(solvers, monkeypatch):
+    import evtms.cycle.compiled as compiled
+
+    asked = []
+    real = compiled.compiled_roots
+
+    def spy(ctx, ops, **guesses):
+        asked.append(ops["speed"].size)
+        return real(ctx, ops, **guesses)
+
+    monkeypatch.setattr(compiled, "compiled_roots", spy)
+    monkeypatch.setattr(solver_module, "KERNEL_BATCH_MAX", 10)
+    solvers["cabin"].solve(points("cabin", n=10))
+    assert asked and asked[0] == 10
+    asked.clear()
+    solvers["cabin"].solve(points("cabin", n=11))
+    python_path(solvers["cabin"]).solve(points("cabin", n=3))
+    assert asked == []
+    with pytest.raises(ValueError, match="closure 'fast' is unknown"):
+        CycleSolver(solvers["cabin"].models, solvers["cabin"].sat, "cabin", closure="fast")
 
 
 def test_a_point_solved_alone_equals_its_batch(solvers):

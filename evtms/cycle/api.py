@@ -288,13 +288,14 @@ def run_cycle(
     fluid: Fluid | None = None,
     circuit: Topology | str = "cabin",
     compiled: bool | None = None,
+    closure: str = "auto",
 ) -> CycleResult:
     """Solve operating points of a circuit on LUTs, or with the bench physics if ``luts`` is None.
 
     ``compiled``: interpolate through the compiled kernels (True) or on the NumPy path
     (False); None chooses by the batch's size (:data:`COMPILED_FROM_POINTS`). The two
     agree to round-off, so a job that must give the same bits however it is split into
-    batches (the simulator's maps) fixes it.
+    batches (the simulator's maps) fixes it, as it fixes ``closure`` (:class:`CycleSolver`).
 
     Returns the solver's result (see :meth:`CycleSolver.solve`) with
     ``balance_residual`` and ``balance_relative`` (:func:`energy_balance`).
@@ -311,7 +312,7 @@ def run_cycle(
     else:  # no CoolProp needed where the cache has the saturation curve
         compiled = len(points) >= COMPILED_FROM_POINTS if compiled is None else compiled
         models, saturation = LutModels(luts, circuit.components, compiled), saturation_curve(luts, fluid)
-    solver = CycleSolver(models, saturation, circuit)
+    solver = CycleSolver(models, saturation, circuit, closure)
     result = solver.solve(points)
     bal = energy_balance(result)
     return result.with_balance(bal["residual"], bal["relative"])

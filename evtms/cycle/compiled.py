@@ -173,10 +173,10 @@ def solve_closure(
     warm: WarmStart | None = None,
 ) -> tuple[dict, SolveState]:
     """:func:`~evtms.cycle.closure.solve_at` (the same arguments, results and state), through the
-    compiled kernel where the circuit and models allow it; the points it hands back, and every
-    point of a warm start, through the Python path."""
+    compiled kernel where the solve asks for it (``ctx.closure_kernel``) and the circuit and models
+    allow it; the points it hands back, and every point of a warm start, through the Python path."""
     guesses = {"t_guess": t_guess, "p_B_guess": p_B_guess, "dp_guess": dp_guess, "outer_slope": outer_slope}
-    roots = compiled_roots(ctx, ops, **guesses) if warm is None else None
+    roots = compiled_roots(ctx, ops, **guesses) if (warm is None and ctx.closure_kernel) else None
     if roots is None:
         return solve_at(ctx, ops, warm=warm, **guesses)
     n = ops["speed"].size

@@ -144,11 +144,15 @@ class SolveContext:
         Tabulated saturation properties of the refrigerant.
     circuit : Topology
         The circuit solved.
+    closure_kernel : bool
+        Find the pressure roots in the compiled kernel where it serves the circuit and models
+        (:mod:`evtms.cycle.compiled`), else on the vectorised Python path.
     """
 
     models: LutModels | DirectModels
     sat: SaturationCurve
     circuit: Topology
+    closure_kernel: bool = False
 
     @property
     def names(self) -> tuple[str, ...]:
