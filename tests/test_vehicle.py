@@ -41,6 +41,18 @@ def test_steady_speed_on_the_flat_is_rolling_plus_drag():
     assert np.allclose(s.P_motor, expected / p.gear_efficiency, rtol=1e-12)
 
 
+def test_rolling_resistance_rises_with_speed_by_its_linear_and_quadratic_terms():
+    p = VehicleParams(rolling_resistance_linear=2e-4, rolling_resistance_quadratic=4e-6)
+    base = VehicleParams()
+    for v in (10.0, 30.0):
+        rolling = p.mass * GRAVITY * (p.rolling_resistance + 2e-4 * v + 4e-6 * v * v) * v
+        extra = drive_segments(trace([v] * 4), T_AMB, p).P_wheel - drive_segments(trace([v] * 4), T_AMB, base).P_wheel
+        assert np.allclose(extra, rolling - base.mass * GRAVITY * base.rolling_resistance * v, rtol=1e-12)
+    # At 30 m/s the coefficient is 0.007 + 0.006 + 0.0036: the rolling load more than doubles.
+    s = drive_segments(drive_cycle("wltc3b"), T_AMB, p)
+    assert np.allclose(s.P_motor_el, s.P_wheel + s.P_gear_loss + s.P_loss + s.P_friction, rtol=0, atol=1e-9)
+
+
 def test_a_hill_adds_the_weight_component():
     flat = drive_segments(trace([20.0] * 3), T_AMB)
     hill = drive_segments(trace([20.0] * 3, grade=0.05), T_AMB)

@@ -11,10 +11,14 @@ simplified as the project's system spec 2.1 says):
 
 .. math::
 
-    F = m g C_{rr} \\cos\\theta [v > 0] + \\tfrac12 \\rho_{air} C_d A v^2
+    F = m g (f_0 + f_1 v + f_2 v^2) \\cos\\theta [v > 0] + \\tfrac12 \\rho_{air} C_d A v^2
         + m g \\sin\\theta + m_{eff} a, \\qquad P_{wheel} = F v
 
-with ``theta = atan(grade)``, ``rho_air = 101325 / (287.05 T_amb)`` [kg/m3],
+with the rolling-resistance coefficient ``f_0`` [1] and its rise with speed ``f_1`` [s/m] and
+``f_2`` [s2/m2] (the thesis' control-oriented form, section 3.2; a coast-down's road-load
+``A + B v + C v^2`` carries the same speed terms, SAE J2263; both 0 by default: the
+Simscape example's constant coefficient), ``theta = atan(grade)``,
+``rho_air = 101325 / (287.05 T_amb)`` [kg/m3],
 ``g = 9.81`` m/s2 and the effective mass ``m_eff = m + 4 J_w / r_w^2`` [kg]
 (four wheels of inertia ``J_w`` [kg m2] and radius ``r_w`` [m]).
 
@@ -50,6 +54,8 @@ from evtms.system.drive_cycles import DriveCycle
 from evtms.system.tables import bilinear_clamped, edrive_tables
 
 GRAVITY = 9.81  # m/s2
+#: The speed terms of the rolling resistance: the thesis' form, 0 by default (the example's constant).
+_CONSTANT_ROLLING = "thesis 3.2 {}; 0 keeps MW P `Veh.tirecR` constant"
 #: Regeneration fades in between these speeds [km/h] (the Simscape example's lookup).
 FADE_KMH = (5.0, 9.0)
 
@@ -67,7 +73,9 @@ class VehicleParams:
     frontal_area : float
         Frontal area [m2] (``Veh.AVeh`` 2.130).
     rolling_resistance : float
-        Rolling-resistance coefficient [1] (``Veh.tirecR`` 0.007).
+        Rolling-resistance coefficient at rest, f_0 [1] (``Veh.tirecR`` 0.007).
+    rolling_resistance_linear, rolling_resistance_quadratic : float
+        Its rise with speed, f_1 [s/m] and f_2 [s2/m2] (0: constant).
     wheel_radius : float
         Wheel radius [m] (``Veh.tireR`` 0.334).
     wheel_inertia : float
@@ -88,6 +96,8 @@ class VehicleParams:
     drag_coefficient: float = param(0.23, 0.0, 3.0, source="MW P `Veh.cD`")
     frontal_area: float = param(2.130, 0.1, 50.0, "m2", source="MW P `Veh.AVeh`")
     rolling_resistance: float = param(0.007, 0.0, 0.1, source="MW P `Veh.tirecR`")
+    rolling_resistance_linear: float = param(0.0, 0.0, 0.01, "s m-1", source=_CONSTANT_ROLLING.format("f_1"))
+    rolling_resistance_quadratic: float = param(0.0, 0.0, 1e-3, "s2 m-2", source=_CONSTANT_ROLLING.format("f_2"))
     wheel_radius: float = param(0.334, 0.05, 2.0, "m", source="MW P `Veh.tireR`")
     wheel_inertia: float = param(2.0, 0.0, 100.0, "kg m2", source="MW P `tireInert`, per wheel")
     gear_ratio: float = param(9.0, 0.1, 50.0, source="MW P `Edrive.transmissionRatio`")
@@ -137,6 +147,12 @@ class DriveSegments:
     torque_limited: np.ndarray
 
 
+def rolling_coefficient(p: VehicleParams, speed: np.ndarray) -> np.ndarray:
+    """The rolling-resistance coefficient at ``speed`` [m/s]: ``f_0 + f_1 v + f_2 v^2`` [1]."""
+    v = np.asarray(speed, float)
+    return p.rolling_resistance + (p.rolling_resistance_linear + p.rolling_resistance_quadratic * v) * v
+
+
 def fade(speed: np.ndarray) -> np.ndarray:
     """Regeneration fade-in [1] at speed [m/s]: 0 below 5 km/h, 1 above 9 km/h, linear between."""
     kmh = np.asarray(speed, float) * 3.6
@@ -174,7 +190,7 @@ def drive_segments(
     theta = np.arctan(0.5 * (cycle.grade[:-1] + cycle.grade[1:]))
     rho_air = 101325.0 / (287.05 * T_amb)
     force = (
-        p.mass * GRAVITY * p.rolling_resistance * np.cos(theta) * (v > 0)
+        p.mass * GRAVITY * rolling_coefficient(p, v) * np.cos(theta) * (v > 0)
         + 0.5 * rho_air * p.drag_coefficient * p.frontal_area * v**2
         + p.mass * GRAVITY * np.sin(theta)
         + p.effective_mass * a
