@@ -310,7 +310,8 @@ def run_cycle(
         fluid = fluid or Fluid(params.fluid, params.backend)
         models, saturation = DirectModels(params, fluid), fluid.saturation_curve()
     else:  # no CoolProp needed where the cache has the saturation curve
-        compiled = len(points) >= COMPILED_FROM_POINTS if compiled is None else compiled
+        if compiled is None:  # the compiled closure reads compiled LUTs
+            compiled = closure == "compiled" or len(points) >= COMPILED_FROM_POINTS
         models, saturation = LutModels(luts, circuit.components, compiled), saturation_curve(luts, fluid)
     solver = CycleSolver(models, saturation, circuit, closure)
     result = solver.solve(points)

@@ -110,7 +110,26 @@ def packed(ctx: SolveContext, component: str, inputs: tuple[str, ...], ops: Ops,
     check = approach[0] if lut.secondary else 0
     rows = np.array([check, *approach, len(variables), *(variables.index(v) for v in names)], np.int64)
     tsec = ops[source[lut.secondary]].copy() if lut.secondary else np.zeros(n)
-    return (lut._lo, lut._hi, itp._floats, itp._ints, itp._kernel_values, rows, src, base, tsec), off
+    table = (lut._lo, lut._hi, itp._floats, itp._ints, itp._kernel_values, rows, src, base, tsec)
+    return (*table, *_no_heat(lut)), off
+
+
+def _no_heat(lut) -> tuple:
+    """The share of a cell's weight on nodes where no heat flows (the refrigerant on the wrong side
+    of its secondary stream), as the kernel reads it: ``(floats, ints, values, on)``; ``on`` 0
+    where the LUT has no such nodes (the arrays then unused)."""
+    if lut._no_heat_table is None:
+        return _NO_TABLE
+    if lut._no_heat is None:
+        lut._no_heat = lut._no_heat_table()
+    itp = lut._no_heat
+    if not itp.compiled:
+        return _NO_TABLE
+    return itp._floats, itp._ints, itp._kernel_values, 1
+
+
+#: No no-heat table (the kernel does not read its arrays).
+_NO_TABLE = (np.zeros(8), np.zeros(8, np.int64), np.zeros((1, 1)), 0)
 
 
 @dataclass(frozen=True)
@@ -155,11 +174,12 @@ def compiled_roots(
     n, limits = ops["speed"].size, ctx.models.limits()
     state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess)
     guesses = {"t_guess": t_guess, "outer_slope": outer_slope}
-    rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses)
+    rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses, kernel.OPS_ROWS)
     vapour, dh = ctx.models.luts[ctx.names[0]]._vapour_args
     sat = (ctx.sat._log_p, ctx.sat.T, ctx.sat.h_l)
     out = np.empty((6, n))
-    kernel.solve_points(*(p[0] for p in parts), rows, sat, vapour, dh, SUPERHEAT_MIN, _tolerances(state), out)
+    tol = _tolerances(state, kernel.TOLERANCES)
+    kernel.solve_points(*(p[0] for p in parts), rows, sat, vapour, dh, SUPERHEAT_MIN, tol, out)
     return CompiledRoots(*out[:5], solved=out[5] == 1.0)
 
 
@@ -191,7 +211,10 @@ def solve_closure(
         res = _scatter(None, n, k, _final(ctx, take(ops, k), roots, k, limits))
         _put_state(state, k, _served_state(roots, k, limits, ctx))
     if rest.size:
-        part = {name: v if v is None or np.ndim(v) == 0 else np.asarray(v)[rest] for name, v in guesses.items()}
+        part = {
+            name: v if v is None or np.ndim(v) == 0 else np.broadcast_to(np.asarray(v, float), (n,))[rest]
+            for name, v in guesses.items()
+        }
         r, sub = solve_at(ctx, take(ops, rest), **part)
         res = _scatter(res, n, rest, r)
         _put_state(state, rest, sub)
@@ -225,8 +248,8 @@ def _parts(ctx: SolveContext, ops: Ops) -> list | None:
     return None if any(p is None for p in parts) else parts
 
 
-def _kernel_inputs(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, parts: list, guesses: dict):
-    """The kernel's per-point rows (:func:`evtms.cycle._closure_kernel.solve_points`)."""
+def _kernel_inputs(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, parts: list, guesses: dict, names):
+    """The kernel's per-point rows, by their ``names`` (:data:`evtms.cycle._closure_kernel.OPS_ROWS`)."""
     sat = ctx.sat
     T_sec = secondary_temperature(ctx, ops)
     lo, _, hi, _ = _suction_range(ctx, ops, limits, T_sec)
@@ -236,44 +259,41 @@ def _kernel_inputs(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState,
         served &= ~off
     cold = T_sec - SUCTION_GUESS_BELOW
     given = guesses["t_guess"]
-    t_guess = cold if given is None else np.where(np.isfinite(given), given, cold)
-    return np.stack(
-        np.broadcast_arrays(
-            np.where(served, sat.temperature(lo), np.nan),
-            sat.temperature(hi),
-            t_guess,
-            np.asarray(guesses["outer_slope"], float),
-            condensing_secondary(ctx, ops),
-            ops["superheat"],
-            state.p_B,
-            state.dp,
-            state.p_discharge[0],
-            state.p_discharge[1],
-        )
-    ).astype(float)
+    rows = {
+        "t_lo": np.where(served, sat.temperature(lo), np.nan),
+        "t_hi": sat.temperature(hi),
+        "t_guess": cold if given is None else np.where(np.isfinite(given), given, cold),
+        "outer_slope": np.asarray(guesses["outer_slope"], float),
+        "T_cond_sec": condensing_secondary(ctx, ops),
+        "superheat": ops["superheat"],
+        "p_B": state.p_B,
+        "dp": state.dp,
+        "p_dis_lo": state.p_discharge[0],
+        "p_dis_hi": state.p_discharge[1],
+    }
+    return np.stack(np.broadcast_arrays(*(rows[k] for k in names))).astype(float)
 
 
-def _tolerances(state: SolveState) -> np.ndarray:
-    """The kernel's constants, in its order (:func:`evtms.cycle._closure_kernel.solve_points`)."""
-    return np.array(
-        [
-            OUTER_FTOL,
-            INNER_FTOL,
-            XTOL,
-            CP_SCALE,
-            DP_TOL,
-            DP_PASSES,
-            *state.pr,
-            INNER_SLOPE,
-            DISCHARGE_FLOOR_ABOVE,
-            DISCHARGE_GUESS_ABOVE,
-            INNER_MAX_STEP,
-            OUTER_MAX_STEP,
-            COLD_OVERSHOOT,
-            SLOPE_SPAN,
-        ],
-        float,
-    )
+def _tolerances(state: SolveState, names) -> np.ndarray:
+    """The kernel's constants, by their ``names`` (:data:`evtms.cycle._closure_kernel.TOLERANCES`)."""
+    values = {
+        "outer_ftol": OUTER_FTOL,
+        "inner_ftol": INNER_FTOL,
+        "xtol": XTOL,
+        "cp_scale": CP_SCALE,
+        "dp_tol": DP_TOL,
+        "dp_passes": DP_PASSES,
+        "pr_lo": state.pr[0],
+        "pr_hi": state.pr[1],
+        "inner_slope": INNER_SLOPE,
+        "discharge_floor_above": DISCHARGE_FLOOR_ABOVE,
+        "discharge_guess_above": DISCHARGE_GUESS_ABOVE,
+        "inner_max_step": INNER_MAX_STEP,
+        "outer_max_step": OUTER_MAX_STEP,
+        "overshoot": COLD_OVERSHOOT,
+        "slope_span": SLOPE_SPAN,
+    }
+    return np.array([values[k] for k in names], float)
 
 
 def _reasons(n: int) -> np.ndarray:
