@@ -43,6 +43,7 @@ import numpy as np
 
 from evtms._jit import load_numba
 from evtms.cycle._component_kernel import evaluate_in
+from evtms.hx._kernels import interp
 from evtms.luts._kernels import NAN, interpolate_in, scratch
 
 numba = load_numba()
@@ -62,24 +63,6 @@ _MAXITER = 80
 
 
 @_njit
-def _interp(x, xp, fp):
-    """``numpy.interp(x, xp, fp)`` of one finite ``x`` inside ``[xp[0], xp[-1]]``, the same
-    arithmetic (numba's own is several times slower to compile)."""
-    if x == xp[-1]:
-        return fp[-1]
-    lo, hi = 0, xp.size - 1
-    while hi - lo > 1:  # xp[lo] <= x < xp[hi]
-        mid = (lo + hi) // 2
-        if xp[mid] <= x:
-            lo = mid
-        else:
-            hi = mid
-    if x == xp[lo]:
-        return fp[lo]
-    return (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo]) * (x - xp[lo]) + fp[lo]
-
-
-@_njit
 def _t_sat(p, log_p, T):
     """Saturation temperature [K] at ``p`` [Pa], linear in ln p; NaN outside the table."""
     return _at_p(p, log_p, T)
@@ -90,7 +73,7 @@ def _p_sat(t, log_p, T):
     """Saturation pressure [Pa] at ``t`` [K]; NaN outside the table."""
     if not (t >= T[0] and t <= T[-1]):
         return np.nan
-    return math.exp(_interp(t, T, log_p))
+    return math.exp(interp(t, T, log_p))
 
 
 @_njit
@@ -99,7 +82,7 @@ def _at_p(p, log_p, table):
     x = math.log(p) if p > 0 else np.nan
     if not (x >= log_p[0] and x <= log_p[-1]):
         return np.nan
-    return _interp(x, log_p, table)
+    return interp(x, log_p, table)
 
 
 @_njit
