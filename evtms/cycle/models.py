@@ -361,7 +361,7 @@ class _LutComponent:
                 continue
             x = query[d]
             if not (type(x) is np.ndarray and x.ndim == 1 and x.size == n and x.dtype == np.float64):
-                x = np.broadcast_to(np.asarray(x, float), (n))
+                x = np.broadcast_to(np.asarray(x, float), (n,))
             off = ~((x >= lo) & (x <= hi))
             if off.any():
                 outside.append((off, lambda i, d=d, x=x, lo=lo, hi=hi: _outside_axis(self.component, d, x[i], lo, hi)))
@@ -369,7 +369,7 @@ class _LutComponent:
         outside += self._fixed_off(query, n)
         out = itp(cols)
         if self.secondary is not None:
-            T_sec = np.broadcast_to(np.asarray(query[self.secondary], float), (n))
+            T_sec = np.broadcast_to(np.asarray(query[self.secondary], float), (n,))
             out[OUTLET] = outlet_enthalpy(out.pop(APPROACH), out["p_out"], T_sec, self.vapour, self.compiled)
         if self.detailed and self.extra is not None:
             out.update(self.extra(cols))
@@ -385,7 +385,7 @@ class _LutComponent:
         for axis in self._fixed_axes:
             if axis in query:
                 fixed = self.fixed[axis]
-                x = np.broadcast_to(np.asarray(query[axis], float), (n))
+                x = np.broadcast_to(np.asarray(query[axis], float), (n,))
                 off = ~(np.abs(x - fixed) <= 1e-9 * max(abs(fixed), 1.0))
                 if off.any():
                     outside.append(
@@ -611,7 +611,7 @@ class LutModels:
             if axis not in lut.ranges or name not in ops:
                 continue
             lo, hi = lut.ranges[axis]
-            x = np.broadcast_to(np.asarray(ops[name], float), (n))
+            x = np.broadcast_to(np.asarray(ops[name], float), (n,))
             for i in np.nonzero(~((x >= lo) & (x <= hi)) & (reasons == ""))[0]:
                 reasons[i] = _outside_axis(component, axis, x[i], lo, hi)
         return reasons
