@@ -96,12 +96,16 @@ _HP_PERFORMANCE = (
 )
 
 
+def _heat_pump(components: tuple[str, ...]) -> bool:
+    """Whether a circuit of ``components`` is the heat pump: the WCC condenses alone."""
+    return "wcc" in components and "condenser" not in components
+
+
 def _performance(components: tuple[str, ...]) -> list[tuple]:
     """The performance rows that apply to a circuit of ``components``."""
-    have = set(components)
-    if "wcc" in have and "condenser" not in have:  # the WCC alone condenses: the heat pump
+    if _heat_pump(components):
         return list(_HP_PERFORMANCE)
-    return [row for row in _PERFORMANCE if set(_PERFORMANCE_NEEDS.get(row[0], ())) <= have]
+    return [row for row in _PERFORMANCE if set(_PERFORMANCE_NEEDS.get(row[0], ())) <= set(components)]
 
 
 #: Input options whose parameter is not the input's name (evtms.cycle.topology.INPUTS).
@@ -176,8 +180,7 @@ def cycle_run(json_out: JsonOut = False, **options) -> None:
         return
     v = p.values
     typer.echo(f"{'state':<26} {'p [MPa]':>9} {'T [degC]':>9} {'h [kJ/kg]':>10}")
-    heat_pump = "wcc" in p.components and "condenser" not in p.components
-    for s, label in (_HP_STATES if heat_pump else _STATES).items():
+    for s, label in (_HP_STATES if _heat_pump(p.components) else _STATES).items():
         typer.echo(f"{label:<26} {v['p_' + s] / 1e6:9.4f} {v['T_' + s] - 273.15:9.2f} {v['h_' + s] / 1e3:10.2f}")
     for key, label, scale, unit, _ in rows:
         typer.echo(f"{label:<26} {scale * v[key]:10.4g} {unit}")

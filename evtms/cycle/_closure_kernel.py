@@ -263,7 +263,7 @@ IN_FLIGHT = 32
 
 
 @_njit
-def _ask(v, dyn, wait, g, what, mdot, p_in, h_in, T_in, pr):
+def _ask(dyn, wait, g, what, mdot, p_in, h_in, T_in, pr):
     """Point slot ``g`` waits for ``what`` at the closure's variables (mdot, p_in, h_in, T_in, pr)."""
     dyn[g, 0], dyn[g, 1], dyn[g, 2], dyn[g, 3], dyn[g, 4] = mdot, p_in, h_in, T_in, pr
     wait[g] = what
@@ -276,7 +276,7 @@ def _discharge_trial(v, dyn, wait, g, t_B, sat):
     p_B = _p_sat(t_B, sat[0], sat[1])
     v[g, _PB_TRIAL] = p_B
     p_A = v[g, _PA]
-    _ask(v, dyn, wait, g, _W_COMP, np.nan, p_A, np.nan, v[g, _TSUC], p_B / p_A)
+    _ask(dyn, wait, g, _W_COMP, np.nan, p_A, np.nan, v[g, _TSUC], p_B / p_A)
 
 
 @_njit
@@ -297,17 +297,16 @@ def _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol):
 
 @_njit
 def _begin(v, so, si, dyn, wait, point, g, i, ops, sat, tol, out):
-    """Put point ``i`` in slot ``g``; False where it is not served (handed back at once)."""
+    """Put point ``i`` in slot ``g``; where it is not served (handed back at once) the slot stays free."""
     out[:, i] = np.nan
     out[5, i] = 0.0
     if not (ops[_R_TLO, i] < ops[_R_THI, i]):  # not served, or an empty range
-        return False
+        return
     point[g] = i
     v[g, :] = np.nan
     v[g, _PB], v[g, _DP] = ops[_R_PB, i], ops[_R_DP, i]
     v[g, _TA] = root_begin(so[g], ops[_R_TLO, i], ops[_R_THI, i], ops[_R_TGUESS, i], ops[_R_OSLOPE, i])
     _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol)
-    return True
 
 
 @_njit
@@ -340,7 +339,7 @@ def _take_result(r, none, rows, v, so, si, dyn, wait, point, g, ops, sat, tol, o
     what = wait[g]
     if what == _W_COMP:
         v[g, _MDOT], v[g, _HA] = r[rows[4]], r[rows[5]]
-        _ask(v, dyn, wait, g, _W_COND, r[rows[4]], v[g, _PB_TRIAL], r[rows[6]], np.nan, np.nan)
+        _ask(dyn, wait, g, _W_COND, r[rows[4]], v[g, _PB_TRIAL], r[rows[6]], np.nan, np.nan)
     elif what == _W_COND:
         v[g, _PC] = r[rows[5]]
         phase = si[g, _PHASE]
@@ -355,7 +354,7 @@ def _take_result(r, none, rows, v, so, si, dyn, wait, point, g, ops, sat, tol, o
             v[g, _PB] = _p_sat(t_B, sat[0], sat[1])
             v[g, _HD] = _at_p(v[g, _PC], sat[0], sat[2])
             v[g, _PASS] = 0.0
-            _ask(v, dyn, wait, g, _W_DROP, v[g, _MDOT], v[g, _PA] + v[g, _DP], v[g, _HD], np.nan, np.nan)
+            _ask(dyn, wait, g, _W_DROP, v[g, _MDOT], v[g, _PA] + v[g, _DP], v[g, _HD], np.nan, np.nan)
         else:  # no discharge root: the superheat residual is NaN here
             _suction_residual(v, so, si, dyn, wait, point, g, np.nan, ops, sat, tol, out)
     elif what == _W_DROP:  # a pass of the drop's fixed point, then the superheat at it
@@ -365,7 +364,7 @@ def _take_result(r, none, rows, v, so, si, dyn, wait, point, g, ops, sat, tol, o
         v[g, _DP] = new
         v[g, _PASS] += 1.0
         step = _W_DROP if (moving and v[g, _PASS] < tol[_DP_PASSES]) else _W_SH
-        _ask(v, dyn, wait, g, step, v[g, _MDOT], v[g, _PA] + new, v[g, _HD], np.nan, np.nan)
+        _ask(dyn, wait, g, step, v[g, _MDOT], v[g, _PA] + new, v[g, _HD], np.nan, np.nan)
     else:  # an inlet not colder than the air evaporates nothing: the outlet stays at h_D (closure.suction_side)
         h_out = v[g, _HD] if (none and math.isfinite(v[g, _HD])) else r[rows[4]]
         f = (h_out - v[g, _HA]) / tol[_CP_SCALE]
@@ -450,8 +449,8 @@ def solve_points(comp, cond, evap, ops, sat, vapour, dh, sh_min, tol, out):
     ----------
     comp, cond, evap : tuple
         The compressor's, the condensing component's and the evaporating branch's LUTs:
-        ``(lo, hi, floats, ints, values, rows, src, base, tsec)`` (see
-        :func:`evtms.cycle.compiled.packed`).
+        ``(lo, hi, floats, ints, values, rows, src, base, tsec)`` and their no-heat indicator
+        ``(floats, ints, values, on)`` (see :func:`evtms.cycle.compiled.packed`).
     ops : (10, n) float64
         Per point, the rows :data:`OPS_ROWS` names: the suction search's ends [K] (NaN: not
         served), its first guess [K] and slope [1/K], the condensing side's secondary inlet

@@ -118,12 +118,8 @@ def _no_heat(lut) -> tuple:
     """The share of a cell's weight on nodes where no heat flows (the refrigerant on the wrong side
     of its secondary stream), as the kernel reads it: ``(floats, ints, values, on)``; ``on`` 0
     where the LUT has no such nodes (the arrays then unused)."""
-    if lut._no_heat_table is None:
-        return _NO_TABLE
-    if lut._no_heat is None:
-        lut._no_heat = lut._no_heat_table()
-    itp = lut._no_heat
-    if not itp.compiled:
+    itp = lut.no_heat_indicator()
+    if itp is None or not itp.compiled:
         return _NO_TABLE
     return itp._floats, itp._ints, itp._kernel_values, 1
 
@@ -203,13 +199,14 @@ def solve_closure(
     limits = ctx.models.limits()
     k = np.nonzero(roots.solved)[0]
     rest = np.nonzero(~roots.solved)[0]
+    served = _served_state(roots, k, limits, ctx)
     if rest.size == 0:  # the usual batch: every point served
-        return _final(ctx, ops, roots, k, limits), _served_state(roots, k, limits, ctx)
+        return _final(ctx, ops, roots.p_A[k], served), served
     state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess)
     res = None
     if k.size:
-        res = _scatter(None, n, k, _final(ctx, take(ops, k), roots, k, limits))
-        _put_state(state, k, _served_state(roots, k, limits, ctx))
+        res = _scatter(None, n, k, _final(ctx, take(ops, k), roots.p_A[k], served))
+        _put_state(state, k, served)
     if rest.size:
         part = {
             name: v if v is None or np.ndim(v) == 0 else np.broadcast_to(np.asarray(v, float), (n,))[rest]
@@ -229,11 +226,12 @@ def _served_state(roots: CompiledRoots, k: np.ndarray, limits: dict, ctx: SolveC
     return state
 
 
-def _final(ctx: SolveContext, ops: Ops, roots: CompiledRoots, k: np.ndarray, limits: dict) -> dict:
-    """The components at the served points' roots with every output (``ops`` of those points)."""
+def _final(ctx: SolveContext, ops: Ops, p_A: np.ndarray, state: SolveState) -> dict:
+    """The components at the served points' suction roots ``p_A`` [Pa] and their ``state``, with
+    every output (``ops`` of those points)."""
     ctx.models.subcooled_targets(False)
-    status = np.full(k.size, STATUS_CONVERGED, np.int8)
-    return final_states(ctx, _served_state(roots, k, limits, ctx), ops, roots.p_A[k], status, _reasons(k.size))
+    status = np.full(p_A.size, STATUS_CONVERGED, np.int8)
+    return final_states(ctx, state, ops, p_A, status, _reasons(p_A.size))
 
 
 def _parts(ctx: SolveContext, ops: Ops) -> list | None:

@@ -408,9 +408,7 @@ class _LutComponent:
             none = np.zeros(n, bool)
             if nan.any():
                 k = np.nonzero(nan)[0]
-                if self._no_heat is None:
-                    self._no_heat = self._no_heat_table()
-                share = self._no_heat(columns(k))["no_heat_flow"]
+                share = self.no_heat_indicator()(columns(k))["no_heat_flow"]
                 none[k[share > 0]] = True  # NaN shares (other invalid nodes) compare False
                 nan &= ~none
             out["no_heat_flow"] = none
@@ -418,6 +416,14 @@ class _LutComponent:
             reasons[nan] = f"{self.component} LUT: invalid (NaN) point in the interpolation cell"
         out["reason"] = reasons
         return out
+
+    def no_heat_indicator(self):
+        """The interpolator of the share of a cell's weight on nodes where no heat flows (the
+        refrigerant on the wrong side of its secondary stream), built (and cached) on first use;
+        None where the LUT has no such status."""
+        if self._no_heat is None and self._no_heat_table is not None:
+            self._no_heat = self._no_heat_table()
+        return self._no_heat
 
     def _kernel_for(self, itp):
         """The compiled evaluation (:mod:`evtms.cycle._component_kernel`) where ``itp`` is compiled

@@ -193,9 +193,9 @@ class CycleSolver:
         Where the pressure roots are found: the compiled kernel (:mod:`evtms.cycle.compiled`, on
         compiled LUTs of a one-branch circuit; the points it cannot solve go to the Python path),
         or the vectorised Python path (:mod:`evtms.cycle.closure`); ``auto``: the kernel for
-        batches of at most :data:`KERNEL_BATCH_MAX` points. The two agree to within the
-        closures' tolerances, so a job that must give the same bits however it is split into
-        batches (the simulator's maps) fixes it.
+        batches of at most :data:`KERNEL_BATCH_MAX` points. The two agree to round-off, so a
+        job that must give the same bits however it is split into batches (the simulator's
+        maps) fixes it.
     """
 
     #: Maximum over nominal opening of the valve (its maximum over nominal capacity), set by solve.
