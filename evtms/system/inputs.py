@@ -14,7 +14,12 @@ where an input is not given, so the controller's own law applies):
   section 4.4);
 - ``SP_CoHX`` [K]: the coolant temperature at the heater core's inlet
   (thesis ``SP_T_C_CoHX_in``, section 4.5);
-- ``blower`` [1]: a fixed blower command in place of the blower law.
+- ``blower`` [1]: a fixed blower command in place of the blower law;
+- ``SP_vent`` [K]: the vent (supply) air target in place of the cabin
+  loop's feed-forward and PI: what a supervisory controller
+  (:mod:`evtms.system.mpc`) or a trace of one sets; the requests, the
+  evaporator and heater loops and every relay follow it as they follow
+  the law's target, clipped to ``T_vent_min``..``T_vent_max``.
 
 Users give each input as a number (SI) or as ``"FILE.csv:column"``, a
 trace: a CSV file with a ``time_s`` column and named columns in SI units
@@ -45,7 +50,7 @@ from evtms.errors import EvtmsInputError
 from evtms.paths import csv_rows, read_small_text
 
 #: Inputs in the loop's column order.
-INPUT_NAMES = ("Q_battery_ext", "hvac_inlet_T", "hvac_inlet_rh", "SP_evap", "SP_CoHX", "blower")
+INPUT_NAMES = ("Q_battery_ext", "hvac_inlet_T", "hvac_inlet_rh", "SP_evap", "SP_CoHX", "blower", "SP_vent")
 #: Allowed range per input (both ends included) and its units.
 INPUT_RANGES: dict[str, tuple[float, float, str]] = {
     "Q_battery_ext": (-50e3, 50e3, "W"),
@@ -54,6 +59,7 @@ INPUT_RANGES: dict[str, tuple[float, float, str]] = {
     "SP_evap": (273.15, 298.15, "K"),
     "SP_CoHX": (288.15, 363.15, "K"),
     "blower": (0.0, 1.0, "1"),
+    "SP_vent": (273.15, 343.15, "K"),
 }
 
 
@@ -114,7 +120,7 @@ def per_step(inputs: Mapping[str, InputValue] | None, edges: np.ndarray) -> np.n
 
 
 #: Inputs given in K (shown in degC on the command line, as ``--t-amb``).
-KELVIN_INPUTS = ("hvac_inlet_T", "SP_evap", "SP_CoHX")
+KELVIN_INPUTS = ("hvac_inlet_T", "SP_evap", "SP_CoHX", "SP_vent")
 #: Each input named as a request's field (```blower```), as messages name the inputs a request gives.
 FIELD_LABELS = {name: f"`{name}`" for name in INPUT_NAMES}
 #: Modes that can run the cabin coil or a heater: a fixed blower of 0 is refused with them (spec 2.3).

@@ -87,7 +87,8 @@ MODE_NAMES = ("off", "BH", "BC", "CC", "CH", "CH+BH", "CH+BC", "CC+BC")
 (
     F_POWER_LIMITED, F_REF_CLIPPED, F_SURROGATE_OOR, F_REGEN_CUT, F_FREEZE_CUTOFF, F_TRACTION_CUT,
     F_PHYSICS_FALLBACK, F_ECONOMY, F_REHEAT, F_KEY_OFF, F_SAFETY_RELAY, F_FROST_OUTSIDE, F_HP_BACKUP, F_HP_LOCKED,
-) = (1 << i for i in range(14))  # fmt: skip
+    F_CONTROLLER_FALLBACK,
+) = (1 << i for i in range(15))  # fmt: skip
 FLAG_NAMES = (
     "power_limited",
     "ref_clipped",
@@ -103,6 +104,7 @@ FLAG_NAMES = (
     "frost_outside_hx",
     "hp_backup",
     "hp_locked",
+    "controller_fallback",  # set by the supervisory controller's runner (evtms.system.controllers), not the loop
 )
 
 # Where the refrigerant loop's steady targets come from (``source``).
@@ -145,8 +147,8 @@ Y_PS, Y_PD, Y_MDOT, Y_QEVAP, Y_QLAT, Y_QCH, Y_QCOND, Y_W, Y_WFLUID = range(9)
 N_Y = 9
 
 # Columns of ``ext``, the external inputs per step (evtms.system.inputs.INPUT_NAMES order; NaN: not given).
-X_Q_BATTERY, X_INLET_T, X_INLET_RH, X_SP_EVAP, X_SP_COHX, X_BLOWER = range(6)
-N_X = 6
+X_Q_BATTERY, X_INLET_T, X_INLET_RH, X_SP_EVAP, X_SP_COHX, X_BLOWER, X_SP_VENT = range(7)
+N_X = 7
 
 # Packed parameters.
 (
@@ -677,6 +679,11 @@ def run_loop(
         q_load = par[P_UA_SHELL] * (T_amb - T_set) + par[P_Q_SUN] + par[P_Q_OCC]
         e_cab = T_set - Ta
         tvs_raw = T_set - q_load / (mdot_ff * _CP_AIR) + par[P_VENT_KP] * e_cab + mem[M_I_VENT]
+        # A given vent target (a supervisory controller's, or a trace) replaces the cabin loop's law; the
+        # integral then rests, so the law takes over where it left off.
+        vent_given = not math.isnan(ext[n, X_SP_VENT])
+        if vent_given:
+            tvs_raw = ext[n, X_SP_VENT]
         T_vs = min(max(tvs_raw, par[P_TV_MIN]), par[P_TV_MAX])
         up_blocked = tvs_raw >= par[P_TV_MAX] or mem[M_SAT_UP] > 0.0
         dn_blocked = tvs_raw <= par[P_TV_MIN] or mem[M_SAT_DN] > 0.0
@@ -685,7 +692,12 @@ def run_loop(
         # with the key off or in a battery-only mode it holds, else it winds the vent target 10 K off while
         # nothing follows it, and the next request starts from there.
         acting = (cool or heat or econ) if forced < 0 else forced_cabin
-        if not key_off and acting and not ((e_cab > 0.0 and up_blocked) or (e_cab < 0.0 and dn_blocked)):
+        if (
+            not key_off
+            and acting
+            and not vent_given
+            and not ((e_cab > 0.0 and up_blocked) or (e_cab < 0.0 and dn_blocked))
+        ):
             i_vent += par[P_VENT_KP] / par[P_VENT_TI] * e_cab * dt
         span = par[P_TV_MAX] - par[P_TV_MIN]
         i_vent = min(max(i_vent, -span), span)
@@ -725,7 +737,12 @@ def run_loop(
                 vent_exit = tvs_f > T_in_c - 0.5 and comp_rested
                 if t - t_cool >= hold and (vent_exit or clr_cool >= par[P_T_CLEAR] or econ):
                     cool = False
-            elif tvs_f < T_in_c - 2.0 and tcab_f > T_set + band and T_amb >= par[P_AC_TAMB_MIN] and not econ:
+            elif (
+                tvs_f < T_in_c - 2.0
+                and (vent_given or tcab_f > T_set + band)
+                and T_amb >= par[P_AC_TAMB_MIN]
+                and not econ
+            ):
                 cool = True
                 t_cool = t
                 clr_cool = 0.0
@@ -736,7 +753,7 @@ def run_loop(
                     clr_heat = 0.0
                 if cool or (t - t_heat >= hold and (tvs_f < T_in_h + 0.5 or clr_heat >= par[P_T_CLEAR])):
                     heat = False
-            elif tvs_f > T_in_h + 2.0 and tcab_f < T_set - band and not cool:
+            elif tvs_f > T_in_h + 2.0 and (vent_given or tcab_f < T_set - band) and not cool:
                 heat = True
                 t_heat = t
                 clr_heat = 0.0
@@ -858,8 +875,9 @@ def run_loop(
             e_ev = T_ev - T_ev_t
             if not comp_on:
                 # Not back on into a cabin already below its band: below a small load the minimum speed's
-                # 30 s on phases would otherwise stack up and overcool it (a given SP_evap restarts on its air).
-                cabin_wants = sp_evap_given or tcab_f > T_set - band
+                # 30 s on phases would otherwise stack up and overcool it (a given SP_evap or vent target restarts
+                # on its air: the controller that gives it holds the cabin).
+                cabin_wants = sp_evap_given or vent_given or tcab_f > T_set - band
                 coil_warm = T_ev > T_ev_t + par[P_DT_CYC] and T_ev >= par[P_TFR_ON]
                 if coil_warm and cabin_wants and t - t_comp >= par[P_T_OFF_MIN]:
                     comp_on = True
