@@ -24,6 +24,7 @@ _INPUT_HELP = {
     "sp_evap": ("--sp-evap", "Evaporator outlet air setpoint [degC], or FILE.csv:column [K]."),
     "sp_cohx": ("--sp-cohx", "Heater-core coolant inlet setpoint [degC] (ptc_coolant), or FILE.csv:column [K]."),
     "blower": ("--blower", "Fixed blower command [0-1] (not 0 with auto, cc or ch), or FILE.csv:column."),
+    "sp_vent": ("--sp-vent", "Vent air target [degC] in place of the cabin loop's, or FILE.csv:column [K]."),
 }
 #: Option parameter -> input name (evtms.system.inputs.INPUT_NAMES).
 _INPUT_OF = {
@@ -33,6 +34,7 @@ _INPUT_OF = {
     "sp_evap": "SP_evap",
     "sp_cohx": "SP_CoHX",
     "blower": "blower",
+    "sp_vent": "SP_vent",
 }
 
 
@@ -48,6 +50,7 @@ def _input_options(
     sp_evap: Annotated[str | None, _input_option("sp_evap")] = None,
     sp_cohx: Annotated[str | None, _input_option("sp_cohx")] = None,
     blower: Annotated[str | None, _input_option("blower")] = None,
+    sp_vent: Annotated[str | None, _input_option("sp_vent")] = None,
 ) -> None:
     """The external-input options of 'evtms simulate' (see :func:`with_options`)."""
 
@@ -124,6 +127,19 @@ _Heating = Annotated[
 ]
 
 
+Controller = Annotated[
+    str,
+    typer.Option(
+        "--controller",
+        help="Who sets the cabin's vent air and blower: rules (the climate control) or mpc (a predictive "
+        "controller above the same local loops and safety relays; needs the extra 'mpc').",
+    ),
+]
+Horizon = Annotated[float, typer.Option("--horizon", help="MPC horizon [s], 30 to 1800.")]
+ControlStep = Annotated[float, typer.Option("--control-step", help="MPC step [s], 1 to 60.")]
+Preview = Annotated[str, typer.Option("--preview", help="MPC preview of the speed trace: perfect, none or noisy.")]
+
+
 @with_options(_input_options, at=15)
 def simulate(
     output: Annotated[Path, typer.Option("--output", "-o", help="Output netCDF file.")],
@@ -142,6 +158,10 @@ def simulate(
     surrogates: _Surrogates = Path("models"),
     range_test: _RangeTest = "single",
     heating: _Heating = None,
+    controller: Controller = "rules",
+    horizon: Horizon = 180.0,
+    control_step: ControlStep = 10.0,
+    preview: Preview = "perfect",
     json_out: JsonOut = False,
     **inputs: str | None,
 ) -> None:

@@ -23,6 +23,7 @@ import numpy as np
 
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
+from evtms.system.controllers import ControlContext, SupervisionLog, Supervisor, run_supervised
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.edrive import MOTOR_REQUIREMENT, core_table, jacket_slots
 from evtms.system.inputs import INPUT_NAMES, InputValue, check_inputs, per_step
@@ -393,6 +394,7 @@ def simulate(
     mode_models: ModeModels | None = None,
     keep_trace: bool = False,
     inputs: Mapping[str, InputValue] | None = None,
+    controller: Supervisor | None = None,
 ) -> SimulationResult:
     """Simulate the vehicle's thermal system over a drive cycle.
 
@@ -443,6 +445,11 @@ def simulate(
         on the cycle's clock (preconditioning shifts them with the cycle).
         Checked by :func:`evtms.system.inputs.check_inputs` (a blower of 0
         with a mode that runs the cabin coil or a heater is refused).
+    controller : Supervisor, optional
+        A supervisory controller (:mod:`evtms.system.controllers`, e.g.
+        :class:`evtms.system.mpc.CabinMpc`) that sets the vent-air target
+        and the blower every period in place of the rules' cabin loop;
+        None: the rules alone.
 
     Returns
     -------
@@ -493,7 +500,10 @@ def simulate(
         states, out, modes, flags, ext,
     )  # fmt: skip
     loop0 = time.perf_counter()
-    done, solves, stop = _run_loop(args, model, refrigerant, mode_models)
+    context = None
+    if controller is not None:
+        context = ControlContext(par, edges, p_motor[:, 4].copy(), p_motor[:, 3] > 0.0, refrigerant)
+    done, solves, stop, control_log = _run_loop(args, model, refrigerant, mode_models, controller, context)
     loop_time = time.perf_counter() - loop0
     termination = L.STOP_NAMES[stop]
     edges, dts = edges[: done + 1], dts[:done]
@@ -526,6 +536,8 @@ def simulate(
         "range_km": float(usable_energy(params) / max(E, 1e-9) * distance_km) if distance_km > 0 else None,
         "T_cabin_end_degC": float(states[-1, L.S_TA] - 273.15),
         "T_battery_end_degC": float(states[-1, L.S_TB] - 273.15),
+        "T_battery_min_degC": float(np.min(states[:, L.S_TB]) - 273.15),
+        "T_battery_max_degC": float(np.max(states[:, L.S_TB]) - 273.15),
         "T_amb_degC": float(T_amb - 273.15),
         "termination": termination,
         "ledger_worst": float(max(ledger.values())),
@@ -539,6 +551,8 @@ def simulate(
         "surrogate_out_of_range_fraction": float(np.mean((flags & L.F_SURROGATE_OOR) > 0)) if done else 0.0,
         "heating": params.hvac.heating,
         **climate_metrics(states, out, modes, dts, params.cabin.T_set, precondition),
+        "controller": "rules" if controller is None else controller.name,
+        **(control_log.summary() if control_log is not None else {}),
     }
     attrs = {
         "scenario": scenario,
@@ -632,6 +646,9 @@ def climate_metrics(
     - ``cabin_dev_max_K``: largest deviation [K] of that mean from ``T_set`` after ``t_pulldown_s``;
     - ``mode_changes``, ``mode_changes_after_pulldown`` and their rate per 30 min after it;
     - ``compressor_starts`` (off-to-on steps, cycling included) and per 30 min after the pull-down;
+    - ``cabin_rms_K``: RMS deviation [K] of the cabin air from ``T_set`` after ``t_pulldown_s``, and
+      ``cabin_minutes_outside``: minutes after it with the 60-s mean more than 1 K off (the comfort figures the
+      controllers are compared on);
     - ``T_evap_air_min_degC``, ``T_supply_min_degC``: the coldest step means of evaporator and vent air.
     """
     t = np.concatenate(([0.0], np.cumsum(dts))) - precondition
@@ -645,6 +662,12 @@ def climate_metrics(
     if t_pd is not None:
         after = t >= t_pd
         res["cabin_dev_max_K"] = float(np.nanmax(np.abs(mean60[after] - T_set)))
+        late = after[1:]  # steps starting at or after the pull-down, weighted by their length
+        dev = 0.5 * (states[1:, L.S_TA] + states[:-1, L.S_TA]) - T_set
+        span_s = float(np.sum(dts[late]))
+        res["cabin_rms_K"] = float(np.sqrt(np.sum(dev[late] ** 2 * dts[late]) / span_s)) if span_s > 0 else 0.0
+        outside = late & (np.abs(mean60[1:] - T_set) > 1.0)
+        res["cabin_minutes_outside"] = float(np.sum(dts[outside]) / 60.0)
         span = max(t[-1] - t_pd, 1e-9)
         n_modes = int(np.sum(t[changes] > t_pd))
         n_starts = int(np.sum(t[starts] > t_pd))
@@ -653,6 +676,7 @@ def climate_metrics(
         res["compressor_starts_per_30min"] = float(n_starts * 1800.0 / span) if span >= 600.0 else None
     else:
         res.update(cabin_dev_max_K=None, mode_changes_after_pulldown=None, mode_changes_per_30min=None)
+        res.update(cabin_rms_K=None, cabin_minutes_outside=None)
         res["compressor_starts_per_30min"] = None
 
     def coldest(col: int) -> float | None:
@@ -665,14 +689,22 @@ def climate_metrics(
 
 
 def _run_loop(
-    args: tuple, model: str, refrigerant: Refrigerant, mode_models: ModeModels | None
-) -> tuple[int, int, int]:
-    """Run the compiled loop for ``model``; returns the steps done, the number of direct-physics solves and why
-    the run stopped early (:data:`evtms.system.loop.STOP_NAMES` index; ``STOP_NONE``: it did not).
+    args: tuple,
+    model: str,
+    refrigerant: Refrigerant,
+    mode_models: ModeModels | None,
+    supervisor: Supervisor | None = None,
+    context: ControlContext | None = None,
+) -> tuple[int, int, int, SupervisionLog | None]:
+    """Run the compiled loop for ``model``; returns the steps done, the number of direct-physics solves, why
+    the run stopped early (:data:`evtms.system.loop.STOP_NAMES` index; ``STOP_NONE``: it did not) and the
+    supervisory controller's record (None: the rules alone).
 
     With ``physics`` the loop stops wherever the refrigerant's inputs left the
     tolerance of the point it holds; the cycle is solved there (or a nearby
-    earlier solve reused) and the loop resumes at that step.
+    earlier solve reused) and the loop resumes at that step. With a
+    ``supervisor`` the loop runs period by period
+    (:func:`evtms.system.controllers.run_supervised`).
     """
     mem = np.zeros(L.N_M)
     held = np.full(L.N_H, np.nan)
@@ -682,16 +714,23 @@ def _run_loop(
     if model == "surrogate":
         net, index = mode_models.packed()
     solves = 0
-    start = 0
-    while True:
-        done = L.run_loop(*args, start, source, mem, held, tol, net, index)
-        if done >= 0:
-            return done, solves, int(mem[L.M_STOP])
-        start = -done - 1
-        y, fallback, solved = refrigerant.solve_direct(int(held[L.H_MAP]), held[L.H_X : L.H_X + L.N_MAP_X])
-        held[L.H_Y : L.H_Y + L.N_Y] = y
-        held[L.H_FALLBACK] = float(fallback)
-        solves += int(solved)
+
+    def run_chunk(chunk_args: tuple, start: int) -> int:
+        nonlocal solves
+        while True:
+            done = L.run_loop(*chunk_args, start, source, mem, held, tol, net, index)
+            if done >= 0:
+                return done
+            start = -done - 1
+            y, fallback, solved = refrigerant.solve_direct(int(held[L.H_MAP]), held[L.H_X : L.H_X + L.N_MAP_X])
+            held[L.H_Y : L.H_Y + L.N_Y] = y
+            held[L.H_FALLBACK] = float(fallback)
+            solves += int(solved)
+
+    if supervisor is None:
+        return run_chunk(args, 0), solves, int(mem[L.M_STOP]), None
+    done, log = run_supervised(args, supervisor, context, run_chunk)
+    return done, solves, int(mem[L.M_STOP]), log
 
 
 def check_heating(params: SystemParams, refrigerant: Refrigerant) -> None:

@@ -72,6 +72,13 @@ class SimulationRequest:
     heating : str or sequence of str, optional
         Cabin heating (``ptc_air``, ``ptc_coolant``, ``heat_pump``): one, several, or text ``a,b``; each
         runs at every ambient, side by side in the file (default: the parameters' or the scenario's).
+    controller : str
+        Who sets the cabin's vent-air target and blower: ``rules`` (the climate control's own loop) or ``mpc``
+        (:class:`evtms.system.mpc.CabinMpc` above the same local loops and relays).
+    horizon, control_step : float
+        The MPC's horizon and step [s].
+    preview : str
+        The MPC's preview of the speed trace: ``perfect``, ``none`` or ``noisy``.
     """
 
     output: Path | None = None
@@ -91,6 +98,10 @@ class SimulationRequest:
     range_test: str = "single"
     inputs: Mapping[str, str | float | None] = field(default_factory=dict)
     heating: str | Sequence[str] | None = None
+    controller: str = "rules"
+    horizon: float = 180.0
+    control_step: float = 10.0
+    preview: str = "perfect"
 
 
 @dataclass
@@ -357,6 +368,26 @@ def run_simulation(
         return _run_simulation(request, notify or quiet, progress)
 
 
+def _controller(request: SimulationRequest, depletion: bool):
+    """The run's supervisory controller (None: the rules), checked before any work."""
+    from evtms.system.mpc import MpcOptions, make_controller
+
+    if request.controller == "rules":
+        return make_controller("rules")
+    if depletion:
+        raise EvtmsInputError(
+            f"controller {request.controller!r} runs single cycles; allowed with `range_test` mct or ccp: rules"
+        )
+    given = sorted(k for k in ("SP_vent", "blower") if request.inputs.get(k) is not None)
+    if given:
+        raise EvtmsInputError(
+            f"input {', '.join(given)} with controller {request.controller!r}: the controller sets them; allowed: "
+            "leave them out, or controller rules"
+        )
+    options = MpcOptions(horizon=request.horizon, step=request.control_step, preview=request.preview)
+    return make_controller(request.controller, options)
+
+
 def _run_simulation(request: SimulationRequest, notify: Notify, progress: Progress | None) -> SimulationRun:
     t0 = time.perf_counter()
     from evtms.system.output import write_simulation
@@ -364,6 +395,7 @@ def _run_simulation(request: SimulationRequest, notify: Notify, progress: Progre
     from evtms.system.simulate import check_model
 
     depletion, named = _check_choice(request)
+    controller = _controller(request, depletion)
     sc, setups, tree, ambients, inputs = _plan(request, depletion, named)
     lut_folder, lut_files = cycle_luts(request.luts)
     inputs += lut_files
@@ -384,6 +416,8 @@ def _run_simulation(request: SimulationRequest, notify: Notify, progress: Progre
         model=request.model,
         mode_models=mode_models,
     )
+    if controller is not None:
+        options["controller"] = controller
     if depletion:
         from evtms.system.range_test import run_range_test
 
