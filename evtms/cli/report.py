@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from evtms.cli.common import JsonOut, _ProgressBar, cli_message, note, print_json
-from evtms.cli.simulate import SoakCabin, SystemToml
+from evtms.cli.simulate import ControlStep, Horizon, SoakCabin, SystemToml
 
 report_app = typer.Typer(
     help="Figures and reports from LUT files, cycle sweeps and system simulations.", no_args_is_help=True
@@ -223,7 +223,24 @@ _Measured = Annotated[
     ),
 ]
 _Repeat = Annotated[int, typer.Option("--repeat", help="Runs of lut and surrogate per scenario, median time.")]
-_Sun = Annotated[float, typer.Option("--sun", help="Solar irradiance [W/m2].")]
+_Sun = Annotated[
+    float | None,
+    typer.Option(
+        "--sun", help="Solar irradiance [W/m2]; default 0, with --controllers 600 above the setpoint and 0 below."
+    ),
+]
+_Controllers = Annotated[
+    str | None,
+    typer.Option(
+        "--controllers",
+        help="Compare climate controllers instead of models, comma-separated: rules, mpc (the extra 'mpc'); "
+        "over --cycle (default wltc3b,udds) and --t-amb (default -10,30,40) on the LUT model.",
+    ),
+]
+_Previews = Annotated[
+    str,
+    typer.Option("--preview", help="With --controllers: the MPC's previews, comma-separated: perfect, none, noisy."),
+]
 
 
 @report_app.command("compare")
@@ -243,18 +260,28 @@ def report_compare(
     no_steps: _NoSteps = False,
     measured: _Measured = None,
     repeat: _Repeat = 3,
-    sun: _Sun = 0.0,
+    sun: _Sun = None,
     soak_cabin: SoakCabin = None,
     fmt: _Format = "png",
+    controllers: _Controllers = None,
+    preview: _Previews = "perfect,none",
+    horizon: Horizon = 180.0,
+    control_step: ControlStep = 10.0,
     json_out: JsonOut = False,
 ) -> None:
     """Physics, LUT and surrogate models side by side: time per simulation, error, trajectories, step size.
 
     Example: evtms report compare --cycle wltc3b,nedc --t-amb -10,30,40 -o compare/
     Table 12: evtms report compare --scenarios t12 --approaches lut
+    Controllers: evtms report compare --controllers rules,mpc -o controllers/
     """
     options = dict(locals())  # every option by name: the request's fields
-    del options["json_out"]
+    if controllers is not None:
+        _compare_controllers(options, json_out)
+        return
+    for key in ("controllers", "preview", "horizon", "control_step", "json_out"):
+        del options[key]
+    options["sun"] = 0.0 if sun is None else sun
     from evtms.reports.compare import compare_summary
     from evtms.reports.table12 import table12_summary, table12_text
     from evtms.workflows.compare import CompareRequest, run_comparison
@@ -274,3 +301,41 @@ def report_compare(
         typer.echo(cli_message(table12_text(c.result)))  # a skip reason's `field` as its option
         if files:
             typer.echo(f"wrote {', '.join(files)}")
+
+
+def _compare_controllers(options: dict, json_out: bool) -> None:
+    """``report compare --controllers``: the controllers' table, printed, and its files."""
+    from dataclasses import asdict
+
+    from evtms.errors import EvtmsInputError
+    from evtms.workflows.controllers import ControllerRequest, compare_controllers, controller_table
+
+    unused = [f"--{k.replace('_', '-')}" for k in ("scenarios", "approaches", "measured") if options[k] is not None]
+    if unused:
+        raise EvtmsInputError(f"{', '.join(unused)} compare models; not allowed with --controllers")
+    request = ControllerRequest(
+        cycle=options["cycle"] or "wltc3b,udds",
+        t_amb=options["t_amb"] or "-10,30,40",
+        controllers=options["controllers"],
+        previews=options["preview"],
+        luts=options["luts"],
+        params=options["params"],
+        sun=options["sun"],
+        horizon=options["horizon"],
+        control_step=options["control_step"],
+        output=options["output"],
+        fmt=options["fmt"],
+    )
+
+    def on_run(done: int, total: int, message: str) -> None:
+        if not json_out:
+            typer.echo(f"[{done}/{total}] {message}", err=True)
+
+    with _ProgressBar(json_out or not sys.stderr.isatty()) as bar:
+        rows, files = compare_controllers(request, notify=note, progress=bar.by_label(), on_run=on_run)
+    if json_out:
+        print_json({"rows": [asdict(r) for r in rows], "files": [str(f) for f in files]})
+        return
+    typer.echo(controller_table(rows))
+    if files:
+        typer.echo(f"wrote {', '.join(str(f) for f in files)}")

@@ -1,0 +1,199 @@
+"""The controller interface and the predictive cabin controller.
+
+The interface tests run on the synthetic maps of ``test_simulate.py``; the
+MPC's on cycle maps built from the session's cycle LUTs (2-3 nodes per axis,
+as ``test_climate.py``) and need the optional extra ``mpc`` (CasADi).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import pytest
+from conftest import one_error_line, patch_small_maps
+from test_simulate import refrigerant as synthetic  # noqa: F401 - the module fixture of synthetic maps
+from typer.testing import CliRunner
+
+from evtms.cli import app
+from evtms.errors import EvtmsInputError
+from evtms.system import loop as L  # noqa: N812
+from evtms.system import refrigerant as refrigerant_module
+from evtms.system.controllers import Decision, period_steps
+from evtms.system.drive_cycles import DriveCycle, drive_cycle
+from evtms.system.simulate import simulate
+
+runner = CliRunner()
+WLTC = drive_cycle("wltc3b")
+
+
+def first(cycle: DriveCycle, seconds: float) -> DriveCycle:
+    keep = cycle.time <= seconds
+    return DriveCycle(cycle.name, cycle.time[keep], cycle.speed[keep], cycle.grade[keep], cycle.source)
+
+
+class Fixed:
+    """A supervisor that always decides the same (NaN and not ok: it always falls back)."""
+
+    name = "fixed"
+
+    def __init__(self, T_vent: float, blower: float, ok: bool = True, period: float = 10.0) -> None:
+        self.T_vent, self.blower, self.ok, self.period = T_vent, blower, ok, period
+        self.calls: list[int] = []
+
+    def start(self, context) -> None:
+        self.context = context
+
+    def decide(self, n, state, last) -> Decision:
+        self.calls.append(n)
+        return Decision(self.T_vent, self.blower, 1e-3, self.ok)
+
+
+def test_periods_start_where_the_clock_crosses_a_multiple_of_the_period():
+    assert period_steps(np.arange(0.0, 101.0), 10.0).tolist() == list(range(0, 100, 10))
+    edges = np.array([0.0, 4.0, 8.0, 12.0, 16.0, 20.0, 24.0])  # 4-s steps, 10-s periods: at 0, 12 and 20 s
+    assert period_steps(edges, 10.0).tolist() == [0, 3, 5]
+
+
+def test_a_supervisor_writes_what_the_same_inputs_give(synthetic):
+    """Period by period, a supervisor's constant set points give the run of those set points as inputs, bit for
+    bit, and the loop's vent target is the given one."""
+    cycle, T = first(WLTC, 300.0), 308.15
+    sup = Fixed(287.15, 0.7)
+    a = simulate(cycle, T, synthetic, sun=600.0, controller=sup, keep_trace=True)
+    b = simulate(cycle, T, synthetic, sun=600.0, inputs={"SP_vent": 287.15, "blower": 0.7}, keep_trace=True)
+    assert sup.calls == list(range(0, 300, 10))
+    np.testing.assert_array_equal(a.trace["states"], b.trace["states"])
+    np.testing.assert_array_equal(a.trace["out"], b.trace["out"])
+    assert np.all(a.trace["out"][:, L.O_T_VENT_TARGET] == 287.15)
+    assert a.summary["controller"] == "fixed" and a.summary["controller_decisions"] == 30
+
+
+def test_a_failed_decision_hands_the_period_to_the_rules_with_a_flag(synthetic):
+    cycle, T = first(WLTC, 200.0), 308.15
+    a = simulate(cycle, T, synthetic, sun=600.0, controller=Fixed(math.nan, math.nan, ok=False), keep_trace=True)
+    rules = simulate(cycle, T, synthetic, sun=600.0, keep_trace=True)
+    np.testing.assert_array_equal(a.trace["states"], rules.trace["states"])
+    assert np.all(a.trace["flags"] & L.F_CONTROLLER_FALLBACK)
+    assert not np.any(rules.trace["flags"] & L.F_CONTROLLER_FALLBACK)
+    assert a.summary["controller_fallbacks"] == 20
+
+
+def test_a_vent_target_below_freezing_cannot_frost_the_coil(synthetic):
+    """The supervisor's vent target passes through the rules' evaporator loop and frost relay: asking for 0 degC
+    air at full blower for 10 min, the evaporator air stays above the relay's cutoff less its 1-step lag."""
+    r = simulate(first(WLTC, 600.0), 308.15, synthetic, sun=600.0, controller=Fixed(273.15, 1.0), keep_trace=True)
+    par, out = r.trace["par"], r.trace["out"]
+    assert np.nanmin(out[:, L.O_T_EVAP_AIR]) >= par[L.P_TFR_OFF] - 0.5
+    assert np.nanmin(out[:, L.O_T_VENT_TARGET]) >= par[L.P_TV_MIN]
+
+
+# -- the MPC ---------------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def cycle_maps(small_map_luts):
+    pytest.importorskip("casadi")
+    mp = pytest.MonkeyPatch()
+    patch_small_maps(mp)
+    try:
+        yield refrigerant_module.load_refrigerant(small_map_luts)
+    finally:
+        mp.undo()
+
+
+def _mpc(**options):
+    from evtms.system.mpc import CabinMpc, MpcOptions
+
+    return CabinMpc(MpcOptions(**options))
+
+
+@pytest.mark.parametrize(("T_amb_c", "sun"), [(35.0, 600.0), (-10.0, 0.0)])
+def test_mpc_keeps_every_limit_on_a_short_trace(cycle_maps, T_amb_c, sun):
+    """WLTC's first 10 min: the blower within its range, the vent target within the vent's, no frost, no PTC in
+    the heat and no compressor on the cabin coil in the cold, every decision solved in time, ledgers closed."""
+    mpc = _mpc(time_budget=10.0)  # a loaded machine must not turn a solve into a fallback here
+    r = simulate(first(WLTC, 600.0), T_amb_c + 273.15, cycle_maps, sun=sun, controller=mpc, keep_trace=True)
+    par, out, s = r.trace["par"], r.trace["out"], r.summary
+    climate = out[:, L.O_MDOT_AIR] > 0
+    assert climate.all()
+    blower = out[:, L.O_BLOWER]
+    assert blower.min() >= par[L.P_BLOWER_MIN] - 1e-9 and blower.max() <= 1.0 + 1e-9
+    tv = out[:, L.O_T_VENT_TARGET]
+    assert tv.min() >= par[L.P_TV_MIN] and tv.max() <= par[L.P_TV_MAX]
+    running = out[:, L.O_COMP_ON] > 0.5
+    assert not running.any() or out[running, L.O_T_EVAP_AIR].min() >= par[L.P_TFR_OFF] - 0.5
+    assert s["controller_fallbacks"] == 0 and s["controller_decisions"] == 60
+    assert s["ledger_worst"] < 1e-9
+    if T_amb_c > 20:
+        assert np.all(out[:, L.O_P_PTC] == 0.0)
+        assert s["T_cabin_end_degC"] < 24.0  # pulled down from 35 degC
+    else:
+        assert np.all(out[:, L.O_Q_EVAP] == 0.0)
+        assert s["T_cabin_end_degC"] > 10.0  # warming from -10 degC
+
+
+def test_mpc_prediction_follows_the_plant_over_its_horizon(cycle_maps):
+    """The prediction model, fed the plant's own blower and duties (means per MPC step), predicts the cabin air
+    of the next 3 min within 0.5 K: at 35 degC with sun after 5 min of pull-down, and at -10 degC."""
+    for T_amb, sun in ((308.15, 600.0), (263.15, 0.0)):
+        r = simulate(first(WLTC, 600.0), T_amb, cycle_maps, sun=sun, keep_trace=True)
+        st, out, dts = r.trace["states"], r.trace["out"], r.trace["dts"]
+        mpc = _mpc()
+        from evtms.system.controllers import ControlContext
+
+        edges = np.concatenate(([0.0], np.cumsum(dts)))
+        mpc.start(ControlContext(r.trace["par"], edges, np.zeros(dts.size), np.zeros(dts.size, bool), cycle_maps))
+        n, N, m = 300, mpc.options.steps, 10
+        window = out[n : n + N * m].reshape(N, m, -1).mean(axis=1)
+        q_cool = window[:, L.O_Q_EVAP] - window[:, L.O_Q_LATENT]
+        q_heat = window[:, L.O_P_PTC] + window[:, L.O_Q_HC]
+        Ta = mpc.predict(n, st[n], out[n - 1], window[:, L.O_BLOWER], q_cool, q_heat)
+        plant = st[n + m : n + N * m + 1 : m, L.S_TA]
+        assert np.max(np.abs(Ta - plant)) < 0.5, (T_amb, np.abs(Ta - plant))
+
+
+def test_mpc_options_out_of_range_are_one_line_errors():
+    from evtms.system.mpc import MpcOptions
+
+    for bad, text in (
+        ({"horizon": 5.0}, "horizon 5.0"),
+        ({"step": 0.1}, "step 0.1"),
+        ({"preview": "psychic"}, "preview 'psychic'"),
+        ({"horizon": 60.0, "step": 61.0}, "step 61"),
+    ):
+        with pytest.raises(EvtmsInputError, match=text):
+            MpcOptions(**bad)
+
+
+def test_mpc_without_its_extra_says_how_to_install_it(monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "casadi", None)  # import casadi raises ImportError
+    from evtms.system.mpc import make_controller
+
+    with pytest.raises(EvtmsInputError, match=r"extra 'mpc'"):
+        make_controller("mpc")
+    out = tmp_path / "run.nc"
+    res = runner.invoke(app, ["simulate", "--cycle", "udds", "--controller", "mpc", "-o", str(out)])
+    assert res.exit_code == 2
+    one_error_line(res, "extra 'mpc'", "controller rules")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "fragments"),
+    [
+        (["simulate", "--cycle", "udds", "--controller", "pid"], ("controller 'pid'", "rules, mpc")),
+        (["simulate", "--cycle", "udds", "--controller", "mpc", "--sp-vent", "15"], ("SP_vent", "controller")),
+        (["simulate", "--cycle", "udds", "--controller", "mpc", "--preview", "x"], ("preview 'x'", "perfect")),
+        (["report", "compare", "--controllers", "rules,pid"], ("--controllers 'pid'", "rules, mpc")),
+        (["report", "compare", "--controllers", "rules", "--approaches", "lut"], ("--approaches",)),
+    ],
+)
+def test_controller_options_refuse_bad_values(tmp_path, args, fragments):
+    pytest.importorskip("casadi")
+    out = tmp_path / "o"
+    res = runner.invoke(app, [*args, "-o", str(out)])
+    assert res.exit_code == 2, res.output
+    one_error_line(res, *fragments)
+    assert not out.exists()
