@@ -19,7 +19,10 @@ where an input is not given, so the controller's own law applies):
   loop's feed-forward and PI: what a supervisory controller
   (:mod:`evtms.system.mpc`) or a trace of one sets; the requests, the
   evaporator and heater loops and every relay follow it as they follow
-  the law's target, clipped to ``T_vent_min``..``T_vent_max``.
+  the law's target, clipped to ``T_vent_min``..``T_vent_max``;
+- ``BC_request`` [1]: the battery-cooling request (above 0.5: on) in place
+  of its relay on the battery temperature; the critical relay and the
+  chiller's safety relay stay.
 
 Users give each input as a number (SI) or as ``"FILE.csv:column"``, a
 trace: a CSV file with a ``time_s`` column and named columns in SI units
@@ -50,7 +53,16 @@ from evtms.errors import EvtmsInputError
 from evtms.paths import csv_rows, read_small_text
 
 #: Inputs in the loop's column order.
-INPUT_NAMES = ("Q_battery_ext", "hvac_inlet_T", "hvac_inlet_rh", "SP_evap", "SP_CoHX", "blower", "SP_vent")
+INPUT_NAMES = (
+    "Q_battery_ext",
+    "hvac_inlet_T",
+    "hvac_inlet_rh",
+    "SP_evap",
+    "SP_CoHX",
+    "blower",
+    "SP_vent",
+    "BC_request",
+)
 #: Allowed range per input (both ends included) and its units.
 INPUT_RANGES: dict[str, tuple[float, float, str]] = {
     "Q_battery_ext": (-50e3, 50e3, "W"),
@@ -60,6 +72,7 @@ INPUT_RANGES: dict[str, tuple[float, float, str]] = {
     "SP_CoHX": (288.15, 363.15, "K"),
     "blower": (0.0, 1.0, "1"),
     "SP_vent": (273.15, 343.15, "K"),
+    "BC_request": (0.0, 1.0, "1"),
 }
 
 

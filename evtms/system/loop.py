@@ -147,8 +147,8 @@ Y_PS, Y_PD, Y_MDOT, Y_QEVAP, Y_QLAT, Y_QCH, Y_QCOND, Y_W, Y_WFLUID = range(9)
 N_Y = 9
 
 # Columns of ``ext``, the external inputs per step (evtms.system.inputs.INPUT_NAMES order; NaN: not given).
-X_Q_BATTERY, X_INLET_T, X_INLET_RH, X_SP_EVAP, X_SP_COHX, X_BLOWER, X_SP_VENT = range(7)
-N_X = 7
+X_Q_BATTERY, X_INLET_T, X_INLET_RH, X_SP_EVAP, X_SP_COHX, X_BLOWER, X_SP_VENT, X_BC_REQUEST = range(8)
+N_X = 8
 
 # Packed parameters.
 (
@@ -651,6 +651,10 @@ def run_loop(
             crit = True
         elif Tb < par[P_CRIT_OFF]:
             crit = False
+        # A given battery-cooling request (a supervisor's) replaces its relay; the critical relay and the
+        # safety relays below stay.
+        if not math.isnan(ext[n, X_BC_REQUEST]):
+            bc = ext[n, X_BC_REQUEST] > 0.5
         if Tc < par[P_BH_ON] and T_amb <= par[P_BH_AMB_MAX]:
             bh = True
         elif Tc > par[P_BH_OFF]:
