@@ -47,6 +47,8 @@ class ControlContext:
         Step edges [s] on the run's clock.
     speed : numpy.ndarray
         Mean vehicle speed per step [m/s] (the trace the preview may read).
+    motor_power : numpy.ndarray
+        Mean motor electrical power per step [W], regeneration included (likewise).
     key_off : numpy.ndarray
         True where the key is off (no climate).
     refrigerant : object
@@ -56,6 +58,7 @@ class ControlContext:
     par: np.ndarray
     edges: np.ndarray
     speed: np.ndarray
+    motor_power: np.ndarray
     key_off: np.ndarray
     refrigerant: object
 
@@ -74,12 +77,15 @@ class Decision:
         Wall time of the decision [s].
     ok : bool
         False when the controller fell back (a failed or late solve).
+    battery_cooling : float
+        Battery-cooling request (1 on, 0 off; NaN: its relay decides).
     """
 
     T_vent: float
     blower: float
     solve_time: float
     ok: bool
+    battery_cooling: float = float("nan")
 
 
 class Supervisor(Protocol):
@@ -89,7 +95,7 @@ class Supervisor(Protocol):
 
     def start(self, context: ControlContext) -> None: ...
 
-    def decide(self, n: int, state: np.ndarray, last: np.ndarray | None) -> Decision: ...
+    def decide(self, n: int, state: np.ndarray, history: np.ndarray) -> Decision: ...
 
 
 @dataclass
@@ -158,11 +164,12 @@ def run_supervised(
     done = 0
     for n0, n1 in zip(bounds[:-1], bounds[1:], strict=True):
         n0, n1 = int(n0), int(n1)
-        decision = supervisor.decide(n0, states[n0], out[n0 - 1] if n0 > 0 else None)
+        decision = supervisor.decide(n0, states[n0], out[:n0])
         log.steps.append(n0)
         log.solve_times.append(decision.solve_time)
         ext[n0:n1, L.X_SP_VENT] = decision.T_vent
         ext[n0:n1, L.X_BLOWER] = decision.blower
+        ext[n0:n1, L.X_BC_REQUEST] = decision.battery_cooling
         done = run_chunk((args[0], dts[:n1], *args[2:]), n0)
         if not decision.ok:
             log.fallbacks += 1

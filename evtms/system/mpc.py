@@ -76,7 +76,6 @@ from evtms.system.controllers import ControlContext, Decision
 PREVIEWS = ("perfect", "none", "noisy")
 _CP = L._CP_AIR
 _R = L._R_AIR
-_N_X = 5  # cabin air, interior, three walls
 
 
 @dataclass(frozen=True)
@@ -158,8 +157,38 @@ def casadi_module():
     return casadi
 
 
+class _Layout:
+    """Named slices of one flat vector (the program's parameters): declared once, read by name."""
+
+    def __init__(self, sizes: dict[str, int]) -> None:
+        self.slices, at = {}, 0
+        for name, size in sizes.items():
+            self.slices[name] = slice(at, at + size)
+            at += size
+        self.size = at
+
+    def split(self, vector) -> dict:
+        return {k: (vector[s] if s.stop - s.start > 1 else vector[s.start]) for k, s in self.slices.items()}
+
+    def pack(self, values: dict) -> np.ndarray:
+        out = np.empty(self.size)
+        for k, s in self.slices.items():
+            out[s] = values[k]
+        return out
+
+
+#: Rows of a horizon step's commands and slacks.
+_COMMANDS = ("blower", "q_cool", "q_heat", "q_chill")  # [1], [kW], [kW], [kW]
+_N_U = len(_COMMANDS) + 2  # and the cabin's and the battery's slack [K]
+#: Prediction states: cabin air, interior, three walls, battery, its coolant.
+_STATES = ("T_air", "T_int", "T_glass", "T_doors", "T_roof", "T_battery", "T_coolant")
+_STATE_COLUMNS = [L.S_TA, L.S_TINT, L.S_TGLASS, L.S_TDOORS, L.S_TROOF, L.S_TB, L.S_TC]
+_N_X = len(_STATES)
+
+
 class CabinMpc:
-    """Receding-horizon cabin controller (see the module docstring for the model and the problem).
+    """Receding-horizon cabin (and, in the cooling season, battery) controller; the module docstring has the
+    model and the problem.
 
     Parameters
     ----------
@@ -184,14 +213,29 @@ class CabinMpc:
         self.T_set = float(par[L.P_T_SET])
         band = self.options.comfort_band
         self.band = float(par[L.P_BAND]) if band is None else float(band)
-        self.caps = np.array([par[L.P_C_AIR], par[L.P_C_INT], par[L.P_C_GLASS], par[L.P_C_DOORS], par[L.P_C_ROOF]])
+        # The battery's band: below its cooling relay's switch-on, with a margin the relay never reaches.
+        self.T_battery_max = float(par[L.P_BC_ON]) - 0.5
+        self.caps = np.array(
+            [par[k] for k in (L.P_C_AIR, L.P_C_INT, L.P_C_GLASS, L.P_C_DOORS, L.P_C_ROOF, L.P_C_BAT, L.P_C_COOL)]
+        )
         self.g_walls = np.array([par[L.P_G_GLASS], par[L.P_G_DOORS], par[L.P_G_ROOF]])
         q_sun = float(par[L.P_Q_SUN])
         self.q_sun_int = q_sun if par[L.P_C_INT] > 0.0 else 0.0
         self.q_sun_air = q_sun - self.q_sun_int
+        self.g_plate = self._plate_conductance()
         self.speed = self._preview_speed(context)
+        self.motor_power = np.asarray(context.motor_power, float)
         self._warm = None
+        self._chilling, self._chill_since = False, -math.inf
         self._build()
+
+    def _plate_conductance(self) -> float:
+        """Pack-to-coolant conductance [W/K] with the pump at its battery-cooling command (the loop's)."""
+        par = self.ctx.par
+        if par[L.P_G_BC_FIXED] >= 0.0:
+            return float(par[L.P_G_BC_FIXED])
+        args = (par[L.P_PLATE_RE1], par[L.P_PLATE_PR], par[L.P_PLATE_DL], par[L.P_PLATE_KA], par[L.P_G_CP])
+        return float(L.plate_conductance(par[L.P_PUMP_BC], *args))
 
     def _preview_speed(self, context: ControlContext) -> np.ndarray:
         speed = np.asarray(context.speed, float)
@@ -204,62 +248,74 @@ class CabinMpc:
         ca = self._ca
         o, N = self.options, self.options.steps
         h = o.step
-        U = ca.SX.sym("U", 4, N)  # blower [1], sensible cooling [kW], heating [kW], comfort slack [K]
+        U = ca.SX.sym("U", _N_U, N)
         X = ca.SX.sym("X", _N_X, N)  # states at the ends of the steps [K]
-        # Parameters: initial state, ambient, sources [kW], recirculation, full flow G_v [kW/K], inlet limits,
-        # the compressor's fit (a1 per step, a2, a3), heating efficiency, blower power [kW], last commands.
-        P = ca.SX.sym("P", _N_X + 10 + N + 3 + 3 + 3)
-        x0 = P[:_N_X]
-        T_amb, q_air, q_int, r, g_v, t_ev_min, t_v_max, qc_max, qh_max, eta = (P[_N_X + i] for i in range(10))
-        a1 = P[_N_X + 10 : _N_X + 10 + N]
-        a2, a3, p_bl = (P[_N_X + 10 + N + i] for i in range(3))
-        u_last = P[_N_X + 13 + N : _N_X + 16 + N]
-        cooling, t_ev_max, cool_season = P[_N_X + 16 + N], P[_N_X + 17 + N], P[_N_X + 18 + N]
+        self._layout = _Layout(
+            {
+                "x0": _N_X, "T_amb": 1, "q_air": 1, "q_int": 1, "r": 1, "g_v": 1, "t_ev_min": 1, "t_v_max": 1,
+                "qc_max": 1, "qh_max": 1, "qch_max": 1, "eta": 1, "a1": N, "a2": 1, "a3": 1, "p_blower": 1,
+                "c1": 1, "c2": 1, "q_gen": N, "u_last": len(_COMMANDS), "cooling": 1, "t_ev_max": 1,
+                "cool_season": 1, "g_bc": 1, "p_heater": 1,
+            }
+        )  # fmt: skip
+        P = ca.SX.sym("P", self._layout.size)
+        q = self._layout.split(P)
         C = self.caps / 1e3  # [kJ/K]
-        G = self.g_walls / 1e3
-        g_i = float(self.ctx.par[L.P_G_INT]) / 1e3
-        w_set = self.T_set
+        G = self.g_walls / 1e3  # [kW/K]
+        par = self.ctx.par
+        g_i, g_ba, g_bc = float(par[L.P_G_INT]) / 1e3, float(par[L.P_G_BA]) / 1e3, q["g_bc"]
+        T_amb, r, g_v = q["T_amb"], q["r"], q["g_v"]
         J = 0.0
         g, lbg, ubg = [], [], []
-        x_prev, u_prev = x0, u_last
-        for k in range(N):
-            b, qc, qh, s = U[0, k], U[1, k], U[2, k], U[3, k]
-            x = X[:, k]
-            Ta, Ti = x[0], x[1]
-            walls = x[2:5]
-            f_air = b * g_v * (1.0 - r) * (T_amb - Ta) + qh - qc + q_air + g_i * (Ti - Ta)
-            for w in range(3):
-                f_air += G[w] * (walls[w] - Ta)
-            g.append(C[0] * (Ta - x_prev[0]) - h * f_air)
-            g.append(C[1] * (Ti - x_prev[1]) - h * (g_i * (Ta - Ti) + q_int))
-            for w in range(3):
-                g.append(C[2 + w] * (walls[w] - x_prev[2 + w]) - h * G[w] * (Ta + T_amb - 2.0 * walls[w]))
-            lbg += [0.0] * _N_X
-            ubg += [0.0] * _N_X
-            # Supply air between the evaporator's lowest setting and the vent's highest, at the step's inlet.
-            T_in = r * x_prev[0] + (1.0 - r) * T_amb
-            # (the cooling limit only in the cooling season: cold inlet air below the evaporator's lowest setting
-            # would otherwise ask for negative cooling)
-            g += [qc - cool_season * b * g_v * (T_in - t_ev_min), qh - b * g_v * (t_v_max - T_in)]
-            g += [s - (Ta - w_set) + self.band]
-            g += [s + (Ta - w_set) + self.band]
-            lbg += [-ca.inf, -ca.inf, 0.0, 0.0]
-            ubg += [0.0, 0.0, ca.inf, ca.inf]
-            g += [qc - qc_max, qh - qh_max]
-            lbg += [-ca.inf, -ca.inf]
-            ubg += [0.0, 0.0]
-            # Cooling: the evaporator air at most its highest setting, as the rules hold it (the coil keeps
-            # drying the air, and the compressor's minimum speed is not asked for less than it gives).
-            g.append(cooling * (b * g_v * (T_in - t_ev_max) - qc))
+
+        def at_most(expr) -> None:  # expr <= 0
+            g.append(expr)
             lbg.append(-ca.inf)
             ubg.append(0.0)
-            power = qc * (a1[k] + a2 * qc + a3 * b) + qh / eta + p_bl * b**3  # [kW]
-            J += h * power + h / 60.0 * (o.w_comfort * s**2 + o.w_track * (Ta - w_set) ** 2)
-            du = U[:3, k] - u_prev
-            J += o.w_smooth * ca.sumsqr(du)
-            x_prev, u_prev = x, U[:3, k]
-        w = ca.vertcat(ca.vec(U), ca.vec(X))
-        nlp = {"x": w, "p": P, "f": J, "g": ca.vertcat(*g)}
+
+        x_prev, u_prev = q["x0"], q["u_last"]
+        for k in range(N):
+            b, qc, qh, qch, s, s_b = (U[i, k] for i in range(_N_U))
+            x = X[:, k]
+            Ta, Ti, walls, Tb, Tc = x[0], x[1], x[2:5], x[5], x[6]
+            f_air = b * g_v * (1.0 - r) * (T_amb - Ta) + qh - qc + q["q_air"] + g_i * (Ti - Ta)
+            for w in range(3):
+                f_air += G[w] * (walls[w] - Ta)
+            residuals = [
+                C[0] * (Ta - x_prev[0]) - h * f_air,
+                C[1] * (Ti - x_prev[1]) - h * (g_i * (Ta - Ti) + q["q_int"]),
+                *(C[2 + w] * (walls[w] - x_prev[2 + w]) - h * G[w] * (Ta + T_amb - 2.0 * walls[w]) for w in range(3)),
+                C[5] * (Tb - x_prev[5]) - h * (q["q_gen"][k] - g_bc * (Tb - Tc) - g_ba * (Tb - T_amb)),
+                C[6] * (Tc - x_prev[6]) - h * (g_bc * (Tb - Tc) + q["p_heater"] - qch),
+            ]
+            g += residuals
+            lbg += [0.0] * _N_X
+            ubg += [0.0] * _N_X
+            # Supply air between the evaporator's lowest setting and the vent's highest, at the step's inlet (the
+            # cooling limit only in the cooling season: cold inlet air below the evaporator's lowest setting would
+            # otherwise ask for negative cooling).
+            T_in = r * x_prev[0] + (1.0 - r) * T_amb
+            at_most(qc - q["cool_season"] * b * g_v * (T_in - q["t_ev_min"]))
+            at_most(qh - b * g_v * (q["t_v_max"] - T_in))
+            # Cooling: the evaporator air at most its highest setting, as the rules hold it (the coil keeps
+            # drying the air, and the compressor's minimum speed is not asked for less than it gives).
+            at_most(q["cooling"] * (b * g_v * (T_in - q["t_ev_max"]) - qc))
+            at_most(qc - q["qc_max"])
+            at_most(qh - q["qh_max"])
+            at_most(qch - q["qch_max"])
+            at_most(Ta - self.T_set - self.band - s)  # the slacks: beyond the comfort band, above the battery's
+            at_most(self.T_set - self.band - Ta - s)
+            at_most(Tb - self.T_battery_max - s_b)
+            power = (
+                qc * (q["a1"][k] + q["a2"] * qc + q["a3"] * b)
+                + qch * (q["c1"] + q["c2"] * qch)
+                + qh / q["eta"]
+                + q["p_blower"] * b**3
+            )  # [kW]
+            J += h * power + h / 60.0 * (o.w_comfort * (s**2 + s_b**2) + o.w_track * (Ta - self.T_set) ** 2)
+            J += o.w_smooth * ca.sumsqr(U[: len(_COMMANDS), k] - u_prev)
+            x_prev, u_prev = x, U[: len(_COMMANDS), k]
+        nlp = {"x": ca.vertcat(ca.vec(U), ca.vec(X)), "p": P, "f": J, "g": ca.vertcat(*g)}
         opts = {
             "ipopt.print_level": 0,
             "ipopt.sb": "yes",
@@ -273,17 +329,17 @@ class CabinMpc:
         }
         self._solver = ca.nlpsol("cabin_mpc", "ipopt", nlp, opts)
         self._lbg, self._ubg = np.array(lbg), np.array(ubg)
-        self._n_u, self._n = 4 * N, 4 * N + _N_X * N
+        self._n_u = _N_U * N
 
     # -- decisions ------------------------------------------------------------------------------------------
-    def decide(self, n: int, state: np.ndarray, last: np.ndarray | None) -> Decision:
-        """The vent-air target and blower for the period starting at step ``n``."""
+    def decide(self, n: int, state: np.ndarray, history: np.ndarray) -> Decision:
+        """The set points for the period starting at step ``n`` (``history``: the loop's outputs before it)."""
         wall0 = time.perf_counter()
         N = self.options.steps
-        x0 = state[[L.S_TA, L.S_TINT, L.S_TGLASS, L.S_TDOORS, L.S_TROOF]]
+        x0 = state[_STATE_COLUMNS]
         if self.ctx.key_off[n] or not np.all(np.isfinite(x0)):
             return Decision(math.nan, math.nan, time.perf_counter() - wall0, True)
-        problem = self._problem(n, state, last)
+        problem = self._problem(n, state, history)
         guess = self._guess(x0, problem["b_min"])
         args = {"x0": guess["x"], "p": problem["p"], "lbx": problem["lbx"], "ubx": problem["ubx"]}
         args.update(lbg=self._lbg, ubg=self._ubg)
@@ -297,45 +353,58 @@ class CabinMpc:
             self._warm = None
             return Decision(math.nan, math.nan, elapsed, False)
         w = np.asarray(sol["x"]).ravel()
-        U = w[: self._n_u].reshape(N, 4)
+        U = w[: self._n_u].reshape(N, _N_U)
         self._warm = {
             "w": w,
             "lam_x": np.asarray(sol["lam_x"]).ravel(),
             "lam_g": np.asarray(sol["lam_g"]).ravel(),
-            "u0": U[0, :3].copy(),
+            "u0": U[0, : len(_COMMANDS)].copy(),
         }
-        b, qc, qh = U[0, :3]
+        b, qc, qh, qch = U[0, : len(_COMMANDS)]
         # The interior point ends within its tolerance of a bound, on either side: the commands are clipped to
         # the actuators' ranges (a blower 1e-8 under its minimum is not one the car has).
         par = self.ctx.par
         b = min(max(float(b), problem["b_min"]), 1.0)
         T_vent = problem["T_in"] + (qh - qc) / (b * problem["g_v"])
         T_vent = min(max(float(T_vent), float(par[L.P_TV_MIN])), float(par[L.P_TV_MAX]))
-        return Decision(T_vent, b, time.perf_counter() - wall0, True)
+        chill = self._chill_request(n, float(qch), problem["qch_max"]) if problem["cooling"] else math.nan
+        return Decision(T_vent, b, time.perf_counter() - wall0, True, chill)
+
+    def _chill_request(self, n: int, q_chill: float, q_max: float) -> float:
+        """The battery-cooling request from the planned chiller duty: on above a quarter of its capacity, off
+        below a twentieth, each held at least a minute (the chiller runs at its own suction PI, not at a duty)."""
+        t = float(self.ctx.edges[n])
+        held = t - self._chill_since >= 60.0
+        want = q_chill >= 0.25 * q_max if not self._chilling else q_chill > 0.05 * q_max
+        if want != self._chilling and held:
+            self._chilling, self._chill_since = want, t
+        return 1.0 if self._chilling else 0.0
 
     def predict(
-        self, n: int, state: np.ndarray, last: np.ndarray | None, blower: np.ndarray, q_cool: np.ndarray,
-        q_heat: np.ndarray,
+        self, n: int, state: np.ndarray, history: np.ndarray, blower: np.ndarray, q_cool: np.ndarray,
+        q_heat: np.ndarray, q_chill: np.ndarray | None = None,
     ) -> np.ndarray:  # fmt: skip
-        """The prediction model's cabin air [K] at the ends of the horizon's steps under given commands.
+        """The prediction model's states [K] (``(steps, 7)``: :data:`_STATES`) under given commands.
 
-        The same program as :meth:`decide` with the commands fixed (blower [1], sensible cooling and heating
-        duties [W] per step) and no limits on them: what the MPC believes those commands would do.
+        The same program as :meth:`decide` with the commands fixed (blower [1], sensible cooling, heating and
+        chiller duties [W] per step) and no limits on them: what the MPC believes those commands would do.
         """
         N = self.options.steps
-        problem = self._problem(n, state, last, free=True)
+        problem = self._problem(n, state, history, free=True)
         lbx, ubx = problem["lbx"].copy(), problem["ubx"].copy()
-        fixed = np.column_stack((blower, np.asarray(q_cool) / 1e3, np.asarray(q_heat) / 1e3)).ravel()
-        for k in range(3):
-            lbx[k : 4 * N : 4] = ubx[k : 4 * N : 4] = fixed[k::3]
-        x0 = state[[L.S_TA, L.S_TINT, L.S_TGLASS, L.S_TDOORS, L.S_TROOF]]
+        q_chill = np.zeros(N) if q_chill is None else np.asarray(q_chill)
+        fixed = np.column_stack((blower, np.asarray(q_cool) / 1e3, np.asarray(q_heat) / 1e3, q_chill / 1e3))
+        for k in range(len(_COMMANDS)):
+            lbx[k : _N_U * N : _N_U] = ubx[k : _N_U * N : _N_U] = fixed[:, k]
+        x0 = state[_STATE_COLUMNS]
         sol = self._solver(x0=self._guess(x0, 0.5)["x"], p=problem["p"], lbx=lbx, ubx=ubx, lbg=self._lbg, ubg=self._ubg)
-        return np.asarray(sol["x"]).ravel()[self._n_u :].reshape(N, _N_X)[:, 0]
+        return np.asarray(sol["x"]).ravel()[self._n_u :].reshape(N, _N_X)
 
-    def _problem(self, n: int, state: np.ndarray, last: np.ndarray | None, free: bool = False) -> dict:
+    def _problem(self, n: int, state: np.ndarray, history: np.ndarray, free: bool = False) -> dict:
         """Parameters and bounds of the program at step ``n``; ``free`` lifts the duty and inlet limits."""
         par, N = self.ctx.par, self.options.steps
-        x0 = state[[L.S_TA, L.S_TINT, L.S_TGLASS, L.S_TDOORS, L.S_TROOF]]
+        last = history[-1] if len(history) else None
+        x0 = state[_STATE_COLUMNS]
         T_amb, p_atm = float(par[L.P_T_AMB]), float(par[L.P_P_ATM])
         r = float(last[L.O_RECIRC]) if last is not None and math.isfinite(last[L.O_RECIRC]) else float(par[L.P_RC_COOL])
         T_in = r * float(x0[0]) + (1.0 - r) * T_amb
@@ -345,35 +414,71 @@ class CabinMpc:
         rh_in = min(max(L.relative_humidity(T_in, w_in, p_atm), 0.0), 1.0)
         x_front = self._front_air(n, last)
         fit, qc_max = self._compressor_fit(T_amb, T_in, rh_in, b_min, x_front)
+        chill_fit, qch_max = self._chiller_fit(T_amb, float(state[L.S_TC]), float(x_front.mean()))
         heating = int(par[L.P_HEATING])
         qh_max = (par[L.P_PTC_MAX] if heating == L.HEATING_PTC_AIR else par[L.P_PTCW_MAX]) / 1e3
         # One season per decision, by the ambient against the setpoint: cooling (no heat; reheat for drying stays
-        # the rules') or heating (no compressor on the cabin coil).
+        # the rules'; the battery's cooling is the MPC's) or heating (no compressor on the cabin coil; the
+        # battery stays the rules').
         cooling = T_amb > self.T_set
         if cooling:
             qh_max = 0.0
         else:
-            qc_max = 0.0
+            qc_max = qch_max = 0.0
         t_ev_min, t_v_max = par[L.P_TEV_MIN] + 1.0, par[L.P_TV_MAX]
         season = float(cooling)
         if free:
-            cooling, season, qc_max, qh_max, t_ev_min, t_v_max = False, 1.0, 1e3, 1e3, 0.0, 1e3
+            cooling, season, qc_max, qh_max, qch_max, t_ev_min, t_v_max = False, 1.0, 1e3, 1e3, 1e3, 0.0, 1e3
         b_last = float(last[L.O_BLOWER]) if last is not None and math.isfinite(last[L.O_BLOWER]) else b_min
-        u_last = self._warm["u0"] if self._warm is not None else np.array([max(b_last, b_min), 0.0, 0.0])
-        p = np.concatenate(
-            (
-                x0,
-                [T_amb, (par[L.P_Q_OCC] + self.q_sun_air) / 1e3, self.q_sun_int / 1e3, r, g_v],
-                [t_ev_min, t_v_max, qc_max, qh_max, self._heating_efficiency(heating, state)],
-                fit[0] + fit[3] * x_front,
-                [fit[1], fit[2], par[L.P_BLOWER_POWER] / 1e3],
-                u_last,
-                [float(cooling), self._evap_ceiling(), season],
+        u_last = self._warm["u0"] if self._warm is not None else np.array([max(b_last, b_min), 0.0, 0.0, 0.0])
+        values = {
+            "x0": x0, "T_amb": T_amb, "q_air": (par[L.P_Q_OCC] + self.q_sun_air) / 1e3,
+            "q_int": self.q_sun_int / 1e3, "r": r, "g_v": g_v, "t_ev_min": t_ev_min, "t_v_max": t_v_max,
+            "qc_max": qc_max, "qh_max": qh_max, "qch_max": qch_max, "eta": self._heating_efficiency(heating, state),
+            "a1": fit[0] + fit[3] * x_front, "a2": fit[1], "a3": fit[2], "p_blower": par[L.P_BLOWER_POWER] / 1e3,
+            "c1": chill_fit[0], "c2": chill_fit[1], "q_gen": self._battery_heat(n, history) / 1e3, "u_last": u_last,
+            "cooling": float(cooling), "t_ev_max": self._evap_ceiling(), "cool_season": season,
+            **self._battery_loop(last),
+        }  # fmt: skip
+        lo = np.tile([b_min, 0.0, 0.0, 0.0, 0.0, 0.0], N)
+        hi = np.tile([1.0, max(qc_max, 0.0), qh_max, qch_max, np.inf, np.inf], N)
+        lbx = np.concatenate((lo, np.full(_N_X * N, 150.0)))
+        ubx = np.concatenate((hi, np.full(_N_X * N, 450.0)))
+        return {
+            "p": self._layout.pack(values), "lbx": lbx, "ubx": ubx, "T_in": T_in, "g_v": g_v, "b_min": b_min,
+            "qch_max": qch_max, "cooling": cooling,
+        }  # fmt: skip
+
+    def _battery_loop(self, last: np.ndarray | None) -> dict:
+        """The pack-to-coolant conductance [kW/K] and the coolant heater [kW] as the last step had them (the
+        rules' relays run the pump and the heater; in the cooling season the chiller's pump command)."""
+        if last is None or not math.isfinite(last[L.O_G_BC]):
+            return {"g_bc": self.g_plate / 1e3, "p_heater": 0.0}
+        g = self.g_plate if self._chilling else float(last[L.O_G_BC])
+        return {"g_bc": g / 1e3, "p_heater": float(last[L.O_P_HEATER]) / 1e3}
+
+    def _battery_heat(self, n: int, history: np.ndarray) -> np.ndarray:
+        """The battery's Joule heat [W] per horizon step: ``R_eff P^2``, with ``P`` the previewed motor power
+        plus the other loads as they are now, and ``R_eff`` identified on the last two minutes' steps (heat over
+        the squared terminal power)."""
+        N, o = self.options.steps, self.options
+        recent = history[-120:]
+        if not len(recent):
+            return np.zeros(N)
+        p_bat = recent[:, L.O_P_BATTERY]
+        denom = float(np.sum(p_bat**2))
+        r_eff = float(np.sum(recent[:, L.O_Q_GEN]) / denom) if denom > 0.0 else 0.0
+        others = float(np.mean(recent[-10:, L.O_P_BATTERY] - recent[-10:, L.O_P_MOTOR_EL]))
+        edges = self.ctx.edges
+        t0 = edges[n]
+        if o.preview == "none":
+            motor = np.full(N, float(np.mean(recent[-10:, L.O_P_MOTOR_EL])))
+        else:
+            idx = np.clip(
+                np.searchsorted(edges, t0 + np.arange(N * int(o.step)) + 0.5) - 1, 0, self.motor_power.size - 1
             )
-        )
-        lbx = np.concatenate((np.tile([b_min, 0.0, 0.0, 0.0], N), np.full(_N_X * N, 150.0)))
-        ubx = np.concatenate((np.tile([1.0, max(qc_max, 0.0), qh_max, np.inf], N), np.full(_N_X * N, 450.0)))
-        return {"p": p, "lbx": lbx, "ubx": ubx, "T_in": T_in, "g_v": g_v, "b_min": b_min}
+            motor = self.motor_power[idx].reshape(N, -1).mean(axis=1) if o.step >= 1 else self.motor_power[idx]
+        return r_eff * (motor + others) ** 2
 
     def _evap_ceiling(self) -> float:
         """Warmest evaporator air [K] the MPC asks for: the evaporator's highest setting, and no warmer than
@@ -388,11 +493,11 @@ class CabinMpc:
         """The previous solution shifted by one step, or a cold start at the present state."""
         N = self.options.steps
         if self._warm is None:
-            U = np.tile([b_min, 0.0, 0.0, 0.0], N)
+            U = np.tile([b_min, 0.0, 0.0, 0.0, 0.0, 0.0], N)
             X = np.tile(x0, N)
             return {"x": np.concatenate((U, X))}
         w = self._warm["w"]
-        U = w[: self._n_u].reshape(N, 4)
+        U = w[: self._n_u].reshape(N, _N_U)
         X = w[self._n_u :].reshape(N, _N_X)
         U = np.vstack((U[1:], U[-1:]))
         X = np.vstack((X[1:], X[-1:]))
@@ -448,6 +553,27 @@ class CabinMpc:
             A[:, 3] = 0.0
         coef = np.linalg.lstsq(A, np.array(target), rcond=None)[0]
         return coef, qc_max
+
+    def _chiller_fit(self, T_amb: float, T_coolant: float, x_front: float) -> tuple[np.ndarray, float]:
+        """Least-squares ``W = q (c1 + c2 q)`` [kW] of the chiller alone on the ``chiller`` map at the battery
+        pump's command; and its largest duty [kW]."""
+        maps = getattr(self.ctx.refrigerant, "maps", {})
+        if "chiller" not in maps:
+            return np.array([1.0 / 3.0, 0.0]), 0.0
+        knots, starts, table = maps["chiller"].packed()
+        y = np.empty(L.N_Y)
+        rows, target = [], []
+        u_pump = float(self.ctx.par[L.P_PUMP_BC])
+        for u in (0.25, 0.5, 0.75, 1.0):
+            L.map_interp(knots, starts, table, np.array([u, x_front, u_pump, T_amb, T_coolant]), y)
+            q = y[L.Y_QCH] / 1e3
+            if math.isfinite(q) and math.isfinite(y[L.Y_W]) and q > 0.05:
+                rows.append([q, q * q])
+                target.append(y[L.Y_W] / 1e3)
+        if len(rows) < 3:
+            return np.array([1.0 / 3.0, 0.0]), 0.0
+        coef = np.linalg.lstsq(np.array(rows), np.array(target), rcond=None)[0]
+        return coef, max(r[0] for r in rows)
 
     def _heating_efficiency(self, heating: int, state: np.ndarray) -> float:
         """Heat per electrical power [1]: 1 for the PTCs, the ``hp`` map's COP at half speed for the heat pump."""

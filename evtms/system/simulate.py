@@ -502,7 +502,9 @@ def simulate(
     loop0 = time.perf_counter()
     context = None
     if controller is not None:
-        context = ControlContext(par, edges, p_motor[:, 4].copy(), p_motor[:, 3] > 0.0, refrigerant)
+        context = ControlContext(
+            par, edges, p_motor[:, 4].copy(), p_motor[:, 0].copy(), p_motor[:, 3] > 0.0, refrigerant
+        )
     done, solves, stop, control_log = _run_loop(args, model, refrigerant, mode_models, controller, context)
     loop_time = time.perf_counter() - loop0
     termination = L.STOP_NAMES[stop]

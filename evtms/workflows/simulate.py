@@ -378,7 +378,7 @@ def _controller(request: SimulationRequest, depletion: bool):
         raise EvtmsInputError(
             f"controller {request.controller!r} runs single cycles; allowed with `range_test` mct or ccp: rules"
         )
-    given = sorted(k for k in ("SP_vent", "blower") if request.inputs.get(k) is not None)
+    given = sorted(k for k in ("SP_vent", "blower", "BC_request") if request.inputs.get(k) is not None)
     if given:
         raise EvtmsInputError(
             f"input {', '.join(given)} with controller {request.controller!r}: the controller sets them; allowed: "
