@@ -278,13 +278,19 @@ def report_compare(
     options = dict(locals())  # every option by name: the request's fields
     if controllers is not None:
         _compare_controllers(options, json_out)
-        return
-    for key in ("controllers", "preview", "horizon", "control_step", "json_out"):
-        del options[key]
-    options["sun"] = 0.0 if sun is None else sun
+    else:
+        _compare_models(options, json_out)
+
+
+def _compare_models(options: dict, json_out: bool) -> None:
+    """``report compare`` of models (physics, LUT, surrogates) or of Table 12's scenarios."""
     from evtms.reports.compare import compare_summary
     from evtms.reports.table12 import table12_summary, table12_text
     from evtms.workflows.compare import CompareRequest, run_comparison
+
+    for key in ("controllers", "preview", "horizon", "control_step", "json_out"):
+        del options[key]
+    options["sun"] = 0.0 if options["sun"] is None else options["sun"]
 
     def on_run(done: int, total: int, message: str) -> None:
         if not json_out:
@@ -296,7 +302,7 @@ def report_compare(
     if json_out:
         print_json({**(table12_summary if c.table12 else compare_summary)(c.result), "files": files})
     elif not c.table12:
-        typer.echo(f"wrote {len(files)} files and {output / 'index.html'}")
+        typer.echo(f"wrote {len(files)} files and {options['output'] / 'index.html'}")
     else:
         typer.echo(cli_message(table12_text(c.result)))  # a skip reason's `field` as its option
         if files:

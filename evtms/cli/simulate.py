@@ -25,6 +25,10 @@ _INPUT_HELP = {
     "sp_cohx": ("--sp-cohx", "Heater-core coolant inlet setpoint [degC] (ptc_coolant), or FILE.csv:column [K]."),
     "blower": ("--blower", "Fixed blower command [0-1] (not 0 with auto, cc or ch), or FILE.csv:column."),
     "sp_vent": ("--sp-vent", "Vent air target [degC] in place of the cabin loop's, or FILE.csv:column [K]."),
+    "bc_request": (
+        "--bc-request",
+        "Battery-cooling request [0-1, on above 0.5] in place of its relay, or FILE.csv:column.",
+    ),
 }
 #: Option parameter -> input name (evtms.system.inputs.INPUT_NAMES).
 _INPUT_OF = {
@@ -35,6 +39,7 @@ _INPUT_OF = {
     "sp_cohx": "SP_CoHX",
     "blower": "blower",
     "sp_vent": "SP_vent",
+    "bc_request": "BC_request",
 }
 
 
@@ -51,6 +56,7 @@ def _input_options(
     sp_cohx: Annotated[str | None, _input_option("sp_cohx")] = None,
     blower: Annotated[str | None, _input_option("blower")] = None,
     sp_vent: Annotated[str | None, _input_option("sp_vent")] = None,
+    bc_request: Annotated[str | None, _input_option("bc_request")] = None,
 ) -> None:
     """The external-input options of 'evtms simulate' (see :func:`with_options`)."""
 
@@ -181,17 +187,19 @@ def simulate(
         print_json(results[0].summary if len(results) == 1 else {"runs": [r.summary for r in results]})
         return
     for r in results:
-        s = r.summary
-        if "range" in s:
-            typer.echo(_range_line(s))
-            continue
-        typer.echo(
-            f"{s['T_amb_degC']:6.1f} degC  {s['distance_km']:.2f} km  battery {s['battery_energy_kWh']:.3f} kWh "
-            f"(HVAC {s['hvac_energy_kWh']:.3f})  SOC {s['soc_end']:.4f}  cabin {s['T_cabin_end_degC']:.1f} degC  "
-            f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
-            + ("" if s["termination"] == "end of cycle" else f"  ended: {s['termination']} at {s['duration_s']:.0f} s")
-        )
+        typer.echo(_range_line(r.summary) if "range" in r.summary else _run_line(r.summary))
     typer.echo(f"wrote {output} ({run.wall_time_s:.2f} s)")
+
+
+def _run_line(s: dict) -> str:
+    """One line of a run's figures."""
+    return (
+        f"{s['T_amb_degC']:6.1f} degC  {s['distance_km']:.2f} km  battery {s['battery_energy_kWh']:.3f} kWh "
+        f"(HVAC {s['hvac_energy_kWh']:.3f})  SOC {s['soc_end']:.4f}  cabin {s['T_cabin_end_degC']:.1f} degC  "
+        f"battery {s['T_battery_end_degC']:.1f} degC  loop {s['loop_time_s'] * 1e3:.0f} ms"
+        + ("" if s["termination"] == "end of cycle" else f"  ended: {s['termination']} at {s['duration_s']:.0f} s")
+        + _controller_text(s)
+    )
 
 
 def _range_line(s: dict) -> str:
@@ -211,4 +219,14 @@ def _range_line(s: dict) -> str:
         f"{s['T_amb_degC']:6.1f} degC  {f['test']}: UBE {f['ube_kWh']:.2f} kWh, {main}, "
         f"EC_ss {'n/a' if ec is None else f'{ec:.1f}'} Wh/km, range_ss {km('range_ss_km')}, "
         f"break-off {f['break_off']} at {f['break_off_s'] / 3600.0:.2f} h  loop {s['loop_time_s'] * 1e3:.0f} ms"
+    )
+
+
+def _controller_text(s: dict) -> str:
+    """The MPC's solve times and fallbacks for the summary line (nothing for the rules)."""
+    if s.get("controller_solve_mean_s") is None:
+        return ""
+    return (
+        f"  {s['controller']} {s['controller_solve_mean_s'] * 1e3:.1f} ms per decision (worst "
+        f"{s['controller_solve_max_s'] * 1e3:.0f}), {s['controller_fallbacks']} fallbacks"
     )
