@@ -15,9 +15,10 @@ compared on one plant with one set of safety limits. A period the
 supervisor cannot decide (a failed or late solve) is written NaN: the rules
 run it, and the steps carry :data:`F_CONTROLLER_FALLBACK`.
 
-This is the usual split of automotive climate MPC, a supervisory layer
-setting the targets of fast local loops (Schaut et al. 2022; Eckstein et al.
-2024, World Electric Vehicle Journal 15, 224).
+This is the usual split of automotive climate MPC: a supervisory layer
+setting the targets of fast local loops, which keep their own limits
+(Rawlings, Mayne and Diehl 2017, Model Predictive Control, 2nd ed.; World
+Electric Vehicle Journal 15 (2024) 224 for a cabin MPC in the loop).
 """
 
 from __future__ import annotations
