@@ -7,6 +7,7 @@ as ``test_climate.py``) and need the optional extra ``mpc`` (CasADi).
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 
@@ -202,3 +203,28 @@ def test_controller_options_refuse_bad_values(tmp_path, args, fragments):
     assert res.exit_code == 2, res.output
     one_error_line(res, *fragments)
     assert not out.exists()
+
+
+def test_report_compare_controllers_writes_the_table_and_the_figures(small_maps, small_map_luts, tmp_path):
+    """Two ambients, the rules and the MPC with and without preview: six rows, the savings against the rules'
+    run of the same ambient, solve times for the MPC only, the table and one figure per ambient."""
+    pytest.importorskip("casadi")
+    out = tmp_path / "ctl"
+    args = ["report", "compare", "--controllers", "rules,mpc", "--preview", "perfect,none", "--cycle", "parked:300"]
+    res = runner.invoke(app, [*args, "--t-amb", "-10,35", "--luts", str(small_map_luts), "-o", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    rows = json.loads(res.stdout)["rows"]
+    assert [(r["T_amb_degC"], r["controller"]) for r in rows] == [
+        (t, c) for t in (-10.0, 35.0) for c in ("rules", "mpc, preview perfect", "mpc, preview none")
+    ]
+    for r in rows:
+        base = next(b for b in rows if b["T_amb_degC"] == r["T_amb_degC"] and b["controller"] == "rules")
+        if r["controller"] == "rules":
+            assert r["hvac_saving_pct"] is None and r["solve_mean_ms"] is None
+        else:
+            assert r["hvac_saving_pct"] == pytest.approx(100.0 * (1.0 - r["hvac_kWh"] / base["hvac_kWh"]))
+            assert r["solve_mean_ms"] > 0.0 and r["fallbacks"] == 0
+        assert r["sun_W_m2"] == (600.0 if r["T_amb_degC"] > 22.0 else 0.0)
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["controllers.csv", "controllers_parked_300_-10degC.png", "controllers_parked_300_35degC.png"]
+    assert len((out / "controllers.csv").read_text().splitlines()) == 7

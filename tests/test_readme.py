@@ -14,7 +14,8 @@ building them again would take minutes) and nothing that needs a cluster of
 one's own (the docs give no such command to copy). Four commands run
 lighter than written, each checked in full elsewhere: ``evtms surrogate
 train`` with ``--quick --runs-per-mode 3`` (tiny networks; the full training
-takes minutes), ``evtms report compare`` with ``--dts 1,10 --repeat 1``, ``evtms sweep`` at
+takes minutes), ``evtms report compare`` with ``--dts 1,10 --repeat 1`` (with ``--controllers``: on UDDS and one
+preview), ``evtms sweep`` at
 one ambient (``--t-amb 25 --rh-amb 0.4 --sun 0``: its other scenarios are the same code), and
 ``--model physics`` with the cycle maps standing in for the bench physics
 (a hot WLTC on the physics takes minutes; ``test_simulate_cli`` runs the
@@ -128,7 +129,10 @@ def test_every_documented_command_works_in_a_fresh_folder(tmp_path, monkeypatch,
             link_luts(cycle_luts_dir, Path(argv[argv.index("-o") + 1]))
             copy_small_maps(small_map_luts, Path(argv[argv.index("-o") + 1]))
             continue
-        res = runner.invoke(app, argv[1:] + lighter.get(tuple(argv[1:3]), lighter.get(tuple(argv[1:2]), [])))
+        extra = lighter.get(tuple(argv[1:3]), lighter.get(tuple(argv[1:2]), []))
+        if "--controllers" in argv:  # the controllers on one cycle (test_controllers runs the table in full)
+            extra = ["--cycle", "udds", "--preview", "perfect"]
+        res = runner.invoke(app, argv[1:] + extra)
         assert res.exit_code == 0, f"{shlex.join(argv)}\n{res.output}"
         ran += 1
     assert ran >= 25

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -194,7 +195,7 @@ def _write(rows: list[ControllerRow], traces: dict, folder: Path, fmt: str, T_se
         (stage / names[0]).write_text("\n".join(lines) + "\n")
         for cycle, T in dict.fromkeys((k[0], k[1]) for k in traces):
             runs = {label: tr for (c, t, label), tr in traces.items() if c == cycle and t == T}
-            name = f"controllers_{cycle}_{T - 273.15:g}degC.{fmt}"
+            name = re.sub(r"[^A-Za-z0-9_.-]", "_", f"controllers_{cycle}_{T - 273.15:g}degC") + f".{fmt}"
             trajectory_figure(runs, stage / name, f"{cycle}, {T - 273.15:g} degC", T_set)
             names.append(name)
     return [folder / n for n in names]
