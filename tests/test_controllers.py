@@ -227,4 +227,8 @@ def test_report_compare_controllers_writes_the_table_and_the_figures(small_maps,
         assert r["sun_W_m2"] == (600.0 if r["T_amb_degC"] > 22.0 else 0.0)
     names = sorted(p.name for p in out.iterdir())
     assert names == ["controllers.csv", "controllers_parked_300_-10degC.png", "controllers_parked_300_35degC.png"]
-    assert len((out / "controllers.csv").read_text().splitlines()) == 7
+    from evtms.workflows.controllers import read_rows
+
+    table = read_rows(out / "controllers.csv")
+    assert [r["controller"] for r in table] == [r["controller"] for r in rows]
+    assert float(table[1]["hvac_kWh"]) == pytest.approx(rows[1]["hvac_kWh"], rel=1e-5)

@@ -188,11 +188,12 @@ def _write(rows: list[ControllerRow], traces: dict, folder: Path, fmt: str, T_se
     from evtms.paths import staged_folder
     from evtms.reports.controllers import trajectory_figure
 
-    fields = list(asdict(rows[0]))
-    lines = [",".join(fields)] + [",".join(_cell(v) for v in asdict(r).values()) for r in rows]
     names = ["controllers.csv"]
     with staged_folder(folder) as stage:
-        (stage / names[0]).write_text("\n".join(lines) + "\n")
+        with open(stage / names[0], "w", newline="") as f:
+            table = csv.writer(f)
+            table.writerow(list(asdict(rows[0])))
+            table.writerows([_cell(v) for v in asdict(r).values()] for r in rows)
         for cycle, T in dict.fromkeys((k[0], k[1]) for k in traces):
             runs = {label: tr for (c, t, label), tr in traces.items() if c == cycle and t == T}
             name = re.sub(r"[^A-Za-z0-9_.-]", "_", f"controllers_{cycle}_{T - 273.15:g}degC") + f".{fmt}"
@@ -206,7 +207,7 @@ def _cell(value) -> str:
         return ""
     if isinstance(value, float):
         return f"{value:.6g}"
-    return str(value).replace(",", ";")
+    return str(value)
 
 
 def read_rows(path: Path) -> list[dict]:
