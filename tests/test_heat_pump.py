@@ -17,10 +17,18 @@ from test_simulate import params, parked, refrigerant  # noqa: F401 - the synthe
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812
 from evtms.system.drive_cycles import drive_cycle
+from evtms.system.inputs import Trace
 from evtms.system.maps import CycleMap
 from evtms.system.simulate import simulate
 
 WLTC = drive_cycle("wltc3b")
+
+
+def first(cycle, seconds: float):
+    keep = cycle.time <= seconds
+    return dataclasses.replace(cycle, time=cycle.time[keep], speed=cycle.speed[keep], grade=cycle.grade[keep])
+
+
 HP = {"hvac": {"heating": "heat_pump"}}
 
 
@@ -116,10 +124,36 @@ def test_backup_fills_in_only_behind_a_heat_pump_running_flat_out(refrigerant): 
     # backup delay (60 s), and it heats only while the heat pump was flat out within that delay.
     # (or with its target beyond the 70 degC the heat pump alone reaches: the map's warmest loop)
     flat = hp & ((out[:, L.O_SPEED_CMD] >= out[:, L.O_HP_CEILING]) | (out[:, L.O_T_H_TARGET] > 343.15))
+    released = np.flatnonzero(~backup[1:] & backup[:-1]) + 1
     for k in np.flatnonzero(backup[1:] & ~backup[:-1]) + 1:
+        if np.any((released < k) & (released >= k - 60)):
+            continue  # back within a minute of its release: at once (the next test)
         assert np.all(flat[k - 59 : k + 1]), k
     for k in np.flatnonzero(backup & (out[:, L.O_P_PTCW] > 0)):
         assert np.any(flat[max(k - 60, 0) : k + 1]), k
+
+
+def test_a_backup_released_a_moment_ago_returns_at_once_when_the_pump_falls_short(refrigerant):  # noqa: F811
+    """A vent target that falls for 30 s and rises again: the backup, released while the pump had margin,
+    returns the step the pump runs flat out 2 K short again, not a minute later while the heater core cools the
+    loop; and the cabin's vent air never sags more than the target's own fall asks."""
+    weak = with_hp(refrigerant, capacity=0.05)
+    t = np.array([0.0, 599.0, 600.0, 630.0, 631.0, 1200.0])
+    sp = Trace(t, np.array([328.15, 328.15, 303.15, 303.15, 328.15, 328.15]), "test")
+    r = simulate(first(WLTC, 1200.0), 263.15, weak, params(**HP), keep_trace=True, inputs={"SP_vent": sp})
+    out, flags, st = r.trace["out"], r.trace["flags"], r.trace["states"]
+    backup = (flags & L.F_HP_BACKUP) > 0
+    released = np.flatnonzero(~backup[1:] & backup[:-1]) + 1
+    back = np.flatnonzero(backup[1:] & ~backup[:-1]) + 1
+    quick = [k for k in back if np.any((released < k) & (released >= k - 60))]
+    assert released.size and quick, (released, back)
+    for k in quick:  # flat out as the split range means it: at its ceiling, or asked beyond its warmest loop
+        short = st[k, L.S_TH] < out[k, L.O_T_H_TARGET] - 2.0
+        flat = out[k, L.O_SPEED_CMD] >= out[k, L.O_HP_CEILING] or out[k, L.O_T_H_TARGET] > 343.15
+        assert short and flat and k - released[released < k].max() < 60, k
+    # Before, it waited the minute: the loop's lowest point after the rise is within 3 K of where it was.
+    rise = 631
+    assert st[rise:, L.S_TH].min() > st[rise, L.S_TH] - 3.0
 
 
 def test_suction_trips_restart_after_their_delay_and_lock_out(refrigerant):  # noqa: F811

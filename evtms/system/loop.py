@@ -133,9 +133,9 @@ N_H = H_FALLBACK + 1
     M_BLOWER, M_MDOT, M_TV, M_HEATER_OK, M_HEATER_BAT_OK, M_CHILL_OK, M_Q_HEAT, M_T, M_T_WARM, M_CAB_OFF,
     M_RETRY_STEP, M_FAN_1, M_FAN_2, M_FAN_3, M_STOP, M_RAD_IN,
     M_HP_ON, M_T_HP, M_I_HP, M_U_PS, M_PS_LOW, M_HP_UNTIL, M_TRIP_1, M_TRIP_2, M_TRIP_3,
-    M_BACKUP, M_T_BACKUP, M_SRC_1, M_SRC_2, M_SRC_3, M_LAST_CIRCUIT, M_P_PTCW,
+    M_BACKUP, M_T_BACKUP, M_SRC_1, M_SRC_2, M_SRC_3, M_LAST_CIRCUIT, M_P_PTCW, M_T_RELEASE,
     N_M,
-) = range(61)  # fmt: skip
+) = range(62)  # fmt: skip
 
 # Why a run ended before its last step (``mem[M_STOP]``): not at all, SOC at its floor, or a mode model's state
 # left the physical range (the step that would have put it there is not done).
@@ -620,6 +620,7 @@ def run_loop(
         mem[M_T_HP] = mem[M_HP_UNTIL] = -1e300
         mem[M_U_PS] = 1.0
         mem[M_TRIP_1] = mem[M_TRIP_2] = mem[M_TRIP_3] = -1e300
+        mem[M_T_RELEASE] = -1e300
     n_steps = dts.size
     n = start
     while n < n_steps:
@@ -1189,7 +1190,7 @@ def run_loop(
         beta = 0.0
         mdot_h = 0.0
         eps_hc = 0.0
-        backup, t_backup = mem[M_BACKUP] > 0.0, mem[M_T_BACKUP]
+        backup, t_backup, t_release = mem[M_BACKUP] > 0.0, mem[M_T_BACKUP], mem[M_T_RELEASE]
         if heating_now and heating_opt != HEATING_PTC_AIR:
             mdot_h = par[P_MDOT_H]
             if math.isnan(T_H_t):  # reheat under an RH request: the target of this step's vent air
@@ -1210,8 +1211,11 @@ def run_loop(
                     backup = True
                     t_backup = 0.0
                 if not backup:
-                    t_backup = t_backup + dt if (flat_out and T_H < T_H_t - 2.0) else 0.0
-                    if t_backup >= par[P_HP_BACKUP_DELAY]:
+                    short = flat_out and T_H < T_H_t - 2.0
+                    t_backup = t_backup + dt if short else 0.0
+                    # Released within the last delay, the pump has just shown what it gives: short again, the
+                    # backup returns at once (waiting the delay again let a 5 kW heater core cool the loop 20 K).
+                    if t_backup >= par[P_HP_BACKUP_DELAY] or (short and t - t_release < par[P_HP_BACKUP_DELAY]):
                         backup = True
                         t_backup = 0.0
                         i_ptcw = 0.0
@@ -1491,7 +1495,9 @@ def run_loop(
         mem[M_RAD_IN] = rad_in
         mem[M_HP_ON], mem[M_T_HP], mem[M_I_HP], mem[M_U_PS] = hp_on, t_hp, i_hp, i_ps
         mem[M_PS_LOW], mem[M_HP_UNTIL] = ps_low, hp_until
-        mem[M_BACKUP], mem[M_T_BACKUP], mem[M_P_PTCW] = backup, t_backup, p_ptcw
+        if mem[M_BACKUP] > 0.0 and not backup:  # released, by whichever path (the pump's own stop included)
+            t_release = t
+        mem[M_BACKUP], mem[M_T_BACKUP], mem[M_P_PTCW], mem[M_T_RELEASE] = backup, t_backup, p_ptcw, t_release
         mem[M_TRIP_1], mem[M_TRIP_2], mem[M_TRIP_3] = trip_1, trip_2, trip_3
         mem[M_SRC_1], mem[M_SRC_2], mem[M_SRC_3] = src_1, src_2, src_3
         if speed > 0.0:
