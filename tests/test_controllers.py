@@ -135,6 +135,17 @@ def test_mpc_keeps_every_limit_on_a_short_trace(cycle_maps, T_amb_c, sun):
         assert s["T_cabin_end_degC"] > 10.0  # warming from -10 degC
 
 
+def test_a_solve_over_its_time_budget_falls_back_to_the_rules(cycle_maps):
+    """A budget no solve meets (1 ms): every period runs on the rules, flagged, and the run is the rules' own."""
+    cycle = first(WLTC, 120.0)
+    r = simulate(cycle, 308.15, cycle_maps, sun=600.0, controller=_mpc(time_budget=1e-3), keep_trace=True)
+    rules = simulate(cycle, 308.15, cycle_maps, sun=600.0, keep_trace=True)
+    s = r.summary
+    assert s["controller_fallbacks"] == s["controller_decisions"] == 12
+    assert np.all(r.trace["flags"] & L.F_CONTROLLER_FALLBACK)
+    np.testing.assert_array_equal(r.trace["states"], rules.trace["states"])
+
+
 def test_mpc_prediction_follows_the_plant_over_its_horizon(cycle_maps):
     """The prediction model, fed the plant's own blower and duties (means per MPC step) and its motor power,
     predicts the cabin air of the next 3 min within 0.5 K (at 35 degC with sun after 5 min of pull-down, and at
