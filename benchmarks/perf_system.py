@@ -25,7 +25,10 @@ timeout that ends it):
   then the median of ``--cli-runs``.
 - the detail row **simulate_call**: the in-process ``simulate()`` call of the
   LUT model on the same WLTC at 30 degC (maps loaded, compiled; median of
-  ``--cli-runs``), beside FASTSim-3's library call.
+  ``--cli-runs``), beside FASTSim-3's library call;
+- the detail row **simulate_mpc**: the same call with the predictive
+  controller on a WLTC at 40 degC with sun (best of 3), and its time per
+  decision, mean and worst (skipped without the extra ``mpc``).
 """
 
 from __future__ import annotations
@@ -254,6 +257,37 @@ def simulate_process(args, table: Table) -> None:
         run_child([*cmd, "-o", f"{tmp}/warm.nc"])
         runs = [run_child([*cmd, "-o", f"{tmp}/run{i}.nc"]) for i in range(args.cli_runs)]
     table.add("simulate_process", child_row(runs), **child_fields(runs))
+
+
+def simulate_mpc(args, table: Table) -> None:
+    """Detail row: ``simulate()`` with the predictive controller (WLTC at 40 degC, sun 600 W/m2): the whole call
+    and the time per decision (mean and worst), against the rules' call; skipped without the extra ``mpc``."""
+    import importlib.util
+
+    from evtms.system.drive_cycles import drive_cycle
+    from evtms.system.refrigerant import load_refrigerant
+    from evtms.system.simulate import simulate
+
+    label = "simulate(), MPC above the rules' local loops, WLTC 40 degC, sun 600 W/m2, in-process"
+    if importlib.util.find_spec("casadi") is None or missing_maps(Path(args.luts)):
+        table.detail("simulate_mpc", label, "not run: the extra 'mpc' (CasADi) or the maps missing")
+        return
+    from evtms.system.mpc import CabinMpc
+
+    refrigerant = load_refrigerant(args.luts)
+    cycle = drive_cycle("wltc3b")
+    runs = [simulate(cycle, 313.15, refrigerant, sun=600.0, controller=CabinMpc()).summary for _ in range(3)]
+    best = min(runs, key=lambda r: r["wall_time_s"])
+    table.detail(
+        "simulate_mpc",
+        label + " (best of 3)",
+        f"{best['wall_time_s']:.2f} s, {best['controller_solve_mean_s'] * 1e3:.1f} ms a decision (worst "
+        f"{best['controller_solve_max_s'] * 1e3:.0f} ms, {best['controller_decisions']} decisions, "
+        f"{best['controller_fallbacks']} fallbacks)",
+        seconds=best["wall_time_s"],
+        solve_mean_s=best["controller_solve_mean_s"],
+        solve_max_s=best["controller_solve_max_s"],
+    )
 
 
 def simulate_call(args, table: Table) -> float | None:

@@ -375,6 +375,7 @@ def measure(args, table: Table) -> CycleSolver:
     cli_calls(args, table)
     perf_system.simulate_process(args, table)
     call_s = perf_system.simulate_call(args, table)
+    perf_system.simulate_mpc(args, table)
     long_commands(args, table)
     if args.maps:
         perf_system.maps_build(args, table)
