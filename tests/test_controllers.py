@@ -204,6 +204,7 @@ def test_mpc_without_its_extra_says_how_to_install_it(monkeypatch, tmp_path):
         (["simulate", "--cycle", "udds", "--controller", "mpc", "--sp-vent", "15"], ("SP_vent", "controller")),
         (["simulate", "--cycle", "udds", "--controller", "mpc", "--preview", "x"], ("preview 'x'", "perfect")),
         (["report", "compare", "--controllers", "rules,pid"], ("--controllers 'pid'", "rules, mpc")),
+        (["simulate", "--cycle", "udds", "--t-amb", "25", "--speed-deviation", "-1"], ("delta_v_ref above 0",)),
         (["report", "compare", "--controllers", "rules", "--approaches", "lut"], ("--approaches",)),
     ],
 )

@@ -395,3 +395,17 @@ def test_a_lean_numba_runs_the_loop_and_leaves_scipy_importable():
     value, before = res.stdout.strip().split(" ", 1)
     assert float(value) == L.humidity_ratio(303.15, 0.5, 101325.0)  # the same machine code's number
     assert before == "[]"
+
+
+def test_simulate_drives_a_deviated_trace_and_its_ledgers_close(refrigerant):
+    """The input speed_deviation (within [vehicle] delta_v_ref) changes the drive: 1.5 m/s slower on a UDDS is
+    less distance on less traction energy, every ledger closed; with delta_v_ref 0 it is refused."""
+    cycle = drive_cycle("udds")
+    bounded = params(vehicle={"delta_v_ref": 2.0})
+    base = simulate(cycle, 298.15, refrigerant, bounded).summary
+    slow = simulate(cycle, 298.15, refrigerant, bounded, inputs={"speed_deviation": -1.5}).summary
+    assert slow["distance_km"] < base["distance_km"] - 0.5
+    assert slow["traction_energy_kWh"] < base["traction_energy_kWh"]
+    assert slow["ledger_worst"] < 1e-9
+    with pytest.raises(EvtmsInputError, match="delta_v_ref above 0"):
+        simulate(cycle, 298.15, refrigerant, inputs={"speed_deviation": -1.5})

@@ -97,3 +97,31 @@ def test_spec_analytic_wheel_power_at_30_degC():
     for kmh, watts in ((50.0, 2300.7), (100.0, 9186.4)):
         s = drive_segments(trace([kmh / 3.6] * 3), 303.15, p)
         assert s.P_wheel == pytest.approx(watts, rel=3e-5)  # the spec rounds the air density to 1.1644
+
+
+def test_a_bounded_speed_deviation_drives_the_trace_slower_or_faster():
+    """delta_v_ref 0 (the default) refuses any deviation; within the bound a WLTC 1 m/s slower drives less
+    distance on less traction energy (drag and rolling fall with speed), 1 m/s faster the reverse; the car stands
+    where the trace stands; a deviation beyond the bound is refused."""
+    from evtms.errors import EvtmsInputError
+    from evtms.system.inputs import Trace
+    from evtms.system.vehicle import deviated_cycle
+
+    wltc = drive_cycle("wltc3b")
+    with pytest.raises(EvtmsInputError, match=r"delta_v_ref above 0"):
+        deviated_cycle(wltc, -1.0, VehicleParams().delta_v_ref)
+    with pytest.raises(EvtmsInputError, match=r"speed_deviation up to 3 m/s is not allowed; allowed: within"):
+        deviated_cycle(wltc, Trace(np.array([0.0, 100.0]), np.array([0.0, -3.0])), 2.0)
+    p = VehicleParams()
+
+    def energy_and_distance(cycle):
+        seg = drive_segments(cycle, 298.15, p, regen=True)
+        dt = np.diff(cycle.time)
+        return float(np.sum(seg.P_traction * dt)), float(np.sum(0.5 * (cycle.speed[1:] + cycle.speed[:-1]) * dt))
+
+    e0, d0 = energy_and_distance(wltc)
+    slow, fast = deviated_cycle(wltc, -1.0, 2.0), deviated_cycle(wltc, 1.0, 2.0)
+    (e_s, d_s), (e_f, d_f) = energy_and_distance(slow), energy_and_distance(fast)
+    assert d_s < d0 < d_f and e_s < e0 < e_f
+    assert np.all(slow.speed[wltc.speed == 0.0] == 0.0) and np.all(fast.speed[wltc.speed == 0.0] == 0.0)
+    assert np.all(slow.speed >= 0.0)

@@ -29,6 +29,10 @@ _INPUT_HELP = {
         "--bc-request",
         "Battery-cooling request [0-1, on above 0.5] in place of its relay, or FILE.csv:column.",
     ),
+    "speed_deviation": (
+        "--speed-deviation",
+        "Driven speed less the trace's [m/s], within [vehicle] delta_v_ref (0: off), or FILE.csv:column.",
+    ),
 }
 #: Option parameter -> input name (evtms.system.inputs.INPUT_NAMES).
 _INPUT_OF = {
@@ -40,6 +44,7 @@ _INPUT_OF = {
     "blower": "blower",
     "sp_vent": "SP_vent",
     "bc_request": "BC_request",
+    "speed_deviation": "speed_deviation",
 }
 
 
@@ -57,6 +62,7 @@ def _input_options(
     blower: Annotated[str | None, _input_option("blower")] = None,
     sp_vent: Annotated[str | None, _input_option("sp_vent")] = None,
     bc_request: Annotated[str | None, _input_option("bc_request")] = None,
+    speed_deviation: Annotated[str | None, _input_option("speed_deviation")] = None,
 ) -> None:
     """The external-input options of 'evtms simulate' (see :func:`with_options`)."""
 

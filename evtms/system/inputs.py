@@ -22,7 +22,10 @@ where an input is not given, so the controller's own law applies):
   the law's target, clipped to ``T_vent_min``..``T_vent_max``;
 - ``BC_request`` [1]: the battery-cooling request (above 0.5: on) in place
   of its relay on the battery temperature; the critical relay and the
-  chiller's safety relay stay.
+  chiller's safety relay stay;
+- ``speed_deviation`` [m/s]: the driven speed's deviation from the trace,
+  within the vehicle's ``delta_v_ref`` (:func:`evtms.system.vehicle.deviated_cycle`;
+  it changes the drive, not the loop's controls).
 
 Users give each input as a number (SI) or as ``"FILE.csv:column"``, a
 trace: a CSV file with a ``time_s`` column and named columns in SI units
@@ -62,7 +65,12 @@ INPUT_NAMES = (
     "blower",
     "SP_vent",
     "BC_request",
+    "speed_deviation",
 )
+#: Inputs that change the drive, not the loop's controls: applied to the trace before the run.
+DRIVE_INPUTS = ("speed_deviation",)
+#: The loop's inputs, in its column order (:data:`evtms.system.loop.N_X` of them).
+LOOP_INPUTS = tuple(n for n in INPUT_NAMES if n not in DRIVE_INPUTS)
 #: Allowed range per input (both ends included) and its units.
 INPUT_RANGES: dict[str, tuple[float, float, str]] = {
     "Q_battery_ext": (-50e3, 50e3, "W"),
@@ -73,6 +81,7 @@ INPUT_RANGES: dict[str, tuple[float, float, str]] = {
     "blower": (0.0, 1.0, "1"),
     "SP_vent": (273.15, 343.15, "K"),
     "BC_request": (0.0, 1.0, "1"),
+    "speed_deviation": (-10.0, 10.0, "m/s"),
 }
 
 
@@ -111,7 +120,7 @@ InputValue = float | Trace
 
 
 def per_step(inputs: Mapping[str, InputValue] | None, edges: np.ndarray) -> np.ndarray:
-    """The inputs as the loop reads them: (steps, len(INPUT_NAMES)), NaN where not given.
+    """The inputs as the loop reads them: (steps, len(LOOP_INPUTS)), NaN where not given.
 
     Parameters
     ----------
@@ -125,9 +134,11 @@ def per_step(inputs: Mapping[str, InputValue] | None, edges: np.ndarray) -> np.n
     numpy.ndarray
         Per step the mean of each given input over the step.
     """
-    out = np.full((edges.size - 1, len(INPUT_NAMES)), np.nan)
+    out = np.full((edges.size - 1, len(LOOP_INPUTS)), np.nan)
     for name, value in (inputs or {}).items():
-        col = INPUT_NAMES.index(name)
+        if name in DRIVE_INPUTS:
+            continue
+        col = LOOP_INPUTS.index(name)
         out[:, col] = value.step_means(edges) if isinstance(value, Trace) else float(value)
     return out
 

@@ -31,7 +31,7 @@ from evtms.system.mode_model import MODE_CODES, ModeModels
 from evtms.system.params import FAN_STAGE_CURVES, SECTIONS, WALLS, SystemParams
 from evtms.system.refrigerant import Refrigerant
 from evtms.system.tables import battery_cell_tables
-from evtms.system.vehicle import drive_segments
+from evtms.system.vehicle import deviated_cycle, drive_segments
 
 P_ATM = 101325.0  # [Pa]
 #: Most time steps one simulation may take (23 days at 1 s; the loop's arrays take ~0.7 kB per step).
@@ -466,6 +466,8 @@ def simulate(
     check_model(model, mode, mode_models, refrigerant)
     check_heating(params, refrigerant)
     inputs = check_inputs(inputs, mode=mode)
+    if "speed_deviation" in inputs:
+        cycle = deviated_cycle(cycle, inputs["speed_deviation"], params.vehicle.delta_v_ref)
     m = round(every / dt)
     if precondition:
         cycle = _with_precondition(cycle, precondition)

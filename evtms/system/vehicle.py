@@ -90,6 +90,9 @@ class VehicleParams:
         Factor on the e-drive loss map [1] (the example's 1.1).
     aux_power : float
         Constant auxiliary electrical load [W] (FASTSim's 250).
+    delta_v_ref : float
+        Largest deviation [m/s] of the driven speed from the trace a run may
+        be given (input ``speed_deviation``; 0: the trace is driven as it is).
     """
 
     mass: float = param(1611.0, 100.0, 1e5, "kg", source="MW P `vehMass`")
@@ -105,6 +108,13 @@ class VehicleParams:
     regen_fraction: float = param(1.0, 0.0, 1.0, source="MW M series regeneration")
     loss_factor: float = param(1.1, 0.0, 10.0, source="MW P factor on `Edrive.loss_maps`")
     aux_power: float = param(250.0, 0.0, 1e5, "W", source="FS `pwr_aux_base_watts`", slot="AUX")
+    delta_v_ref: float = param(
+        0.0,
+        0.0,
+        10.0,
+        "m/s",
+        source="thesis 3.2: the control-oriented model's bounded deviation from the reference speed; 0: off",
+    )
 
     @property
     def effective_mass(self) -> float:
@@ -145,6 +155,56 @@ class DriveSegments:
     P_gear_loss: np.ndarray
     P_friction: np.ndarray
     torque_limited: np.ndarray
+
+
+def deviated_cycle(cycle: DriveCycle, deviation, bound: float) -> DriveCycle:
+    """The trace driven with a bounded deviation from its speed (the thesis's control-oriented model, 3.2).
+
+    ``v = max(v_ref + dv, 0)`` where the reference moves; where it stands the
+    car stands (a deviation does not start a stopped car). The acceleration,
+    the distance and every load follow from the new speed as from any trace.
+
+    Parameters
+    ----------
+    cycle : DriveCycle
+        The reference trace.
+    deviation : float or Trace
+        ``dv`` [m/s]: a constant, or a trace on the cycle's clock (linear
+        between its samples, held at its ends).
+    bound : float
+        ``delta_v_ref`` [m/s]: the largest ``|dv|`` allowed.
+
+    Raises
+    ------
+    EvtmsInputError
+        A deviation with ``delta_v_ref`` 0 (off), or one beyond the bound.
+    """
+    check_deviation(deviation, bound)
+    if hasattr(deviation, "time"):
+        dv = np.interp(cycle.time, deviation.time, deviation.values)
+    else:
+        dv = np.full(cycle.time.shape, float(deviation))
+    speed = np.where(cycle.speed > 0.0, np.maximum(cycle.speed + dv, 0.0), 0.0)
+    return DriveCycle(cycle.name, cycle.time, speed, cycle.grade, cycle.source)
+
+
+def check_deviation(deviation, bound: float) -> None:
+    """Refuse a speed deviation (a number or a trace [m/s]) beyond ``delta_v_ref`` ``bound`` [m/s], or any
+    with the bound 0 (off): one line, before any work."""
+    from evtms.errors import EvtmsInputError
+
+    values = deviation.values if hasattr(deviation, "time") else np.array([float(deviation)])
+    largest = float(np.max(np.abs(values)))
+    if bound <= 0.0 and largest > 0.0:
+        raise EvtmsInputError(
+            f"input speed_deviation up to {largest:g} m/s needs [vehicle] delta_v_ref above 0 (0: off); allowed: "
+            "set delta_v_ref, or leave speed_deviation out"
+        )
+    if largest > bound:
+        raise EvtmsInputError(
+            f"input speed_deviation up to {largest:g} m/s is not allowed; allowed: within [vehicle] delta_v_ref "
+            f"+-{bound:g} m/s"
+        )
 
 
 def rolling_coefficient(p: VehicleParams, speed: np.ndarray) -> np.ndarray:

@@ -393,10 +393,14 @@ def _run_simulation(request: SimulationRequest, notify: Notify, progress: Progre
     from evtms.system.output import write_simulation
     from evtms.system.scenarios import run_scenario
     from evtms.system.simulate import check_model
+    from evtms.system.vehicle import check_deviation
 
     depletion, named = _check_choice(request)
     controller = _controller(request, depletion)
     sc, setups, tree, ambients, inputs = _plan(request, depletion, named)
+    for setup in setups:  # the drive's inputs against the vehicle's bound, before the maps are built
+        if "speed_deviation" in setup.inputs:
+            check_deviation(setup.inputs["speed_deviation"], setup.params.vehicle.delta_v_ref)
     lut_folder, lut_files = cycle_luts(request.luts)
     inputs += lut_files
     mode_models = None
