@@ -244,3 +244,62 @@ def test_report_compare_controllers_writes_the_table_and_the_figures(small_maps,
     table = read_rows(out / "controllers.csv")
     assert [r["controller"] for r in table] == [r["controller"] for r in rows]
     assert float(table[1]["hvac_kWh"]) == pytest.approx(rows[1]["hvac_kWh"], rel=1e-5)
+
+
+def parked(seconds: float) -> DriveCycle:
+    t = np.arange(0.0, seconds + 1.0)
+    return DriveCycle("parked", t, np.zeros_like(t), np.zeros_like(t), "test")
+
+
+def test_a_given_battery_cooling_request_replaces_the_relay_but_not_the_safety_relays(synthetic):  # noqa: F811
+    """BC_request 1 cools a 30 degC battery the relay (on at 35) leaves alone; 0 does not stop the critical
+    relay cooling a 42 degC one; 1 cannot chill a 12 degC battery (below bc_T_battery_min: the safety relay)."""
+
+    def chilled(T_amb, T_init, request):
+        r = simulate(parked(600.0), T_amb, synthetic, T_init=T_init, inputs={"BC_request": request}, keep_trace=True)
+        return r.trace["out"][:, L.O_Q_CHILLER] > 0.0, r.trace["flags"]
+
+    rules = simulate(parked(600.0), 303.15, synthetic, T_init=303.15, keep_trace=True)
+    assert not np.any(rules.trace["out"][:, L.O_Q_CHILLER] > 0.0)
+    on, _ = chilled(303.15, 303.15, 1.0)
+    assert on.mean() > 0.5
+    critical, _ = chilled(308.15, 315.15, 0.0)
+    assert critical.any()
+    cold, flags = chilled(283.15, 285.15, 1.0)
+    assert not cold.any() and np.any(flags & L.F_SAFETY_RELAY)
+
+
+def test_the_mpc_chills_nothing_without_a_chiller_to_plan_with():
+    """No chiller capacity (no map, or no point of it cooling): the request is the relay's (NaN), never a 1 that
+    flips every minute."""
+    pytest.importorskip("casadi")
+    from evtms.system.mpc import CabinMpc
+
+    mpc = CabinMpc()
+    mpc.ctx = type("Ctx", (), {"edges": np.arange(0.0, 1000.0)})()
+    mpc._chilling, mpc._chill_since = True, -math.inf
+    assert all(math.isnan(mpc._chill_request(n, 0.0, 0.0)) for n in (0, 100, 200))
+    assert not mpc._chilling
+    assert mpc._chill_request(300, 2.0, 4.0) == 1.0  # above a quarter of a real capacity: on
+
+
+def test_a_light_cooling_load_is_left_to_the_rules(cycle_maps):
+    """25 degC without sun: the load needs vent air far warmer than the evaporator's ceiling, a duty the
+    compressor meets only by cycling; the MPC hands every period to the rules, unflagged, and the run is theirs."""
+    cycle = first(WLTC, 120.0)
+    r = simulate(cycle, 298.15, cycle_maps, controller=_mpc(), keep_trace=True)
+    rules = simulate(cycle, 298.15, cycle_maps, keep_trace=True)
+    assert r.summary["controller_decisions"] == 0 and r.summary["controller_fallbacks"] == 0
+    assert not np.any(r.trace["flags"] & L.F_CONTROLLER_FALLBACK)
+    np.testing.assert_array_equal(r.trace["states"], rules.trace["states"])
+
+
+def test_a_control_step_must_be_a_whole_number_of_time_steps(synthetic):  # noqa: F811
+    from evtms.system.controllers import check_period
+
+    check_period(10.0, 0.5)
+    for period, dt in ((2.5, 1.0), (0.5, 1.0)):
+        with pytest.raises(EvtmsInputError, match="whole multiple of the time step"):
+            check_period(period, dt)
+    with pytest.raises(EvtmsInputError, match="whole multiple"):
+        simulate(first(WLTC, 60.0), 308.15, synthetic, dt=4.0, controller=Fixed(290.0, 0.5, period=10.0))

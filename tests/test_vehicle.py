@@ -125,3 +125,5 @@ def test_a_bounded_speed_deviation_drives_the_trace_slower_or_faster():
     assert d_s < d0 < d_f and e_s < e0 < e_f
     assert np.all(slow.speed[wltc.speed == 0.0] == 0.0) and np.all(fast.speed[wltc.speed == 0.0] == 0.0)
     assert np.all(slow.speed >= 0.0)
+    soak = DriveCycle("soaked", wltc.time, wltc.speed, wltc.grade, "test", key_off=wltc.speed == 0.0)
+    assert np.array_equal(deviated_cycle(soak, 1.0, 2.0).key_off, soak.key_off)  # a range test's soaks kept

@@ -311,14 +311,19 @@ def _compare_models(options: dict, json_out: bool) -> None:
 
 def _compare_controllers(options: dict, json_out: bool) -> None:
     """``report compare --controllers``: the controllers' table, printed, and its files."""
+    import inspect
     from dataclasses import asdict
 
     from evtms.errors import EvtmsInputError
     from evtms.workflows.controllers import ControllerRequest, compare_controllers, controller_table
 
-    unused = [f"--{k.replace('_', '-')}" for k in ("scenarios", "approaches", "measured") if options[k] is not None]
+    own = ("cycle", "t_amb", "controllers", "preview", "luts", "params", "sun", "horizon", "control_step", "output")
+    defaults = {k: p.default for k, p in inspect.signature(report_compare).parameters.items()}
+    unused = [
+        f"--{k.replace('_', '-')}" for k in defaults if k not in (*own, "fmt", "json_out") and options[k] != defaults[k]
+    ]
     if unused:
-        raise EvtmsInputError(f"{', '.join(unused)} compare models; not allowed with --controllers")
+        raise EvtmsInputError(f"{', '.join(unused)}: for comparing models; not allowed with --controllers")
     request = ControllerRequest(
         cycle=options["cycle"] or "wltc3b,udds",
         t_amb=options["t_amb"] or "-10,30,40",

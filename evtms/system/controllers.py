@@ -23,6 +23,7 @@ Electric Vehicle Journal 15 (2024) 224 for a cabin MPC in the loop).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -75,7 +76,7 @@ class Decision:
     blower : float
         Blower command [1].
     solve_time : float
-        Wall time of the decision [s].
+        Wall time of the decision [s]; NaN where there was nothing to decide.
     ok : bool
         False when the controller fell back (a failed or late solve).
     battery_cooling : float
@@ -128,6 +129,18 @@ class SupervisionLog:
         }
 
 
+def check_period(period: float, dt: float) -> None:
+    """Refuse a control period that is not a whole number of time steps (the controller's model steps by it)."""
+    from evtms.errors import EvtmsInputError
+
+    k = period / dt
+    if k < 1.0 - 1e-9 or abs(k - round(k)) > 1e-6:
+        raise EvtmsInputError(
+            f"control step {period:g} s with time step {dt:g} s is not allowed; allowed: a whole multiple of the "
+            "time step"
+        )
+
+
 def period_steps(edges: np.ndarray, period: float) -> np.ndarray:
     """First step of every control period: the steps whose start crosses a multiple of ``period`` [s]."""
     k = np.floor((edges[:-1] - edges[0]) / period + 1e-9)
@@ -166,11 +179,11 @@ def run_supervised(
     for n0, n1 in zip(bounds[:-1], bounds[1:], strict=True):
         n0, n1 = int(n0), int(n1)
         decision = supervisor.decide(n0, states[n0], out[:n0])
-        log.steps.append(n0)
-        log.solve_times.append(decision.solve_time)
-        ext[n0:n1, L.X_SP_VENT] = decision.T_vent
-        ext[n0:n1, L.X_BLOWER] = decision.blower
-        ext[n0:n1, L.X_BC_REQUEST] = decision.battery_cooling
+        if not math.isnan(decision.solve_time):  # NaN: nothing was decided (the key is off)
+            log.steps.append(n0)
+            log.solve_times.append(decision.solve_time)
+        given = (decision.T_vent, decision.blower, decision.battery_cooling) if decision.ok else (math.nan,) * 3
+        ext[n0:n1, L.X_SP_VENT], ext[n0:n1, L.X_BLOWER], ext[n0:n1, L.X_BC_REQUEST] = given
         done = run_chunk((args[0], dts[:n1], *args[2:]), n0)
         if not decision.ok:
             log.fallbacks += 1

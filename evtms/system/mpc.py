@@ -243,8 +243,7 @@ class CabinMpc:
         self.q_sun_int = q_sun if par[L.P_C_INT] > 0.0 else 0.0
         self.q_sun_air = q_sun - self.q_sun_int
         self.g_plate = self._plate_conductance()
-        self.speed = self._preview_speed(context)
-        self.motor_power = np.asarray(context.motor_power, float)
+        self.speed, self.motor_power = self._preview(context)
         self._warm = None
         self._chilling, self._chill_since = False, -math.inf
         self._build()
@@ -257,12 +256,15 @@ class CabinMpc:
         args = (par[L.P_PLATE_RE1], par[L.P_PLATE_PR], par[L.P_PLATE_DL], par[L.P_PLATE_KA], par[L.P_G_CP])
         return float(L.plate_conductance(par[L.P_PUMP_BC], *args))
 
-    def _preview_speed(self, context: ControlContext) -> np.ndarray:
+    def _preview(self, context: ControlContext) -> tuple[np.ndarray, np.ndarray]:
+        """The speed [m/s] and motor power [W] the controller sees ahead: the trace's, or with the ``noisy``
+        preview each times ``1 + noise e`` (e standard normal, one draw a step, the same for both)."""
         speed = np.asarray(context.speed, float)
+        motor = np.asarray(context.motor_power, float)
         if self.options.preview == "noisy":
-            rng = np.random.default_rng(self.options.seed)
-            speed = np.maximum(speed * (1.0 + self.options.noise * rng.standard_normal(speed.size)), 0.0)
-        return speed
+            factor = 1.0 + self.options.noise * np.random.default_rng(self.options.seed).standard_normal(speed.size)
+            speed, motor = np.maximum(speed * factor, 0.0), motor * factor
+        return speed, motor
 
     def _build(self) -> None:
         ca = self._ca
@@ -358,9 +360,14 @@ class CabinMpc:
         wall0 = time.perf_counter()
         N = self.options.steps
         x0 = self._initial_state(state, history)
-        if self.ctx.key_off[n] or not np.all(np.isfinite(x0)):
-            return Decision(math.nan, math.nan, time.perf_counter() - wall0, True)
+        if self.ctx.key_off[n]:  # nothing to decide: no climate with the key off
+            return Decision(math.nan, math.nan, math.nan, True)
+        if not np.all(np.isfinite(x0)):  # a state the model cannot start from: the rules run, flagged
+            return Decision(math.nan, math.nan, time.perf_counter() - wall0, False)
         problem = self._problem(n, state, history)
+        if problem["regime"] == "rules":  # outside the model's regime: the rules' cabin loop, not flagged
+            self._warm = None
+            return Decision(math.nan, math.nan, math.nan, True)
         guess = self._guess(x0, problem["b_min"])
         args = {"x0": guess["x"], "p": problem["p"], "lbx": problem["lbx"], "ubx": problem["ubx"]}
         args.update(lbg=self._lbg, ubg=self._ubg)
@@ -393,7 +400,11 @@ class CabinMpc:
 
     def _chill_request(self, n: int, q_chill: float, q_max: float) -> float:
         """The battery-cooling request from the planned chiller duty: on above a quarter of its capacity, off
-        below a twentieth, each held at least a minute (the chiller runs at its own suction PI, not at a duty)."""
+        below a twentieth, each held at least a minute (the chiller runs at its own suction PI, not at a duty).
+        With no chiller to plan with (no map, or none of its points cools) the relay decides (NaN)."""
+        if not q_max > 0.0:
+            self._chilling, self._chill_since = False, -math.inf
+            return math.nan
         t = float(self.ctx.edges[n])
         held = t - self._chill_since >= 60.0
         want = q_chill >= 0.25 * q_max if not self._chilling else q_chill > 0.05 * q_max
@@ -405,7 +416,7 @@ class CabinMpc:
         self, n: int, state: np.ndarray, history: np.ndarray, blower: np.ndarray, q_cool: np.ndarray,
         q_heat: np.ndarray, q_chill: np.ndarray | None = None,
     ) -> np.ndarray:  # fmt: skip
-        """The prediction model's states [K] (``(steps, 7)``: :data:`_STATES`) under given commands.
+        """The prediction model's states (``(steps, 8)``: :data:`_STATES`, [K] and [kW]) under given commands.
 
         The same program as :meth:`decide` with the commands fixed (blower [1], sensible cooling, heating and
         chiller duties [W] per step) and no limits on them: what the MPC believes those commands would do.
@@ -438,10 +449,8 @@ class CabinMpc:
         chill_fit, qch_max = self._chiller_fit(T_amb, float(state[L.S_TC]), float(x_front.mean()))
         heating = int(par[L.P_HEATING])
         qh_max = (par[L.P_PTC_MAX] if heating == L.HEATING_PTC_AIR else par[L.P_PTCW_MAX]) / 1e3
-        # One season per decision, by the ambient against the setpoint: cooling (no heat; reheat for drying stays
-        # the rules'; the battery's cooling is the MPC's) or heating (no compressor on the cabin coil; the
-        # battery stays the rules').
-        cooling = T_amb > self.T_set
+        regime = self._regime(b_min, g_v)
+        cooling = regime == "cooling"
         if cooling:
             qh_max = 0.0
         else:
@@ -458,7 +467,8 @@ class CabinMpc:
             "qc_max": qc_max, "qh_max": qh_max, "qch_max": qch_max, "eta": self._heating_efficiency(heating, state),
             "a1": fit[0] + fit[3] * x_front, "a2": fit[1], "a3": fit[2], "p_blower": par[L.P_BLOWER_POWER] / 1e3,
             "c1": chill_fit[0], "c2": chill_fit[1], "q_gen": self._battery_heat(n, history) / 1e3, "u_last": u_last,
-            "cooling": float(cooling), "t_ev_max": self._evap_ceiling(), "cool_season": season,
+            "cooling": float(cooling and x0[0] >= self.T_set - self.band), "t_ev_max": self._evap_ceiling(),
+            "cool_season": season,
             **self._battery_loop(last),
             "tau_heat": self._heat_lag(heating, state, last, T_in),
         }  # fmt: skip
@@ -468,7 +478,7 @@ class CabinMpc:
         ubx = np.concatenate((hi, np.tile(_X_HIGH, N)))
         return {
             "p": self._layout.pack(values), "lbx": lbx, "ubx": ubx, "T_in": T_in, "g_v": g_v, "b_min": b_min,
-            "qch_max": qch_max, "cooling": cooling,
+            "qch_max": qch_max, "cooling": cooling, "regime": regime,
         }  # fmt: skip
 
     @staticmethod
@@ -504,27 +514,52 @@ class CabinMpc:
         return {"g_bc": g / 1e3, "p_heater": float(last[L.O_P_HEATER]) / 1e3}
 
     def _battery_heat(self, n: int, history: np.ndarray) -> np.ndarray:
-        """The battery's Joule heat [W] per horizon step: ``R_eff P^2``, with ``P`` the previewed motor power
-        plus the other loads as they are now, and ``R_eff`` identified on the last two minutes' steps (heat over
-        the squared terminal power)."""
+        """The battery's Joule heat [W] per horizon step: the mean over the step of ``R_eff P^2``, with ``P``
+        the previewed motor power plus the other loads as they are now, sampled every second, and ``R_eff``
+        identified on the last two minutes (Joule heat over squared terminal power, step by step)."""
         N, o = self.options.steps, self.options
-        recent = history[-120:]
+        edges = self.ctx.edges
+        t0 = edges[n]
+        recent = history[edges[:n] >= t0 - 120.0]
         if not len(recent):
             return np.zeros(N)
         p_bat = recent[:, L.O_P_BATTERY]
         denom = float(np.sum(p_bat**2))
         r_eff = float(np.sum(recent[:, L.O_Q_GEN]) / denom) if denom > 0.0 else 0.0
-        others = float(np.mean(recent[-10:, L.O_P_BATTERY] - recent[-10:, L.O_P_MOTOR_EL]))
-        edges = self.ctx.edges
-        t0 = edges[n]
+        last10 = recent[-10:]
+        others = float(np.mean(last10[:, L.O_P_BATTERY] - last10[:, L.O_P_MOTOR_EL]))
+        m = max(1, round(o.step))  # samples per horizon step
+        t = t0 + o.step * (np.arange(N)[:, None] + (np.arange(m)[None, :] + 0.5) / m)
         if o.preview == "none":
-            motor = np.full(N, float(np.mean(recent[-10:, L.O_P_MOTOR_EL])))
+            motor = np.full(t.shape, float(np.mean(last10[:, L.O_P_MOTOR_EL])))
         else:
-            idx = np.clip(
-                np.searchsorted(edges, t0 + np.arange(N * int(o.step)) + 0.5) - 1, 0, self.motor_power.size - 1
-            )
-            motor = self.motor_power[idx].reshape(N, -1).mean(axis=1) if o.step >= 1 else self.motor_power[idx]
-        return r_eff * (motor + others) ** 2
+            idx = np.clip(np.searchsorted(edges, t) - 1, 0, self.motor_power.size - 1)
+            motor = self.motor_power[idx]
+        return r_eff * np.mean((motor + others) ** 2, axis=1)
+
+    def _regime(self, b_min: float, g_v: float) -> str:
+        """Where the prediction model holds, by the cabin's steady load at its setpoint (the loop's
+        feed-forward: shell, sun, occupants) and the ambient.
+
+        - ``heating``: the cabin loses heat: no compressor on the cabin coil, the battery stays the rules';
+        - ``cooling``: the outside is warmer than the setpoint (no free cooling with outside air), the
+          compressor may run and the load needs vent air within 2 K of the evaporator's ceiling or colder at
+          the minimum blower: no heat (reheat for drying stays the rules'), the coil at most at its ceiling
+          while the cabin is not below its band, the battery's cooling is the MPC's;
+        - ``rules``: otherwise, a light cooling load that the compressor meets only by cycling at its minimum
+          speed, or that outside air takes (the rules' fresh-air economy), or that warms a cold cabin by
+          itself (the rules wait for the sun, the model would heat); none of it is in the model, and the rules'
+          cabin loop runs.
+        """
+        par = self.ctx.par
+        T_amb = float(par[L.P_T_AMB])
+        load = par[L.P_UA_SHELL] * (T_amb - self.T_set) + par[L.P_Q_SUN] + par[L.P_Q_OCC]
+        if load <= 0.0:
+            return "heating"
+        T_vent = self.T_set - load / 1e3 / (b_min * g_v)
+        if T_amb > self.T_set and T_amb >= par[L.P_AC_TAMB_MIN] and T_vent < self._evap_ceiling() + 2.0:
+            return "cooling"
+        return "rules"
 
     def _evap_ceiling(self) -> float:
         """Warmest evaporator air [K] the MPC asks for: the evaporator's highest setting, and no warmer than

@@ -23,7 +23,7 @@ import numpy as np
 
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants, read as L.P_*, L.S_*, L.O_*
-from evtms.system.controllers import ControlContext, SupervisionLog, Supervisor, run_supervised
+from evtms.system.controllers import ControlContext, SupervisionLog, Supervisor, check_period, run_supervised
 from evtms.system.drive_cycles import DriveCycle
 from evtms.system.edrive import MOTOR_REQUIREMENT, core_table, jacket_slots
 from evtms.system.inputs import INPUT_NAMES, InputValue, check_inputs, per_step
@@ -458,6 +458,8 @@ def simulate(
     wall0 = time.perf_counter()
     params = params or SystemParams()
     every = check_run_options(cycle, dt, mode, output_every, precondition)
+    if controller is not None:
+        check_period(controller.period, dt)
     if model == "surrogate" and params.hvac.heating != "ptc_air":
         raise EvtmsInputError(
             f"`model` surrogate: the mode models know the air PTC only, not hvac.heating = {params.hvac.heating!r}; "
@@ -666,11 +668,11 @@ def climate_metrics(
     if t_pd is not None:
         after = t >= t_pd
         res["cabin_dev_max_K"] = float(np.nanmax(np.abs(mean60[after] - T_set)))
-        late = after[1:]  # steps starting at or after the pull-down, weighted by their length
+        late = after[:-1]  # steps starting at or after the pull-down, weighted by their length
         dev = 0.5 * (states[1:, L.S_TA] + states[:-1, L.S_TA]) - T_set
         span_s = float(np.sum(dts[late]))
         res["cabin_rms_K"] = float(np.sqrt(np.sum(dev[late] ** 2 * dts[late]) / span_s)) if span_s > 0 else 0.0
-        outside = late & (np.abs(mean60[1:] - T_set) > 1.0)
+        outside = late & (np.abs(mean60[:-1] - T_set) > 1.0)
         res["cabin_minutes_outside"] = float(np.sum(dts[outside]) / 60.0)
         span = max(t[-1] - t_pd, 1e-9)
         n_modes = int(np.sum(t[changes] > t_pd))

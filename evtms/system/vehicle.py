@@ -45,6 +45,7 @@ Springer, ch. 2 (longitudinal dynamics).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -185,7 +186,7 @@ def deviated_cycle(cycle: DriveCycle, deviation, bound: float) -> DriveCycle:
     else:
         dv = np.full(cycle.time.shape, float(deviation))
     speed = np.where(cycle.speed > 0.0, np.maximum(cycle.speed + dv, 0.0), 0.0)
-    return DriveCycle(cycle.name, cycle.time, speed, cycle.grade, cycle.source)
+    return dataclasses.replace(cycle, speed=speed)  # its key-off soaks and every other field kept
 
 
 def check_deviation(deviation, bound: float) -> None:

@@ -77,10 +77,14 @@ def _plan(r: ControllerRequest):
     from evtms.system.mpc import PREVIEWS, MpcOptions
 
     controllers = _names(r.controllers)
+    if not controllers:
+        raise EvtmsInputError(f"`controllers` {r.controllers!r} names none; allowed: rules, mpc, comma-separated")
     for c in controllers:
         if c not in CONTROLLERS:
             raise EvtmsInputError(f"`controllers` {c!r} is unknown; allowed: {', '.join(CONTROLLERS)}")
     previews = _names(r.previews)
+    if "mpc" in controllers and not previews:
+        raise EvtmsInputError(f"`preview` {r.previews!r} names none; allowed: perfect, none, noisy, comma-separated")
     for p in previews:
         if p not in PREVIEWS:
             raise EvtmsInputError(f"`preview` {p!r} is unknown; allowed: {', '.join(PREVIEWS)}")

@@ -370,6 +370,7 @@ def run_simulation(
 
 def _controller(request: SimulationRequest, depletion: bool):
     """The run's supervisory controller (None: the rules), checked before any work."""
+    from evtms.system.controllers import check_period
     from evtms.system.mpc import MpcOptions, make_controller
 
     if request.controller == "rules":
@@ -385,6 +386,7 @@ def _controller(request: SimulationRequest, depletion: bool):
             "leave them out, or controller rules"
         )
     options = MpcOptions(horizon=request.horizon, step=request.control_step, preview=request.preview)
+    check_period(options.step, request.dt)
     return make_controller(request.controller, options)
 
 
