@@ -71,6 +71,19 @@ def test_a_supervisor_writes_what_the_same_inputs_give(synthetic):  # noqa: F811
     assert a.summary["controller"] == "fixed" and a.summary["controller_decisions"] == 30
 
 
+def test_a_supervised_run_stops_where_the_same_inputs_stop_it(synthetic):  # noqa: F811
+    """SOC reaches its floor inside a period: the supervised run ends at the step the same set points as inputs
+    end it, with the same states (the runner stops, it does not run the next period)."""
+    from test_simulate import params
+
+    low = params(battery={"soc_init": 0.0505, "soc_min": 0.05})
+    a = simulate(WLTC, 308.15, synthetic, low, sun=600.0, controller=Fixed(287.15, 0.7), keep_trace=True)
+    b = simulate(WLTC, 308.15, synthetic, low, sun=600.0, inputs={"SP_vent": 287.15, "blower": 0.7}, keep_trace=True)
+    assert a.summary["termination"] == b.summary["termination"] == "soc_min"
+    assert a.summary["steps"] == b.summary["steps"] < WLTC.time[-1] and a.summary["steps"] % 10 != 0
+    np.testing.assert_array_equal(a.trace["states"], b.trace["states"])
+
+
 def test_a_failed_decision_hands_the_period_to_the_rules_with_a_flag(synthetic):  # noqa: F811
     cycle, T = first(WLTC, 200.0), 308.15
     a = simulate(cycle, T, synthetic, sun=600.0, controller=Fixed(math.nan, math.nan, ok=False), keep_trace=True)
@@ -202,6 +215,7 @@ def test_mpc_without_its_extra_says_how_to_install_it(monkeypatch, tmp_path):
     [
         (["simulate", "--cycle", "udds", "--controller", "pid"], ("controller 'pid'", "rules, mpc")),
         (["simulate", "--cycle", "udds", "--controller", "mpc", "--sp-vent", "15"], ("SP_vent", "controller")),
+        (["simulate", "--cycle", "udds", "--controller", "mpc", "--sp-evap", "8"], ("SP_evap", "controller rules")),
         (["simulate", "--cycle", "udds", "--controller", "mpc", "--preview", "x"], ("preview 'x'", "perfect")),
         (["report", "compare", "--controllers", "rules,pid"], ("--controllers 'pid'", "rules, mpc")),
         (["simulate", "--cycle", "udds", "--t-amb", "25", "--speed-deviation", "-1"], ("delta_v_ref above 0",)),

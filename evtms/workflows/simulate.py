@@ -379,11 +379,14 @@ def _controller(request: SimulationRequest, depletion: bool):
         raise EvtmsInputError(
             f"controller {request.controller!r} runs single cycles; allowed with `range_test` mct or ccp: rules"
         )
-    given = sorted(k for k in ("SP_vent", "blower", "BC_request") if request.inputs.get(k) is not None)
+    # The set points it writes, and the ones its model takes from the plant (the evaporator's and the heater
+    # loop's targets follow its vent target; the inlet air is the recirculated mix).
+    taken = ("SP_vent", "blower", "BC_request", "SP_evap", "SP_CoHX", "hvac_inlet_T", "hvac_inlet_rh")
+    given = sorted(k for k in taken if request.inputs.get(k) is not None)
     if given:
         raise EvtmsInputError(
-            f"input {', '.join(given)} with controller {request.controller!r}: the controller sets them; allowed: "
-            "leave them out, or controller rules"
+            f"input {', '.join(given)} with controller {request.controller!r}: the controller sets the cabin's "
+            "targets and its model the inlet air; allowed: leave them out, or controller rules"
         )
     options = MpcOptions(horizon=request.horizon, step=request.control_step, preview=request.preview)
     check_period(options.step, request.dt)
