@@ -6,14 +6,16 @@ vent-air target and the blower law the blower; below it the requests and
 modes, the evaporator's compressor PI, the heaters' PIs, the air mix, the
 frost relays and the safety relays turn those into actuator commands.
 
-A *supervisory* controller replaces the cabin loop only. Every ``period``
-seconds it reads the plant's state and writes the vent-air target
-(``SP_vent``) and the blower command for the next period into the loop's
-external inputs; everything below, every relay and every actuator range
-included, stays the same code in both cases, so the two controllers are
-compared on one plant with one set of safety limits. A period the
-supervisor cannot decide (a failed or late solve) is written NaN: the rules
-run it, and the steps carry :data:`F_CONTROLLER_FALLBACK`.
+A *supervisory* controller replaces the cabin loop and the battery-cooling
+relay only. Every ``period`` seconds it reads the plant's state and writes
+the vent-air target (``SP_vent``), the blower command and the
+battery-cooling request (``BC_request``; NaN leaves it to the relay) for
+the next period into the loop's external inputs; everything below, every
+relay and every actuator range included, stays the same code in both cases,
+so the two controllers are compared on one plant with one set of safety
+limits. A period the supervisor cannot decide (a failed or late solve) is
+written NaN: the rules run it, and the steps carry
+:data:`evtms.system.loop.F_CONTROLLER_FALLBACK`.
 
 This is the usual split of automotive climate MPC: a supervisory layer
 setting the targets of fast local loops, which keep their own limits
@@ -31,10 +33,16 @@ import numpy as np
 
 from evtms.system import loop as L  # noqa: N812 - the loop's index constants
 
-#: Flag bit of a step whose period the supervisory controller could not decide (the rules ran it).
-F_CONTROLLER_FALLBACK = L.F_CONTROLLER_FALLBACK
 #: Controllers ``simulate`` knows by name.
 CONTROLLERS = ("rules", "mpc")
+
+
+def check_controller(name: str, label: str = "controller") -> None:
+    """Refuse a controller name ``simulate`` does not know, with one line naming ``label``."""
+    from evtms.errors import EvtmsInputError
+
+    if name not in CONTROLLERS:
+        raise EvtmsInputError(f"{label} {name!r} is not allowed; allowed: {', '.join(CONTROLLERS)}")
 
 
 @dataclass(frozen=True)
@@ -106,15 +114,12 @@ class SupervisionLog:
 
     Attributes
     ----------
-    steps : list of int
-        First step of each period.
     solve_times : list of float
         Wall time of each decision [s].
     fallbacks : int
         Periods the rules ran because the controller could not decide.
     """
 
-    steps: list[int]
     solve_times: list[float]
     fallbacks: int = 0
 
@@ -157,7 +162,7 @@ def run_supervised(
     args : tuple
         The loop's arguments up to ``ext`` (:func:`evtms.system.loop.run_loop`).
     supervisor : Supervisor
-        Decides each period's vent-air target and blower.
+        Decides each period's vent-air target, blower and battery-cooling request.
     context : ControlContext
         The run as the supervisor may know it.
     run_chunk : callable
@@ -174,20 +179,19 @@ def run_supervised(
     supervisor.start(context)
     firsts = period_steps(context.edges, supervisor.period)
     bounds = np.append(firsts, dts.size)
-    log = SupervisionLog([], [])
+    log = SupervisionLog([])
     done = 0
     for n0, n1 in zip(bounds[:-1], bounds[1:], strict=True):
         n0, n1 = int(n0), int(n1)
         decision = supervisor.decide(n0, states[n0], out[:n0])
         if not math.isnan(decision.solve_time):  # NaN: nothing was decided (the key is off)
-            log.steps.append(n0)
             log.solve_times.append(decision.solve_time)
         given = (decision.T_vent, decision.blower, decision.battery_cooling) if decision.ok else (math.nan,) * 3
         ext[n0:n1, L.X_SP_VENT], ext[n0:n1, L.X_BLOWER], ext[n0:n1, L.X_BC_REQUEST] = given
         done = run_chunk((args[0], dts[:n1], *args[2:]), n0)
         if not decision.ok:
             log.fallbacks += 1
-            flags[n0:done] |= F_CONTROLLER_FALLBACK
+            flags[n0:done] |= L.F_CONTROLLER_FALLBACK
         if done < n1:
             break
     return done, log

@@ -671,8 +671,7 @@ class CabinMpc:
 def make_controller(name: str, options: MpcOptions | None = None) -> CabinMpc | None:
     """The supervisory controller called ``name`` (:data:`evtms.system.controllers.CONTROLLERS`): None for
     ``rules`` (the loop's own cabin control), a :class:`CabinMpc` for ``mpc``."""
-    from evtms.system.controllers import CONTROLLERS
+    from evtms.system.controllers import check_controller
 
-    if name not in CONTROLLERS:
-        raise EvtmsInputError(f"controller {name!r} is not allowed; allowed: {', '.join(CONTROLLERS)}")
+    check_controller(name)
     return None if name == "rules" else CabinMpc(options)

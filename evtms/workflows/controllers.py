@@ -72,22 +72,18 @@ def _names(value: str | Sequence[str]) -> list[str]:
 
 def _plan(r: ControllerRequest):
     from evtms.cycle.topology import parse_values
-    from evtms.system.controllers import CONTROLLERS
+    from evtms.system.controllers import check_controller
     from evtms.system.drive_cycles import drive_cycle
-    from evtms.system.mpc import PREVIEWS, MpcOptions
+    from evtms.system.mpc import MpcOptions
 
     controllers = _names(r.controllers)
     if not controllers:
         raise EvtmsInputError(f"`controllers` {r.controllers!r} names none; allowed: rules, mpc, comma-separated")
     for c in controllers:
-        if c not in CONTROLLERS:
-            raise EvtmsInputError(f"`controllers` {c!r} is unknown; allowed: {', '.join(CONTROLLERS)}")
+        check_controller(c, "`controllers`")
     previews = _names(r.previews)
     if "mpc" in controllers and not previews:
         raise EvtmsInputError(f"`preview` {r.previews!r} names none; allowed: perfect, none, noisy, comma-separated")
-    for p in previews:
-        if p not in PREVIEWS:
-            raise EvtmsInputError(f"`preview` {p!r} is unknown; allowed: {', '.join(PREVIEWS)}")
     if r.fmt not in ("png", "svg"):
         raise EvtmsInputError(f"`fmt` {r.fmt!r} is unknown; allowed: png, svg")
     if r.sun is not None and not (math.isfinite(r.sun) and 0.0 <= r.sun <= 1500.0):
