@@ -13,25 +13,20 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import one_error_line, patch_small_maps
+from conftest import one_error_line
+from test_climate import cycle_maps, first, parked  # noqa: F401 - cycle_maps: the small maps' module fixture
 from test_simulate import refrigerant as synthetic  # noqa: F401 - the module fixture of synthetic maps
 from typer.testing import CliRunner
 
 from evtms.cli import app
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812
-from evtms.system import refrigerant as refrigerant_module
 from evtms.system.controllers import Decision, period_steps
-from evtms.system.drive_cycles import DriveCycle, drive_cycle
+from evtms.system.drive_cycles import drive_cycle
 from evtms.system.simulate import simulate
 
 runner = CliRunner()
 WLTC = drive_cycle("wltc3b")
-
-
-def first(cycle: DriveCycle, seconds: float) -> DriveCycle:
-    keep = cycle.time <= seconds
-    return DriveCycle(cycle.name, cycle.time[keep], cycle.speed[keep], cycle.grade[keep], cycle.source)
 
 
 class Fixed:
@@ -106,25 +101,15 @@ def test_a_vent_target_below_freezing_cannot_frost_the_coil(synthetic):  # noqa:
 # -- the MPC ---------------------------------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def cycle_maps(small_map_luts):
-    pytest.importorskip("casadi")
-    mp = pytest.MonkeyPatch()
-    patch_small_maps(mp)
-    try:
-        yield refrigerant_module.load_refrigerant(small_map_luts)
-    finally:
-        mp.undo()
-
-
 def _mpc(**options):
+    pytest.importorskip("casadi")
     from evtms.system.mpc import CabinMpc, MpcOptions
 
     return CabinMpc(MpcOptions(**options))
 
 
 @pytest.mark.parametrize(("T_amb_c", "sun"), [(35.0, 600.0), (-10.0, 0.0)])
-def test_mpc_keeps_every_limit_on_a_short_trace(cycle_maps, T_amb_c, sun):
+def test_mpc_keeps_every_limit_on_a_short_trace(cycle_maps, T_amb_c, sun):  # noqa: F811
     """WLTC's first 10 min: the blower within its range, the vent target within the vent's, no frost, no PTC in
     the heat and no compressor on the cabin coil in the cold, every decision solved in time, ledgers closed."""
     mpc = _mpc(time_budget=10.0)  # a loaded machine must not turn a solve into a fallback here
@@ -148,7 +133,7 @@ def test_mpc_keeps_every_limit_on_a_short_trace(cycle_maps, T_amb_c, sun):
         assert s["T_cabin_end_degC"] > 10.0  # warming from -10 degC
 
 
-def test_a_solve_over_its_time_budget_falls_back_to_the_rules(cycle_maps):
+def test_a_solve_over_its_time_budget_falls_back_to_the_rules(cycle_maps):  # noqa: F811
     """A budget no solve meets (1 ms): every period runs on the rules, flagged, and the run is the rules' own."""
     cycle = first(WLTC, 120.0)
     r = simulate(cycle, 308.15, cycle_maps, sun=600.0, controller=_mpc(time_budget=1e-3), keep_trace=True)
@@ -159,7 +144,7 @@ def test_a_solve_over_its_time_budget_falls_back_to_the_rules(cycle_maps):
     np.testing.assert_array_equal(r.trace["states"], rules.trace["states"])
 
 
-def test_mpc_prediction_follows_the_plant_over_its_horizon(cycle_maps):
+def test_mpc_prediction_follows_the_plant_over_its_horizon(cycle_maps):  # noqa: F811
     """The prediction model, fed the plant's own blower and duties (means per MPC step) and its motor power,
     predicts the cabin air of the next 3 min within 0.5 K (at 35 degC with sun after 5 min of pull-down, and at
     -10 degC) and, where the MPC cools it, the battery within 0.2 K."""
@@ -260,11 +245,6 @@ def test_report_compare_controllers_writes_the_table_and_the_figures(small_maps,
     assert float(table[1]["hvac_kWh"]) == pytest.approx(rows[1]["hvac_kWh"], rel=1e-5)
 
 
-def parked(seconds: float) -> DriveCycle:
-    t = np.arange(0.0, seconds + 1.0)
-    return DriveCycle("parked", t, np.zeros_like(t), np.zeros_like(t), "test")
-
-
 def test_a_given_battery_cooling_request_replaces_the_relay_but_not_the_safety_relays(synthetic):  # noqa: F811
     """BC_request 1 cools a 30 degC battery the relay (on at 35) leaves alone; 0 does not stop the critical
     relay cooling a 42 degC one; 1 cannot chill a 12 degC battery (below bc_T_battery_min: the safety relay)."""
@@ -297,7 +277,7 @@ def test_the_mpc_chills_nothing_without_a_chiller_to_plan_with():
     assert mpc._chill_request(300, 2.0, 4.0) == 1.0  # above a quarter of a real capacity: on
 
 
-def test_a_light_cooling_load_is_left_to_the_rules(cycle_maps):
+def test_a_light_cooling_load_is_left_to_the_rules(cycle_maps):  # noqa: F811
     """25 degC without sun: the load needs vent air far warmer than the evaporator's ceiling, a duty the
     compressor meets only by cycling; the MPC hands every period to the rules, unflagged, and the run is theirs."""
     cycle = first(WLTC, 120.0)

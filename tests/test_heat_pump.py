@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from test_climate import first
 from test_simulate import params, parked, refrigerant  # noqa: F401 - the synthetic maps' fixture
 
 from evtms.errors import EvtmsInputError
@@ -22,11 +23,6 @@ from evtms.system.maps import CycleMap
 from evtms.system.simulate import simulate
 
 WLTC = drive_cycle("wltc3b")
-
-
-def first(cycle, seconds: float):
-    keep = cycle.time <= seconds
-    return dataclasses.replace(cycle, time=cycle.time[keep], speed=cycle.speed[keep], grade=cycle.grade[keep])
 
 
 HP = {"hvac": {"heating": "heat_pump"}}
