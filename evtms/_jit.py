@@ -34,6 +34,8 @@ from __future__ import annotations
 import os
 import sys
 
+import numpy as np
+
 #: Modules numba binds only for features no evtms kernel uses: SciPy (``np.dot``, ``np.linalg``
 #: in compiled code call its BLAS and LAPACK) and cffi (calls into cffi libraries).
 _UNUSED_BY_KERNELS = ("scipy", "cffi")
@@ -90,3 +92,17 @@ def jit(fn):
     if not numba_enabled():
         return fn
     return load_numba().njit(cache=True, nogil=True)(fn)
+
+
+def kernel_array(a, dtype=np.float64) -> np.ndarray:
+    """``a`` as a compiled kernel reads a table: a plain, C-ordered, read-only array of ``dtype``
+    (a view where ``a`` already is one, else a copy).
+
+    numba compiles a function once per argument type, and a read-only array (a memory-mapped
+    file, a view made read-only) is another type than a writable one: the same kernel would be
+    compiled again, for seconds, when its table came from a cache file instead of memory. Every
+    table handed to a kernel goes through here, so that each kernel has one type per argument.
+    """
+    view = np.ascontiguousarray(a, dtype=dtype).view(np.ndarray)
+    view.flags.writeable = False
+    return view

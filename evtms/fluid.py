@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from evtms._jit import kernel_array
 from evtms.errors import EvtmsInputError
 
 #: Enthalpy margin [J/kg] from the tabulated saturation curve (within 30 J/kg of CoolProp)
@@ -769,8 +770,9 @@ class VapourTable:
         self._set({"p": p, "T": sat["T"], "h_v": sat["H"], "superheat": superheat, "dh": dh})
 
     def _set(self, tables: dict[str, np.ndarray]) -> None:
-        self.p, self.T, self.h_v = tables["p"], tables["T"], tables["h_v"]
-        self.superheat, self.dh = tables["superheat"], tables["dh"]
+        # Read-only whatever they came as (a cache file's are): compiled kernels read them.
+        self.p, self.T, self.h_v = (kernel_array(tables[k]) for k in ("p", "T", "h_v"))
+        self.superheat, self.dh = kernel_array(tables["superheat"]), kernel_array(tables["dh"])
         # The grids are uniform in ln p and in superheat: a cell is found by arithmetic.
         self.log_p0 = float(np.log(self.p[0]))
         self.dlog_p = float(np.log(self.p[-1] / self.p[0]) / (self.p.size - 1))

@@ -443,7 +443,8 @@ class TabulatedFluid:
             raise ValueError(f"input pair {pair!r} is not one of ('PT', 'PH', 'PS') for tabulated properties")
         p, x = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
         shape = p.shape
-        p, x = np.ascontiguousarray(p.reshape(-1)), np.ascontiguousarray(x.reshape(-1))
+        # Writable copies where the inputs are read-only: numba compiles once per argument type.
+        p, x = (np.require(v.reshape(-1), requirements=("C", "W")) for v in (p, x))
         meta, sat, vap, liq = self.tables.arrays
         if pair == "PS":  # to the enthalpy, then as "PH"
             h = np.empty(p.size)

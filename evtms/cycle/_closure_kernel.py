@@ -44,7 +44,7 @@ import numpy as np
 from evtms._jit import load_numba
 from evtms.cycle._component_kernel import evaluate_in
 from evtms.hx._kernels import interp
-from evtms.luts._kernels import NAN, interpolate_in, scratch
+from evtms.luts._kernels import NAN_POLICY, interpolate_in, scratch
 
 numba = load_numba()
 # error_model="numpy": a division by zero gives inf or NaN, as NumPy's, which the searches read as
@@ -257,6 +257,9 @@ _NV = 16
 # branch for the superheat; and which LUT each asks.
 _W_COMP, _W_COND, _W_DROP, _W_SH = range(4)
 _ASKS = (0, 1, 2, 2)
+# The three LUTs' numbers as _serve takes them: NumPy integers, not literals, as numba would
+# compile _serve once for each literal it is called with.
+_COMP, _COND, _EVAP = np.int64(0), np.int64(1), np.int64(2)
 #: Points in flight at once: their LUT cells are fetched together, so that the memory reads of
 #: different points overlap (one point's evaluations depend on each other's results).
 IN_FLIGHT = 32
@@ -416,13 +419,15 @@ def _serve(c, cid, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, to
         (outside, work[0], work[1], work[2]),
     )
     share = np.empty((1, 1))
+    one = np.empty((d, 1))  # a point's coordinates, C-ordered as every other call's
     for k in range(m):
         none = False
         if first[k] >= 0:  # outside an axis: no value (an invalid cell leaves NaN where it weighs)
             res[:, k] = np.nan
         elif nh_on and not math.isfinite(res[rows[0], k]):
             # A NaN cell: no heat flows where any of its weight lies on such nodes (NaN: other invalid ones).
-            interpolate_in(pts[:, k : k + 1], NAN, outside[:0], nh_floats, nh_ints, nh_values, share, *work[3])
+            one[:, 0] = pts[:, k]
+            interpolate_in(one, NAN_POLICY, outside[:0], nh_floats, nh_ints, nh_values, share, *work[3])
             none = share[0, 0] > 0
         _take_result(res[:, k], none, rows, v, so, si, dyn, wait, point, slots[k], ops, sat, tol, out)
     return m
@@ -487,8 +492,8 @@ def solve_points(comp, cond, evap, ops, sat, vapour, dh, sh_min, tol, out):
             while point[g] < 0 and nxt < n:
                 _begin(v, so, si, dyn, wait, point, g, nxt, ops, sat, tol, out)
                 nxt += 1
-        busy = _serve(comp, 0, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, works[0])
-        busy += _serve(cond, 1, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, works[1])
-        busy += _serve(evap, 2, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, work_e)
+        busy = _serve(comp, _COMP, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, works[0])
+        busy += _serve(cond, _COND, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, works[1])
+        busy += _serve(evap, _EVAP, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, work_e)
         if busy == 0 and nxt >= n:
             break

@@ -21,7 +21,7 @@ import numpy as np
 
 from evtms._jit import load_numba
 from evtms.cycle.approach import compiled_outlet_kernel
-from evtms.luts._kernels import NAN, interpolate_in, scratch
+from evtms.luts._kernels import NAN_POLICY, interpolate_in, scratch
 
 numba = load_numba()
 
@@ -121,7 +121,7 @@ def evaluate_in(
                 outside[p] = True
                 any_off = True
                 break
-    interpolate_in(pts, NAN, outside, floats, ints, values, out, corners, t, bows)
+    interpolate_in(pts, NAN_POLICY, outside, floats, ints, values, out, corners, t, bows)
     if approach_row >= 0:
         log_p0, dlog_p, T, h_v, step = vapour
         row = out[approach_row]

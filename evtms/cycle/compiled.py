@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from evtms._jit import kernel_array
 from evtms.cycle.approach import APPROACH, OUTLET, SUPERHEAT_MIN
 from evtms.cycle.branches import secondary_temperature
 from evtms.cycle.closure import (
@@ -125,7 +126,7 @@ def _no_heat(lut) -> tuple:
 
 
 #: No no-heat table (the kernel does not read its arrays).
-_NO_TABLE = (np.zeros(8), np.zeros(8, np.int64), np.zeros((1, 1)), 0)
+_NO_TABLE = (np.zeros(8), np.zeros(8, np.int64), kernel_array(np.zeros((1, 1))), 0)
 
 
 @dataclass(frozen=True)
@@ -172,7 +173,7 @@ def compiled_roots(
     guesses = {"t_guess": t_guess, "outer_slope": outer_slope}
     rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses, kernel.OPS_ROWS)
     vapour, dh = ctx.models.luts[ctx.names[0]]._vapour_args
-    sat = (ctx.sat._log_p, ctx.sat.T, ctx.sat.h_l)
+    sat = (kernel_array(ctx.sat._log_p), kernel_array(ctx.sat.T), kernel_array(ctx.sat.h_l))
     out = np.empty((6, n))
     tol = _tolerances(state, kernel.TOLERANCES)
     kernel.solve_points(*(p[0] for p in parts), rows, sat, vapour, dh, SUPERHEAT_MIN, tol, out)

@@ -29,6 +29,9 @@ numba = load_numba()  # lean in the command line's process (evtms._jit.lean_numb
 
 # Out-of-range policies as the kernel's integer codes.
 ERROR, CLIP, NAN = 0, 1, 2
+#: ``NAN`` as compiled callers pass it: a NumPy integer, not a literal (numba compiles a callee
+#: once per literal argument, and once more for a variable one).
+NAN_POLICY = np.int64(NAN)
 POLICY_CODES = {"error": ERROR, "clip": CLIP, "nan": NAN}
 
 # floats: per axis N_F values (F_* below), then every axis' nodes one after the other.

@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from evtms._jit import kernel_array
 from evtms.params import Relation, choice, ordered, param
 
 if TYPE_CHECKING:
@@ -217,4 +218,4 @@ def core_table(component: str, core: CoilParams | None = None) -> tuple[np.ndarr
     knots = np.concatenate([np.asarray(v, float) for v in nodes.values()])
     starts = np.zeros(len(nodes) + 1, np.int64)
     starts[1:] = np.cumsum([len(v) for v in nodes.values()])
-    return knots, starts, np.ascontiguousarray(arrays["ua"], dtype=np.float64)
+    return kernel_array(knots), kernel_array(starts, np.int64), kernel_array(arrays["ua"])

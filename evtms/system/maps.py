@@ -75,7 +75,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evtms import __version__
-from evtms._jit import jit
+from evtms._jit import jit, kernel_array
 from evtms.errors import EvtmsInputError, EvtmsInterrupted
 
 if TYPE_CHECKING:
@@ -403,10 +403,10 @@ class CycleMap:
         table : numpy.ndarray
             float64, ``(n_nodes, 9)``, C order of the node grid (a view of ``values``).
         """
-        knots = np.ascontiguousarray(np.concatenate(self.nodes), dtype=np.float64)
         starts = np.zeros(len(self.nodes) + 1, np.int64)
         starts[1:] = np.cumsum([n.size for n in self.nodes])
-        return knots, starts, self.values.reshape(-1, len(MAP_OUTPUTS))
+        table = self.values.reshape(-1, len(MAP_OUTPUTS))
+        return kernel_array(np.concatenate(self.nodes)), kernel_array(starts, np.int64), kernel_array(table)
 
     def interp(self, x: Sequence[float]) -> tuple[np.ndarray, bool]:
         """The outputs at one point, by the LUT layer's interpolator (the loop calls :data:`map_interp`).

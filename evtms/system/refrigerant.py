@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms._jit import kernel_array
 from evtms.errors import EvtmsInputError
 from evtms.system import loop as L  # noqa: N812 - the loop's constants, read as L.*
 from evtms.system.maps import (
@@ -54,9 +55,9 @@ PHYSICS_TOLERANCE = {
 #: node of NaN outputs on each of its axes, which the loop never reads.
 _NO_MAP = {
     name: (
-        np.zeros(len(MAPS[name].axes)),
-        np.arange(len(MAPS[name].axes) + 1, dtype=np.int64),
-        np.full((1, L.N_Y), np.nan),
+        kernel_array(np.zeros(len(MAPS[name].axes))),
+        kernel_array(np.arange(len(MAPS[name].axes) + 1), np.int64),
+        kernel_array(np.full((1, L.N_Y), np.nan)),
     )
     for name in ("hp",)
 }
@@ -105,6 +106,11 @@ class Refrigerant:
     #: under ``("solver", circuit)`` the physics' cycle solver and under ``("warm", map name)`` the map's
     #: last solution, which the next solve of that map starts from.
     memo: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        # The loop's tables, read-only whatever they came as (see evtms._jit.kernel_array).
+        object.__setattr__(self, "sat_T", kernel_array(self.sat_T))
+        object.__setattr__(self, "sat_p", kernel_array(self.sat_p))
 
     def packed(self) -> tuple[np.ndarray, ...]:
         """The maps as the loop takes them, in map-id order; one not loaded is a stand-in it never reads."""
