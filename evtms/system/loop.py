@@ -77,6 +77,7 @@ import math
 import numpy as np
 
 from evtms._jit import jit
+from evtms.hx._kernels import interp
 from evtms.system.maps import map_interp
 
 # Modes (T section 4.6 order).
@@ -243,6 +244,21 @@ def humidity_ratio(T: float, rh: float, p: float) -> float:
     """Humidity ratio [kg/kg dry air] of air at ``T`` [K], relative humidity ``rh`` [1] and ``p`` [Pa]."""
     pw = rh * saturation_vapour_pressure(T)
     return 0.621945 * pw / (p - pw)
+
+
+@jit
+def _table(x: float, xp: np.ndarray, fp: np.ndarray) -> float:
+    """``np.interp(x, xp, fp)`` for one ``x`` (the ends held beyond the table), with NumPy's arithmetic.
+
+    The scalar kernel the other compiled code uses, where numba's ``np.interp`` would be compiled
+    again for each of its argument types (seconds each)."""
+    if x != x:
+        return math.nan
+    if x <= xp[0]:
+        return fp[0]
+    if x >= xp[xp.size - 1]:
+        return fp[fp.size - 1]
+    return interp(x, xp, fp)
 
 
 @jit
@@ -1024,7 +1040,7 @@ def run_loop(
         motor_need = 0.0
         u_pump_e = 0.0
         if edrive_loop and not key_off:
-            motor_need = np.interp(s0[S_TM], motor_T, motor_u)
+            motor_need = _table(s0[S_TM], motor_T, motor_u)
             if motor_need > 0.0 or p_motor_el[n, 5] > 0.0 or p_motor_el[n, 6] > 0.0:
                 u_pump_e = min(max(motor_need, par[P_PUMP_E_MIN]), 1.0)
             if circuit == CIRCUIT_HP:  # the chiller's source needs its flow (spec v2 5.3)
@@ -1121,7 +1137,7 @@ def run_loop(
                     flag |= F_REF_CLIPPED
             else:
                 T_ref = Tc if (mode == BC or mode == CH_BC or mode == BH) else T_in
-                p_eq = np.interp(T_ref, sat_T, sat_p)
+                p_eq = _table(T_ref, sat_T, sat_p)
                 y[Y_PS] = p_eq
                 y[Y_PD] = p_eq
             if key_off:
@@ -1301,7 +1317,7 @@ def run_loop(
             p_mel = 0.0
             p_aux = 0.0
         ns = par[P_NS]
-        E = ns * np.interp(soc, soc_ocv, cell_ocv)
+        E = ns * _table(soc, soc_ocv, cell_ocv)
         R = _bilinear(soc_ocv, cell_T, cell_r0, soc, Tb) * par[P_R_SCALE]
         # RC branch: its interval mean is a + b i (exact exponential solution with i held).
         a_rc = 0.0
