@@ -225,59 +225,6 @@ def pytest_collection_modifyitems(session, config, items):
     items.sort(key=lambda item: (item.module.__name__ in before, -before.get(item.module.__name__, 0)))
 
 
-#: The compile job: the compiled kernels the suite calls, compiled into numba's cache in a process of
-#: their own, in about the order the tests first call them (the benches' plate and coil kernels, then
-#: the time loop), on small inputs of the argument types the tests pass. (The cycle's closure kernel
-#: needs the cycle LUTs, which come later: the first test on them compiles it.)
-_COMPILE = """
-import sys
-from pathlib import Path
-
-sys.path.insert(0, sys.argv[2])  # the tests' folder: the simulator tests' synthetic maps
-from typer.testing import CliRunner
-
-from evtms.cli import app
-
-CliRunner().invoke(app, ["bench", "all", "-o", str(Path(sys.argv[1]) / "luts")])
-from test_simulate import parked, refrigerant
-from evtms.system.params import SystemParams
-from evtms.system.simulate import simulate
-
-simulate(parked(5.0), 300.0, refrigerant.__wrapped__(), SystemParams())
-"""
-
-
-@pytest.fixture(scope="session", autouse=True)
-def _compile_kernels(private_cache, tmp_path_factory):
-    """Compile the kernels beside the tests, started with the session.
-
-    The suite runs on one core and the background build leaves the other idle most of the
-    time, while numba compiles each kernel the first time a test calls it (about a minute in
-    all, the time loop alone 20 s): compiled here first, the tests load it from the cache.
-    A test that calls a kernel before this job has compiled it compiles it itself, as without
-    the job; either way the machine code is the same.
-    """
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    from evtms._jit import numba_enabled
-
-    if not numba_enabled():
-        yield
-        return
-    work = tmp_path_factory.mktemp("compile")
-    proc = subprocess.Popen(
-        [sys.executable, "-c", _COMPILE, str(work), str(Path(__file__).parent)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        start_new_session=True,
-    )
-    yield
-    proc.kill()
-    proc.wait()
-
-
 @pytest.fixture(scope="session", autouse=True)
 def _background(private_cache, tmp_path_factory):
     """Start the background job if a collected test needs the cycle LUTs; stop it at the end."""
