@@ -173,3 +173,21 @@ def test_root_finder_goes_round_nan_ends_and_fails_without_a_root():
     root_begin(s, 0.0, 1.0, 0.5, -1.0)
     root_next(s, 0.5, math.nan, 10.0, 1.5, 1e-12, 1e-10)
     assert s[PHASE] not in (DONE, FAILED)  # a NaN guess only sends the search to the range's ends
+
+
+def test_one_compiled_closure_whatever_the_tables_came_as(cycle_luts_dir, monkeypatch):
+    """The kernel reads the LUT tables and the saturation curve from the cache files (read-only, memory
+    mapped) or built in memory (writable): numba compiles once per argument type, so both must reach it
+    as one type, or a user whose tables moved into the cache pays a second compile of seconds."""
+    from evtms._jit import numba_enabled
+    from evtms.cycle import _closure_kernel as kernel
+    from evtms.cycle.api import run_cycle
+
+    if not numba_enabled():
+        pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set)")
+    for no_cache in ("1", "0"):
+        monkeypatch.setenv("EVTMS_NO_CACHE", no_cache)
+        luts = load_cycle_luts(cycle_luts_dir, "cabin")
+        res = run_cycle(points("cabin", 4), luts, circuit="cabin", closure="compiled")
+        assert np.isfinite(res["W"]).any()
+    assert len(kernel.solve_points.signatures) == 1, kernel.solve_points.signatures

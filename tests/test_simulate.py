@@ -115,6 +115,28 @@ def test_distance_is_exact_at_any_step(refrigerant):
         assert r.records["time"][-1] == 1800.0
 
 
+def test_one_compiled_loop_whatever_the_tables_came_as(refrigerant):
+    """Maps and a saturation curve read from files (read-only, memory mapped) or made in memory (writable)
+    reach the loop as one argument type: numba compiles it once per type, for about 20 s."""
+    from evtms._jit import numba_enabled
+
+    if not numba_enabled():
+        pytest.skip("numba is not importable (or EVTMS_NO_NUMBA is set)")
+
+    def read_only(a: np.ndarray) -> np.ndarray:
+        a = a.copy()
+        a.flags.writeable = False
+        return a
+
+    maps = {name: dataclasses.replace(m, values=read_only(m.values)) for name, m in refrigerant.maps.items()}
+    mdot = refrigerant.coolant_mdot_max
+    mapped = Refrigerant(maps, read_only(refrigerant.sat_T), read_only(refrigerant.sat_p), mdot)
+    made = Refrigerant(refrigerant.maps, refrigerant.sat_T.copy(), refrigerant.sat_p.copy(), mdot)
+    runs = [simulate(parked(10.0), 298.15, ref) for ref in (mapped, made)]
+    assert runs[0].summary["T_cabin_end_degC"] == runs[1].summary["T_cabin_end_degC"]
+    assert len(L.run_loop.signatures) == 1, L.run_loop.signatures
+
+
 def test_passive_cabin_follows_the_matrix_exponential(refrigerant):
     """25 -> 40 degC ambient, every source off: the 4-node network's exact solution within 0.05 K."""
     p = params(cabin={"interior_heat_capacity": 0.0, "n_occupants": 0}, vehicle={"aux_power": 0.0})
