@@ -76,8 +76,8 @@ def outlet_enthalpy(
         else:  # anything else is broadcast first (0-d for scalar arguments, as on the array path)
             shape = np.broadcast_shapes(*(np.shape(a) for a in args))
             args = [np.array(np.broadcast_to(np.asarray(a, np.float64), shape)).reshape(-1) for a in args]
-        # Writable inputs whatever they came as: numba compiles once per argument type.
-        args = [np.require(a, requirements="W") for a in args]
+        # Writable C-ordered inputs whatever they came as: numba compiles once per argument type.
+        args = [np.require(a, requirements=("C", "W")) for a in args]
         out = np.empty(shape)
         table = (vapour.log_p0, vapour.dlog_p, vapour.T, vapour.h_v, vapour.step, vapour.dh)
         compiled_outlet_kernel()(*(a.reshape(-1) for a in args), *table, SUPERHEAT_MIN, out.reshape(-1))
