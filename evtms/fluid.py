@@ -686,10 +686,11 @@ class SaturationCurve:
         )
 
     def _set(self, tables: dict[str, np.ndarray]) -> None:
-        self.p, self.T = tables["p"], tables["T"]
-        self.h_l, self.h_v = tables["h_l"], tables["h_v"]
-        self.cp_l, self.rho_l = tables["cp_l"], tables["rho_l"]
-        self._log_p = np.log(self.p)
+        # Read-only whatever they came as (a cache file's are): compiled kernels read them.
+        self.p, self.T = kernel_array(tables["p"]), kernel_array(tables["T"])
+        self.h_l, self.h_v = kernel_array(tables["h_l"]), kernel_array(tables["h_v"])
+        self.cp_l, self.rho_l = kernel_array(tables["cp_l"]), kernel_array(tables["rho_l"])
+        self._log_p = kernel_array(np.log(self.p))
 
     def tables(self) -> dict[str, np.ndarray]:
         """The tabulated columns by name (pressures [Pa] and their saturation properties, SI)."""

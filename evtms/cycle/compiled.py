@@ -173,7 +173,7 @@ def compiled_roots(
     guesses = {"t_guess": t_guess, "outer_slope": outer_slope}
     rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses, kernel.OPS_ROWS)
     vapour, dh = ctx.models.luts[ctx.names[0]]._vapour_args
-    sat = (kernel_array(ctx.sat._log_p), kernel_array(ctx.sat.T), kernel_array(ctx.sat.h_l))
+    sat = (ctx.sat._log_p, ctx.sat.T, ctx.sat.h_l)
     out = np.empty((6, n))
     tol = _tolerances(state, kernel.TOLERANCES)
     kernel.solve_points(*(p[0] for p in parts), rows, sat, vapour, dh, SUPERHEAT_MIN, tol, out)
