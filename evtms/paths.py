@@ -28,6 +28,15 @@ def _q(path: Path | str) -> str:
     return repr(str(path))
 
 
+def file_slug(text: str, default: str = "cycle") -> str:
+    """``text`` (e.g. a drive cycle's name, ``parked:300`` or a trace's path) as part of a file name:
+    every run of characters other than letters, digits and ``_.+-`` becomes one ``_``; ``default``
+    where nothing is left."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9_.+-]+", "_", text).strip("_.") or default
+
+
 def input_file(path: str | Path, what: str = "input file") -> Path:
     """``path`` if it is an existing regular file, else a one-line error.
 

@@ -18,7 +18,6 @@ import csv
 import html
 import json
 import math
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -354,10 +353,6 @@ def trajectory_figure(result: CompareResult, cycle: str, T_amb: float, path: str
     return _save(fig, path)
 
 
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.+-]+", "_", text).strip("_.") or "cycle"
-
-
 def _write_csv(path: Path, rows: Sequence[object], cls) -> None:
     names = [f.name for f in fields(cls)]
     with open(path, "w", newline="", encoding="utf-8") as fh:
@@ -400,7 +395,7 @@ def write_compare(result: CompareResult, out_dir: str | Path, fmt: str = "png") 
     list of Path
         The files written, in ``out_dir``.
     """
-    from evtms.paths import staged_folder
+    from evtms.paths import file_slug, staged_folder
     from evtms.reports.html import _page
 
     if fmt not in ("png", "svg"):
@@ -445,7 +440,7 @@ def write_compare(result: CompareResult, out_dir: str | Path, fmt: str = "png") 
             names += ["steps.csv", "steps.html"]
         figures = []
         for cycle, T in result.scenarios:
-            name = f"trajectories_{_slug(cycle)}_{T - 273.15:g}degC.{fmt}"
+            name = f"trajectories_{file_slug(cycle)}_{T - 273.15:g}degC.{fmt}"
             trajectory_figure(result, cycle, T, stage / name)
             figures.append((scenario_label(cycle, T), name))
             names.append(name)

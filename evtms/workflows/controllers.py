@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -185,7 +184,7 @@ def _row(cycle: str, T: float, sun: float, label: str, s: dict, base: float | No
 
 def _write(rows: list[ControllerRow], traces: dict, folder: Path, fmt: str, T_set: float) -> list[Path]:
     """Table and one trajectory figure per (cycle, ambient), drawn into a staging folder and moved in whole."""
-    from evtms.paths import staged_folder
+    from evtms.paths import file_slug, staged_folder
     from evtms.reports.controllers import trajectory_figure
 
     names = ["controllers.csv"]
@@ -196,7 +195,7 @@ def _write(rows: list[ControllerRow], traces: dict, folder: Path, fmt: str, T_se
             table.writerows([_cell(v) for v in asdict(r).values()] for r in rows)
         for cycle, T in dict.fromkeys((k[0], k[1]) for k in traces):
             runs = {label: tr for (c, t, label), tr in traces.items() if c == cycle and t == T}
-            name = re.sub(r"[^A-Za-z0-9_.-]", "_", f"controllers_{cycle}_{T - 273.15:g}degC") + f".{fmt}"
+            name = f"controllers_{file_slug(cycle)}_{T - 273.15:g}degC.{fmt}"
             trajectory_figure(runs, stage / name, f"{cycle}, {T - 273.15:g} degC", T_set)
             names.append(name)
     return [folder / n for n in names]
