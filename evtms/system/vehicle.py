@@ -50,8 +50,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from evtms.errors import EvtmsInputError
 from evtms.params import param
 from evtms.system.drive_cycles import DriveCycle
+from evtms.system.inputs import Trace
 from evtms.system.tables import bilinear_clamped, edrive_tables
 
 GRAVITY = 9.81  # m/s2
@@ -181,7 +183,7 @@ def deviated_cycle(cycle: DriveCycle, deviation, bound: float) -> DriveCycle:
         A deviation with ``delta_v_ref`` 0 (off), or one beyond the bound.
     """
     check_deviation(deviation, bound)
-    if hasattr(deviation, "time"):
+    if isinstance(deviation, Trace):
         dv = np.interp(cycle.time, deviation.time, deviation.values)
     else:
         dv = np.full(cycle.time.shape, float(deviation))
@@ -192,9 +194,7 @@ def deviated_cycle(cycle: DriveCycle, deviation, bound: float) -> DriveCycle:
 def check_deviation(deviation, bound: float) -> None:
     """Refuse a speed deviation (a number or a trace [m/s]) beyond ``delta_v_ref`` ``bound`` [m/s], or any
     with the bound 0 (off): one line, before any work."""
-    from evtms.errors import EvtmsInputError
-
-    values = deviation.values if hasattr(deviation, "time") else np.array([float(deviation)])
+    values = deviation.values if isinstance(deviation, Trace) else np.array([float(deviation)])
     largest = float(np.max(np.abs(values)))
     if bound <= 0.0 and largest > 0.0:
         raise EvtmsInputError(
