@@ -261,7 +261,8 @@ def simulate_process(args, table: Table) -> None:
 
 def simulate_mpc(args, table: Table) -> None:
     """Detail row: ``simulate()`` with the predictive controller (WLTC at 40 degC, sun 600 W/m2): the whole call
-    and the time per decision (mean and worst), against the rules' call; skipped without the extra ``mpc``."""
+    and the time per decision (mean and worst; the rules' call is the simulate_call row); skipped without the
+    extra ``mpc``."""
     import importlib.util
 
     from evtms.system.drive_cycles import drive_cycle
