@@ -42,6 +42,9 @@ def envelope(n: int, seed: int = 11, wide: bool = False) -> OperatingPoints:
         mdot_coolant=rng.uniform(0.12, 0.45, n),
         T_coolant_in=rng.uniform(288.15, 313.15, n),
         superheat=rng.uniform(5.0, 10.0, n),
+        # Drawn last: the other inputs stay those of the envelope before the WCC chain.
+        mdot_coolant_h=rng.uniform(0.05, 0.36, n),
+        T_coolant_h_in=rng.uniform(288.15, 313.15, n),
     )
 
 
@@ -64,6 +67,7 @@ FIGURES = {
     "chiller": ("p_A", "p_B", "Q_chiller", "COP", "valve_opening"),
     "cabin+chiller": ("p_A", "p_B", "mdot", "Q_evap", "Q_chiller", "mdot_chiller", "COP", "valve_opening"),
     "hp": ("p_A", "p_B", "Q_cond", "Q_chiller", "COP", "COP_heating", "valve_opening"),
+    "cabin+wcc": ("p_A", "p_B", "Q_cond", "Q_wcc", "Q_evap", "COP", "valve_opening"),
 }
 
 
@@ -120,6 +124,10 @@ def compare(points: OperatingPoints, luts, circuit: str) -> None:
             f"  worst Q_chiller point (of the total): chiller flow {direct['mdot_chiller'][worst] * 1e3:.2f} g/s "
             f"direct, {lut['mdot_chiller'][worst] * 1e3:.2f} g/s LUT, of {direct['mdot'][worst] * 1e3:.1f} g/s"
         )
+    if circuit == "cabin+wcc":
+        # The WCC's part of the condensing heat, as a share of the whole (small where it takes little).
+        err = np.abs(lut["Q_wcc"][ok] - direct["Q_wcc"][ok]) / np.abs(direct["Q_cond"][ok]) * 100
+        print(f"{'Q_wcc':14s} of the condensing heat: {spread(err)}")
     # The floating superheat where the valve is saturated in both (it equals the setpoint elsewhere).
     sat = ok & np.isin(lut["status"], VALVE_SATURATED_FLAGS) & np.isin(direct["status"], VALVE_SATURATED_FLAGS)
     if sat.any():

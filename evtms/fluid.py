@@ -658,6 +658,16 @@ def water_liquid_enthalpy(T: np.ndarray) -> np.ndarray:
     return 4186.0 * (np.asarray(T, float) - 273.16)
 
 
+def _tables_digest(tables: dict[str, np.ndarray]) -> str:
+    """A short hash of named tables, in their order."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for table in tables.values():
+        digest.update(np.ascontiguousarray(table).tobytes())
+    return digest.hexdigest()[:16]
+
+
 class SaturationCurve:
     """Saturation properties tabulated against pressure, for solvers' inner loops.
 
@@ -695,6 +705,10 @@ class SaturationCurve:
     def tables(self) -> dict[str, np.ndarray]:
         """The tabulated columns by name (pressures [Pa] and their saturation properties, SI)."""
         return {name: getattr(self, name) for name in self.COLUMNS}
+
+    def digest(self) -> str:
+        """A short hash of the tables (what a table derived with them depends on)."""
+        return _tables_digest(self.tables())
 
     @classmethod
     def from_tables(cls, tables: dict[str, np.ndarray]) -> SaturationCurve:
@@ -785,12 +799,7 @@ class VapourTable:
 
     def digest(self) -> str:
         """A short hash of the tables (what a table derived with them depends on)."""
-        import hashlib
-
-        digest = hashlib.sha256()
-        for name in self.COLUMNS:
-            digest.update(np.ascontiguousarray(getattr(self, name)).tobytes())
-        return digest.hexdigest()[:16]
+        return _tables_digest(self.tables())
 
     @classmethod
     def from_tables(cls, tables: dict[str, np.ndarray]) -> VapourTable:

@@ -1,4 +1,4 @@
-"""The condensing chain ``cabin+wcc``: the WCC ahead of the front condenser, in series, on the bench physics."""
+"""The condensing chain ``cabin+wcc``: the WCC ahead of the front condenser, in series, on physics and on LUTs."""
 
 from __future__ import annotations
 
@@ -6,7 +6,6 @@ import json
 
 import numpy as np
 import pytest
-from conftest import one_error_line
 from typer.testing import CliRunner
 
 from evtms.cli import app
@@ -96,19 +95,38 @@ def test_a_coolant_not_colder_than_the_condensing_refrigerant_has_no_state():
     assert all("warmest secondary inlet" in r for r in res["reason"]) and np.isnan(res["Q_wcc"]).all()
 
 
-def test_the_chain_is_refused_on_luts_with_the_reason(cycle_luts_dir):
-    with pytest.raises(Exception, match="runs on the direct physics only") as info:
-        run_cycle(_points(), load_cycle_luts(cycle_luts_dir, "cabin+wcc"), circuit="cabin+wcc")
-    assert type(info.value).__name__ == "EvtmsInputError"
+def test_the_chain_on_luts_follows_the_physics(cycle_luts_dir, chain):
+    """On the cycle grid's LUTs (the condenser's two-phase inlets scaled, the WCC's heat rate
+    interpolated) the chain lands within 0.1 % of the bench physics at these points."""
+    lut = run_cycle(_points(), load_cycle_luts(cycle_luts_dir, "cabin+wcc"), circuit="cabin+wcc")
+    assert (lut["status"] == chain["status"]).all(), lut["reason"]
+    for name in ("p_A", "p_B", "Q_cond", "Q_wcc", "COP"):
+        np.testing.assert_allclose(lut[name], chain[name], rtol=1e-3, err_msg=name)
+    assert np.all(np.abs(lut["balance_relative"]) < 1e-6)
 
 
-def test_cli_runs_the_chain_directly_and_refuses_it_on_luts(cycle_luts_dir):
-    args = ["cycle", "run", "--topology", "cabin+wcc", "--t-amb", "35", "--t-coolant-h", "28"]
-    res = runner.invoke(app, [*args, "--direct", "--json"])
-    assert res.exit_code == 0, res.output
-    out = json.loads(res.output)
-    assert out["topology"] == "cabin+wcc" and 0 < out["Q_wcc"] < out["Q_cond"]
-    one_error_line(runner.invoke(app, [*args, "--luts", str(cycle_luts_dir)]), "direct physics only")
+def test_only_the_chain_reads_the_condensers_two_phase_inlets(cycle_luts_dir):
+    """A lone condenser's discharge is superheated: its tables start at the first superheated node."""
+    from evtms.benches.condenser import SUPERHEATED_INLETS, TWO_PHASE_INLETS
+    from evtms.cycle.api import saturation_curve
+    from evtms.cycle.models import LutModels
+
+    luts = load_cycle_luts(cycle_luts_dir, "cabin+wcc")
+    alone = LutModels(luts, TOPOLOGIES["cabin"].components)
+    assert alone.luts["condenser"].ranges["h_in"][0] == SUPERHEATED_INLETS[0]
+    chained = LutModels(luts, TOPOLOGIES["cabin+wcc"].components, saturation=saturation_curve(luts))
+    assert chained.luts["condenser"].ranges["h_in"][0] == TWO_PHASE_INLETS[0]
+
+
+def test_cli_runs_the_chain_on_the_physics_and_on_luts(cycle_luts_dir):
+    args = ["cycle", "run", "--topology", "cabin+wcc", "--t-amb", "35", "--t-coolant-h", "28", "--json"]
+    out = {}
+    for source in (["--direct"], ["--luts", str(cycle_luts_dir)]):
+        res = runner.invoke(app, [*args, *source])
+        assert res.exit_code == 0, res.output
+        out[source[0]] = json.loads(res.output)
+        assert out[source[0]]["topology"] == "cabin+wcc" and 0 < out[source[0]]["Q_wcc"] < out[source[0]]["Q_cond"]
+    assert out["--luts"]["states"]["B"]["p"] == pytest.approx(out["--direct"]["states"]["B"]["p"], rel=1e-3)
 
 
 def test_a_subcooled_target_is_the_chains_outlet(chain):

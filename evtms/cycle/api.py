@@ -312,7 +312,8 @@ def run_cycle(
     else:  # no CoolProp needed where the cache has the saturation curve
         if compiled is None:  # the compiled closure reads compiled LUTs
             compiled = closure == "compiled" or len(points) >= COMPILED_FROM_POINTS
-        models, saturation = LutModels(luts, circuit.components, compiled), saturation_curve(luts, fluid)
+        saturation = saturation_curve(luts, fluid)
+        models = LutModels(luts, circuit.components, compiled, saturation=saturation)
     solver = CycleSolver(models, saturation, circuit, closure)
     result = solver.solve(points)
     bal = energy_balance(result)

@@ -18,12 +18,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evtms.benches.base import in_codes
+from evtms.benches.condenser import SUPERHEATED_INLETS
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
 from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, SUPERHEAT_MIN, outlet_enthalpy
-from evtms.cycle.tables import cycle_lut, made_with, values_made_at, vapour_table
+from evtms.cycle.dome import SCALED, dome_capacity_ratio
+from evtms.cycle.tables import cycle_lut, made_with, values_made_at, vapour_table, window_start, wrong_side_flags
 from evtms.errors import EvtmsInputError
-from evtms.fluid import Fluid
+from evtms.fluid import Fluid, SaturationCurve
 from evtms.hx.crossflow import per_point_searches
 
 if TYPE_CHECKING:
@@ -32,21 +34,6 @@ if TYPE_CHECKING:
     from evtms.fluid import VapourTable
 
 Result = dict[str, np.ndarray]
-
-
-#: Status meanings of a refrigerant on the wrong side of its secondary stream: the condenser's and
-#: the evaporating benches' inlet, and the WCC's coolant not below the refrigerant's saturation
-#: (which may still desuperheat, but condenses nothing).
-_WRONG_SIDE = ("refrigerant_inlet_not_", "coolant_inlet_not_colder_than_refrigerant_saturation")
-
-
-def wrong_side_flags(flags: dict[int, str]) -> tuple[int, ...]:
-    """A bench's status codes for a refrigerant on the wrong side of the secondary stream (inlet not
-    warmer than the air in a condenser, saturation not warmer than the coolant in the WCC, inlet not
-    colder than the air or coolant in an evaporator): no heat flows the way the circuit needs, the
-    condensing side gives no liquid. The cycle's closures read them as "no heat flows", not as a
-    failed point."""
-    return tuple(c for c, meaning in flags.items() if meaning.startswith(_WRONG_SIDE))
 
 
 def frost_risk_flags(flags: dict[int, str]) -> tuple[int, ...]:
@@ -84,11 +71,24 @@ MODEL_AXES = {
 #: The condensing components (:class:`~evtms.cycle.topology.Condensing`): the same closure variables.
 CONDENSING = ("condenser", "wcc")
 
+#: What the first of a condensing chain interpolates besides its closure variables: its heat rate,
+#: from which its outlet (the second's inlet) follows. Its outlet enthalpy itself goes as the inverse
+#: of the refrigerant flow (the heat over the flow) and was up to 2 kJ/kg off between the flow nodes,
+#: which the condenser behind it, left with a small share of the heat, turned into 5 % of discharge
+#: pressure.
+CHAIN_FIRST_OUTPUTS = ("Q",)
+
+#: Where the condenser's tables start for a circuit without a condensing chain, by axis: every
+#: compressor discharge is superheated vapour, so the cycle grid's two-phase inlets
+#: (:data:`evtms.benches.condenser.TWO_PHASE_INLETS`) would only cost memory there, and their
+#: node below the first superheated one would change the curvature correction of the cells above.
+DISCHARGE_WINDOW = {"h_in": SUPERHEATED_INLETS[0]}
+
 #: Variables whose interpolation gets the quadratic (curvature) correction: the coils'
 #: closure and outlet variables, which curve strongly between nodes.
 CURVED = {
     "compressor": ("mdot", "h_out", "T_out", "W"),
-    "condenser": ("capacity_ratio", "h_out_continued"),
+    "condenser": ("capacity_ratio", "h_out_continued", SCALED),
     "evaporator": ("h_out_continued", "Q_latent"),
     "chiller": ("h_out_continued", "p_out"),
     "wcc": ("capacity_ratio", "h_out_continued"),
@@ -284,6 +284,9 @@ class _LutComponent:
         curvature: tuple[str, ...],
         compiled: bool = True,
         vapour: VapourTable | None = None,
+        saturation: SaturationCurve | None = None,
+        window: dict[str, float] | None = None,
+        added: tuple[str, ...] = (),
     ) -> None:
         lut = cycle_lut(lut, component)
         self.component = component
@@ -297,8 +300,10 @@ class _LutComponent:
         self.compiled = compiled
 
         def table(variables: tuple[str, ...]):
+            if saturation is not None and "capacity_ratio" in variables:
+                variables = (*variables, SCALED)  # a two-phase inlet's scaled ratio beside it (evtms.cycle.dome)
             if self.secondary is None:
-                return lut.interpolator(list(variables), curvature, compiled)
+                return lut.interpolator(list(variables), curvature, compiled, None, saturation, window)
             swap = {OUTLET: APPROACH}
             return lut.interpolator(
                 [swap.get(v, v) for v in variables], tuple(swap.get(v, v) for v in curvature), compiled, vapour
@@ -306,8 +311,10 @@ class _LutComponent:
 
         # The coils' responses curve strongly between nodes (they saturate towards
         # the air temperature); the quadratic correction cuts that error several-fold.
-        self.fast = table(ITERATION_OUTPUTS[component])
-        self.subcooled = table(ITERATION_OUTPUTS["condenser_subcooled"]) if component in CONDENSING else self.fast
+        self.fast = table((*ITERATION_OUTPUTS[component], *added))
+        self.subcooled = (
+            table((*ITERATION_OUTPUTS["condenser_subcooled"], *added)) if component in CONDENSING else self.fast
+        )
         self.needs_subcooled = False
         # The final states need a few more variables: a table of those alone, added to
         # the widest iteration table's (the tables hold each variable with its curvature
@@ -340,7 +347,8 @@ class _LutComponent:
         self._no_heat = None
         self._kernel = None
         self.detailed = False
-        self.ranges = {d: (float(lut.axes[d][0]), float(lut.axes[d][-1])) for d in self.dims}
+        start = window_start(lut.axes, window)
+        self.ranges = {d: (float(lut.axes[d][start.get(d, 0)]), float(lut.axes[d][-1])) for d in self.dims}
         self.fixed = values_made_at(lut.attrs)
         # Inputs a query may give that the LUT holds fixed (checked against their value).
         self._fixed_axes = tuple(a for a, v in self.fixed.items() if a not in self.dims and v is not None)
@@ -527,6 +535,16 @@ class LutModels:
         Interpolate the evaporating branches' outlet as the log of its approach
         to the secondary inlet (:mod:`evtms.cycle.approach`; default); False
         interpolates ``h_out_continued`` itself (for comparison).
+    saturation : SaturationCurve, optional
+        The refrigerant's saturation curve, for a condensing chain's condenser
+        (its two-phase inlets, :mod:`evtms.cycle.dome`); default: CoolProp's for
+        the LUTs' fluid, where a chain needs it.
+
+    Notes
+    -----
+    A circuit without a condensing chain reads the condenser's tables from
+    :data:`DISCHARGE_WINDOW` up; a chain's condenser reads them whole, its
+    capacity ratio blended with the scaled one at two-phase inlets.
     """
 
     name = "lut"
@@ -537,6 +555,7 @@ class LutModels:
         components: tuple[str, ...] | None = None,
         compiled: bool = True,
         approach: bool = True,
+        saturation: SaturationCurve | None = None,
     ) -> None:
         # Axes the solver searches along (an input it only sets may be a fixed input of the LUT).
         searched = {
@@ -548,13 +567,11 @@ class LutModels:
             "compressor": ("p_in", "pr"),
         }
         components = components or ("condenser", "evaporator", "expansion_valve", "compressor")
-        if sum(c in CONDENSING for c in components) > 1:
-            raise EvtmsInputError(
-                "a condensing chain (the WCC ahead of the condenser, cabin+wcc) runs on the direct physics only: "
-                "on LUTs, with a condenser LUT extended to two-phase inlets, its discharge pressure was up to 7 % "
-                "off the physics (the condenser taking the WCC's two-phase outlet a few kelvin above the air); "
-                "allowed on LUTs: one condensing component"
-            )
+        # The condensing components in the refrigerant's order: the discharge enters the first.
+        self.chain = tuple(c for c in components if c in CONDENSING)
+        if len(self.chain) > 1 and saturation is None:
+            saturation = SaturationCurve(Fluid(cycle_lut(luts["condenser"], "condenser").attrs.get("fluid", "R134a")))
+        self.saturation = saturation if len(self.chain) > 1 else None
         need = {c: searched[c] for c in components}
         self.luts = {}
         evaporating = [c for c in components if c in SECONDARY_INLET and c in luts]
@@ -565,6 +582,7 @@ class LutModels:
             lut = cycle_lut(luts[component], component)
             if not axes:
                 continue
+            extra = self._chain_tables(component)
             dims = list(lut.dims)
             for axis in axes:
                 if axis not in dims:
@@ -572,9 +590,9 @@ class LutModels:
                         f"the {component} LUT has axes {', '.join(dims)}; cycle work needs {axis!r} as an axis "
                         f"(write it with 'evtms bench {component} --grid cycle')"
                     )
-            self.luts[component] = _LutComponent(component, lut, CURVED.get(component, ()), compiled, vapour)
+            self.luts[component] = _LutComponent(component, lut, CURVED.get(component, ()), compiled, vapour, **extra)
         # None for a partial set (a branch's LUTs alone): no discharge closure to serve.
-        self.condensing = next((c for c in components if c in CONDENSING), None)
+        self.condensing = self.chain[0] if self.chain else None
         self.valve_lut = cycle_lut(luts["expansion_valve"], "expansion_valve")
         self.valve_attrs = dict(self.valve_lut.attrs)
         self._valve: tuple[ExpansionValveParams, float] | None = None
@@ -584,19 +602,38 @@ class LutModels:
         for lut in self.luts.values():
             lut.detailed = on
 
+    def _chain_tables(self, component: str) -> dict:
+        """What ``component``'s tables hold beyond its own iteration variables (:class:`_LutComponent`'s
+        ``saturation``, ``window`` and ``added``): a chain's first gives its outlet to the second, a
+        chain's condenser its scaled capacity ratio, a lone condenser reads its discharges' nodes."""
+        if component == "condenser":
+            return {"saturation": self.saturation} if self.saturation is not None else {"window": DISCHARGE_WINDOW}
+        if len(self.chain) > 1 and component == self.chain[0]:
+            return {"added": CHAIN_FIRST_OUTPUTS}
+        return {}
+
     def subcooled_targets(self, on: bool) -> None:
-        """Whether any point asks for a subcooled condenser outlet (more variables per iteration)."""
-        if self.condensing is not None:
-            self.luts[self.condensing].needs_subcooled = on
+        """Whether any point asks for a subcooled condenser outlet (more variables per iteration):
+        the last of the condensing chain's, whose outlet is the circuit's."""
+        if self.chain:
+            self.luts[self.chain[-1]].needs_subcooled = on
 
     def compressor(self, speed, T_in, p_in, pr) -> Result:
         return self._ask("compressor", (speed, T_in, p_in, pr))
 
     def condenser(self, mdot, fan, p_in, h_in, T_air, RH_air) -> Result:
-        return self._ask("condenser", (mdot, fan, p_in, h_in, T_air, RH_air))
+        out = self._ask("condenser", (mdot, fan, p_in, h_in, T_air, RH_air))
+        if SCALED in out:  # a chain's condenser: two-phase inlets (evtms.cycle.dome)
+            out["capacity_ratio"] = dome_capacity_ratio(
+                out["capacity_ratio"], out.pop(SCALED), p_in, h_in, T_air, out["p_out"], self.saturation
+            )
+        return out
 
     def wcc(self, mdot, p_in, h_in, mdot_coolant, T_coolant_in) -> Result:
-        return self._ask("wcc", (mdot, p_in, h_in, mdot_coolant, T_coolant_in))
+        out = self._ask("wcc", (mdot, p_in, h_in, mdot_coolant, T_coolant_in))
+        if "Q" in out:  # the first of a chain: its outlet from its heat rate (CHAIN_FIRST_OUTPUTS)
+            out["h_out"] = h_in - out.pop("Q") / mdot
+        return out
 
     def evaporator(self, mdot, blower, p_in, h_in, T_air, RH_air) -> Result:
         return self._ask("evaporator", (mdot, blower, p_in, h_in, T_air, RH_air))

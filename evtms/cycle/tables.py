@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evtms.cycle.approach import APPROACH, APPROACH_MIN, OUTLET, SECONDARY_INLET, SUPERHEAT_MIN, approach_log
+from evtms.cycle.dome import DH_MIN, DT_MIN, SCALED, capacity_scale
 from evtms.luts.cache import cached_arrays
 from evtms.luts.validate import fixed_inputs, read_lut_metadata, status_flags
 
@@ -31,7 +32,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from evtms.benches.parameters import Parameters
-    from evtms.fluid import VapourTable
+    from evtms.fluid import SaturationCurve, VapourTable
     from evtms.luts import Interpolator
     from evtms.luts.validate import LutMetadata
 
@@ -40,7 +41,21 @@ if TYPE_CHECKING:
 #: below the refrigerant's saturation (:func:`not_condensing_fill`), by the status meaning of those nodes.
 NOT_CONDENSING = {"wcc": "coolant_inlet_not_colder_than_refrigerant_saturation"}
 #: The variables filled there.
-_FILLED = ("capacity_ratio", "p_out")
+_FILLED = ("capacity_ratio", "p_out", "Q")
+
+#: Status meanings of a refrigerant on the wrong side of its secondary stream: the condenser's and
+#: the evaporating benches' inlet, and the WCC's coolant not below the refrigerant's saturation
+#: (which may still desuperheat, but condenses nothing).
+_WRONG_SIDE = ("refrigerant_inlet_not_", "coolant_inlet_not_colder_than_refrigerant_saturation")
+
+
+def wrong_side_flags(flags: dict[int, str]) -> tuple[int, ...]:
+    """A bench's status codes for a refrigerant on the wrong side of the secondary stream (inlet not
+    warmer than the air in a condenser, saturation not warmer than the coolant in the WCC, inlet not
+    colder than the air or coolant in an evaporator): no heat flows the way the circuit needs, the
+    condensing side gives no liquid. The cycle's closures read them as "no heat flows", not as a
+    failed point."""
+    return tuple(c for c, meaning in flags.items() if meaning.startswith(_WRONG_SIDE))
 
 
 def _short(recipe: dict) -> str:
@@ -90,10 +105,14 @@ class CycleLut:
         curvature: tuple[str, ...],
         compiled: bool = True,
         vapour: VapourTable | None = None,
+        saturation: SaturationCurve | None = None,
+        window: dict[str, float] | None = None,
     ) -> Interpolator:
         """Interpolator of ``variables`` (NaN outside the axes), the ``curvature`` ones corrected;
         ``compiled=False``: on the NumPy path (see :meth:`Interpolator.from_arrays`). The variable
-        :data:`~evtms.cycle.approach.APPROACH` is derived from the outlet (needs ``vapour``)."""
+        :data:`~evtms.cycle.approach.APPROACH` is derived from the outlet (needs ``vapour``),
+        :data:`~evtms.cycle.dome.SCALED` from the capacity ratio (needs ``saturation``).
+        ``window``: the tables start at the last node at or below each value given (by axis)."""
         from evtms.luts import Interpolator
 
         curved = [v for v in curvature if v in variables]
@@ -102,14 +121,21 @@ class CycleLut:
             # The derived table depends on the vapour enthalpies and the transform it was computed with.
             recipe["vapour"] = vapour.digest()
             recipe["approach"] = {"superheat_min": SUPERHEAT_MIN, "approach_min": APPROACH_MIN, "version": 1}
+        if SCALED in variables:
+            recipe["saturation"] = saturation.digest()
+            recipe["scaled"] = {"dt_min": DT_MIN, "dh_min": DH_MIN, "version": 1}
         if self.component in NOT_CONDENSING and set(_FILLED) & set(variables):
             recipe["not_condensing_fill"] = {"variables": list(_FILLED), "version": 1}
+        start = window_start(self.axes, window)
+        if start:  # absent where the window keeps every node: the tables of the whole grid
+            recipe["window"] = {d: float(self.axes[d][i]) for d, i in start.items()}
 
         def build():
             from evtms.luts import open_lut
 
             ds = open_lut(self.path, self.component, stored_variables(variables, self.component))
-            return DatasetLut(ds, self.component).table_arrays(variables, tuple(curved), vapour)
+            ds = ds.isel({d: slice(i, None) for d, i in start.items()})
+            return DatasetLut(ds, self.component).table_arrays(variables, tuple(curved), vapour, saturation)
 
         arrays, info = self._cached("itp", recipe, build)
         return Interpolator.from_arrays(arrays, info, compiled)
@@ -138,8 +164,35 @@ class CycleLut:
         return self._cached(name, recipe, build)
 
 
-#: Nodes per slab of the approach transform (:meth:`DatasetLut._approach`), about.
-_APPROACH_SLICE = 1 << 20
+#: Nodes per slab of the tables derived node by node (:func:`_by_slabs`), about.
+_SLAB_NODES = 1 << 20
+
+
+def _by_slabs(f, first: np.ndarray, *others: np.ndarray) -> np.ndarray:
+    """``f`` of flattened slabs of the first axis of ``first`` and ``others`` (broadcast to its shape).
+
+    In slabs: the table lookups hold a dozen temporaries the size of their input, and an axis's
+    values are broadcast views, copied a slab at a time.
+    """
+    others = [np.broadcast_to(x, first.shape) for x in others]
+    out = np.empty(first.shape)
+    rows = max(1, _SLAB_NODES // max(first[0].size, 1))
+    for i0 in range(0, len(out), rows):
+        parts = (np.ascontiguousarray(x[i0 : i0 + rows]).reshape(-1) for x in (first, *others))
+        out[i0 : i0 + rows] = f(*parts).reshape(out[i0 : i0 + rows].shape)
+    return out
+
+
+def window_start(axes: dict[str, np.ndarray], window: dict[str, float] | None) -> dict[str, int]:
+    """Per axis of ``window`` that ``axes`` has, the index of its last node at or below the value
+    given; only the axes where that drops nodes."""
+    start = {}
+    for d, value in (window or {}).items():
+        if d in axes:
+            i = int(np.searchsorted(axes[d], value, side="right")) - 1
+            if i > 0:
+                start[d] = i
+    return start
 
 
 class DatasetLut:
@@ -160,16 +213,24 @@ class DatasetLut:
         curvature: tuple[str, ...],
         compiled: bool = True,
         vapour: VapourTable | None = None,
+        saturation: SaturationCurve | None = None,
+        window: dict[str, float] | None = None,
     ) -> Interpolator:
         """As :meth:`CycleLut.interpolator`, built from the dataset in memory."""
         from evtms.luts import Interpolator
 
-        itp = Interpolator.from_arrays(*self.table_arrays(variables, curvature, vapour), compiled)
+        start = window_start(self.axes, window)
+        lut = DatasetLut(self.ds.isel({d: slice(i, None) for d, i in start.items()}), self.component) if start else self
+        itp = Interpolator.from_arrays(*lut.table_arrays(variables, curvature, vapour, saturation), compiled)
         itp.compiled = itp.compiled and compiled
         return itp
 
     def table_arrays(
-        self, variables: list[str], curvature: tuple[str, ...], vapour: VapourTable | None = None
+        self,
+        variables: list[str],
+        curvature: tuple[str, ...],
+        vapour: VapourTable | None = None,
+        saturation: SaturationCurve | None = None,
     ) -> tuple[dict, dict]:
         """The arrays and description of :meth:`interpolator`'s table, its rows computed as they are
         written (:meth:`evtms.luts.Interpolator.table_arrays`)."""
@@ -177,7 +238,12 @@ class DatasetLut:
 
         tables = {}
         for v in variables:
-            tables[v] = self._approach(vapour) if v == APPROACH else self._values(v)
+            if v == APPROACH:
+                tables[v] = self._approach(vapour)
+            elif v == SCALED:
+                tables[v] = self._scaled(saturation)
+            else:
+                tables[v] = self._values(v)
         if self.component in NOT_CONDENSING:
             tables = not_condensing_fill(self.ds, self.component, self.dims, tables)
         axes = [(d, self.axes[d]) for d in self.dims]
@@ -194,19 +260,43 @@ class DatasetLut:
         """:func:`~evtms.cycle.approach.approach_log` at every node (NaN where the outlet is)."""
         h_out = self.ds[OUTLET].transpose(*self.dims).values
         p_out = self.ds["p_out"].transpose(*self.dims).values
-        T_sec = np.broadcast_to(np.asarray(self.secondary_inlet(), float), h_out.shape)
-        # In slabs of the first axis: the table lookups hold a dozen temporaries the size of their
-        # input, and the secondary temperature is a broadcast view, copied a slab at a time.
-        out = np.empty(h_out.shape)
-        rows = max(1, _APPROACH_SLICE // max(h_out[0].size, 1))
-        for i0 in range(0, len(out), rows):
-            a, b, c = (np.ascontiguousarray(x[i0 : i0 + rows]).reshape(-1) for x in (h_out, p_out, T_sec))
-            out[i0 : i0 + rows] = approach_log(a, b, c, vapour).reshape(out[i0 : i0 + rows].shape)
-        return out
+        T_sec = np.asarray(self.secondary_inlet(), float)
+        return _by_slabs(lambda h, p, T: approach_log(h, p, T, vapour), h_out, p_out, T_sec)
+
+    def _scaled(self, saturation: SaturationCurve) -> np.ndarray:
+        """The condenser's capacity ratio times :func:`~evtms.cycle.dome.capacity_scale` at every node.
+
+        The scaled ratio tends to a finite limit where the factor's differences vanish, and the
+        nodes there hold the ratio's own limits (0 at no driving difference, the models' largest
+        at a liquid inlet), which would pull the interpolation of the cells beside them off. At a
+        liquid inlet (less than :data:`~evtms.cycle.dome.DH_MIN` above the saturated liquid) the
+        scaled ratio therefore takes the value of the nearest node up the enthalpy axis; where
+        the refrigerant is barely warmer than the air (its mean saturation less than
+        :data:`~evtms.cycle.dome.DT_MIN` above it) or not warmer at all (the bench's wrong-side
+        status, NaN), that of the nearest node up the pressure axis.
+        """
+        ratio = self.ds["capacity_ratio"].transpose(*self.dims).values
+        p_out = self.ds["p_out"].transpose(*self.dims).values
+        p_in, h_in = (self.axes[d].reshape([-1 if e == d else 1 for e in self.dims]) for d in ("p_in", "h_in"))
+        T_air = np.asarray(self.secondary_inlet(), float)
+        scaled = _by_slabs(
+            lambda c, p_o, p, h, T: c * capacity_scale(p, h, T, p_o, saturation), ratio, p_out, p_in, h_in, T_air
+        )
+        T_mean = _by_slabs(lambda p_o, p: 0.5 * (saturation.temperature(p) + saturation.temperature(p_o)), p_out, p_in)
+        status = self.ds["status"].transpose(*self.dims).values
+        liquid = np.broadcast_to(h_in - saturation.liquid_enthalpy(p_in) < DH_MIN, scaled.shape)
+        cold = np.isin(status, wrong_side_flags(self.status_flags())) | (
+            np.isfinite(scaled) & ~(T_mean - T_air >= DT_MIN)
+        )
+        p_axis, h_axis = self.dims.index("p_in"), self.dims.index("h_in")
+        scaled = _carried(np.where(liquid | cold, np.nan, scaled), h_axis, downward=True, only=liquid)
+        scaled = _carried(scaled, p_axis, downward=True, only=cold & ~liquid)
+        # A cold node whose neighbours up the pressure axis are liquid: from up the enthalpy axis.
+        return _carried(scaled, h_axis, downward=True, only=cold & np.isnan(scaled))
 
     def secondary_inlet(self) -> np.ndarray | float:
         """The secondary inlet temperature [K] at the nodes: its axis (broadcast) or the value the LUT was made at."""
-        name = SECONDARY_INLET[self.component]
+        name = {**SECONDARY_INLET, "condenser": "T_air_in"}[self.component]
         if name in self.dims:
             return self.axes[name].reshape([-1 if d == name else 1 for d in self.dims])
         return values_made_at(self.attrs)[name]
@@ -284,6 +374,8 @@ def stored_variables(variables: list[str], component: str | None = None) -> list
     """The file's variables ``variables`` are read or derived from (of ``component``'s LUT)."""
     if component in NOT_CONDENSING and "p_out" in variables:
         variables = [*variables, "dp"]  # the drop that fills p_out (not_condensing_fill)
+    if SCALED in variables:
+        variables = list(dict.fromkeys([v for v in variables if v != SCALED] + ["capacity_ratio", "p_out"]))
     if APPROACH not in variables:
         return variables
     return list(dict.fromkeys([v for v in variables if v != APPROACH] + [OUTLET, "p_out"]))
@@ -303,7 +395,9 @@ def not_condensing_fill(ds, component: str, dims: tuple[str, ...], tables: dict[
     temperature difference vanishes; the bench gives 0 already where the coolant cannot
     take the latent heat) and ``p_out`` the inlet pressure less the drop of the nearest
     condensing node along the coolant-temperature axis (colder coolant; no drop where
-    there is none, the drop being a few kPa). Other variables stay NaN there.
+    there is none, the drop being a few kPa). ``Q`` (from which a condensing chain's first
+    component gives the second its outlet) is that node's too, 0 where there is none.
+    Other variables stay NaN there.
     """
     if not set(_FILLED) & set(tables):
         return tables
@@ -315,17 +409,27 @@ def not_condensing_fill(ds, component: str, dims: tuple[str, ...], tables: dict[
     tables = dict(tables)
     if "capacity_ratio" in tables:
         tables["capacity_ratio"] = np.where(off, 0.0, tables["capacity_ratio"])
+    axis = dims.index("T_coolant_in")
     if "p_out" in tables:
-        axis = dims.index("T_coolant_in")
-        dp = np.moveaxis(ds["dp"].transpose(*dims).values, axis, -1)
-        # The drop carried up the coolant axis from the warmest condensing node below each node.
-        filled = dp.copy()
-        for k in range(1, filled.shape[-1]):
-            filled[..., k] = np.where(np.isfinite(filled[..., k]), filled[..., k], filled[..., k - 1])
-        filled = np.moveaxis(np.nan_to_num(filled, nan=0.0), -1, axis)
+        dp = _carried(ds["dp"].transpose(*dims).values, axis)
         p_in = ds["p_in"].values.reshape([-1 if d == "p_in" else 1 for d in dims])
-        tables["p_out"] = np.where(off, p_in - filled, tables["p_out"])
+        tables["p_out"] = np.where(off, p_in - np.nan_to_num(dp, nan=0.0), tables["p_out"])
+    if "Q" in tables:
+        tables["Q"] = np.where(off, np.nan_to_num(_carried(tables["Q"], axis), nan=0.0), tables["Q"])
     return tables
+
+
+def _carried(values: np.ndarray, axis: int, downward: bool = False, only: np.ndarray | None = None) -> np.ndarray:
+    """``values`` with each NaN (of those where ``only``, if given) replaced by the nearest finite
+    value below it along ``axis`` (above it, ``downward``); NaN where there is none."""
+    filled = np.moveaxis(values, axis, -1).copy()
+    fill = None if only is None else np.moveaxis(only, axis, -1)
+    order = range(filled.shape[-1] - 2, -1, -1) if downward else range(1, filled.shape[-1])
+    step = 1 if downward else -1
+    for k in order:
+        take = ~np.isfinite(filled[..., k]) if fill is None else fill[..., k]
+        filled[..., k] = np.where(take, filled[..., k + step], filled[..., k])
+    return np.moveaxis(filled, -1, axis)
 
 
 def fluid_tables(luts: dict, kind: str, layout: list, build: Callable[[str, str], dict]) -> dict[str, np.ndarray]:
