@@ -23,7 +23,7 @@ def sat(fluid):
 
 def test_the_scaled_ratio_hardly_moves_where_the_ratio_changes_several_fold(fluid, sat):
     """Two-phase inlets from quality 0.05 to 0.75, the saturation 2-8 K above the air: the bench's
-    capacity ratio spans more than 10x, the scaled one stays within 2 % (what its interpolation needs)."""
+    capacity ratio spans more than 50x, the scaled one stays within 1 % (what its interpolation needs)."""
     models = DirectModels(Parameters(), fluid)
     T_air = 297.65
     T_sat = T_air + np.array([2.0, 4.0, 8.0])[:, None]
@@ -33,9 +33,9 @@ def test_the_scaled_ratio_hardly_moves_where_the_ratio_changes_several_fold(flui
     n = p.size
     res = models.condenser(np.full(n, 0.028), np.full(n, 0.3), p, h, np.full(n, T_air), np.full(n, 0.4))
     ratio = res["capacity_ratio"]
-    assert np.isfinite(ratio).all() and ratio.max() / ratio.min() > 10
+    assert np.isfinite(ratio).all() and ratio.max() / ratio.min() > 50
     scaled = ratio * capacity_scale(p, h, np.full(n, T_air), res["p_out"], sat)
-    assert scaled.max() / scaled.min() < 1.02
+    assert scaled.max() / scaled.min() < 1.01
 
 
 def test_the_blend_is_the_scaled_table_in_the_dome_and_the_plain_one_beyond(sat):
