@@ -27,9 +27,9 @@ def test_the_scaled_ratio_hardly_moves_where_the_ratio_changes_several_fold(flui
     models = DirectModels(Parameters(), fluid)
     T_air = 297.65
     T_sat = T_air + np.array([2.0, 4.0, 8.0])[:, None]
-    x = np.array([0.05, 0.2, 0.4, 0.75])[None, :]
+    x = np.array([0.05, 0.2, 0.4, 0.75])
     p = np.broadcast_to(sat.pressure(T_sat), (3, 4)).ravel()
-    h = sat.liquid_enthalpy(p) + np.tile(x.ravel(), 3) * (sat.vapour_enthalpy(p) - sat.liquid_enthalpy(p))
+    h = sat.liquid_enthalpy(p) + np.tile(x, 3) * (sat.vapour_enthalpy(p) - sat.liquid_enthalpy(p))
     n = p.size
     res = models.condenser(np.full(n, 0.028), np.full(n, 0.3), p, h, np.full(n, T_air), np.full(n, 0.4))
     ratio = res["capacity_ratio"]

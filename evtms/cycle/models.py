@@ -569,7 +569,7 @@ class LutModels:
         components = components or ("condenser", "evaporator", "expansion_valve", "compressor")
         # The condensing components in the refrigerant's order: the discharge enters the first.
         self.chain = tuple(c for c in components if c in CONDENSING)
-        if len(self.chain) > 1 and saturation is None:
+        if len(self.chain) > 1 and saturation is None and "condenser" in luts:  # else the missing LUT is named below
             saturation = SaturationCurve(Fluid(cycle_lut(luts["condenser"], "condenser").attrs.get("fluid", "R134a")))
         self.saturation = saturation if len(self.chain) > 1 else None
         need = {c: searched[c] for c in components}
