@@ -152,3 +152,37 @@ def test_cli_refuses_bad_heat_pump_inputs(args, fragments, tmp_path):
 def test_cli_refuses_heating_loop_inputs_in_other_circuits(tmp_path):
     res = runner.invoke(app, ["cycle", "run", "--luts", str(tmp_path), "--t-coolant-h", "40"])
     one_error_line(res, "--t-coolant-h: not an input of the cabin topology")
+
+
+@pytest.mark.parametrize(
+    "meaning",
+    ["coolant_inlet_not_colder_than_refrigerant_inlet", "coolant_inlet_not_colder_than_refrigerant_saturation"],
+)
+def test_wcc_nodes_without_heat_flow_take_their_limits(meaning):
+    """A WCC LUT's nodes where no heat leaves the refrigerant (this bench's status 3, or the wider
+    rule of LUTs written before it solved desuperheating-only states) read capacity ratio 0, the
+    inlet pressure less the drop of the nearest colder-coolant node, and that node's heat rate."""
+    import xarray as xr
+
+    from evtms.cycle.tables import not_condensing_fill
+
+    status = np.array([[0, 11, 3], [0, 3, 3]], np.int8)
+    attrs = {"flag_values": np.array([0, 3, 11], np.int8), "flag_meanings": f"valid {meaning} valid_x"}
+    dims = ("p_in", "T_coolant_in")
+    nan = np.nan
+    ds = xr.Dataset(
+        {
+            "status": (dims, status, attrs),
+            "dp": (dims, [[1e3, 2e3, nan], [3e3, nan, nan]]),
+        },
+        coords={"p_in": [1.0e6, 1.2e6], "T_coolant_in": [290.0, 300.0, 310.0]},
+    )
+    tables = {
+        "capacity_ratio": np.array([[2.0, 0.5, nan], [3.0, nan, nan]]),
+        "p_out": np.array([[0.999e6, 0.998e6, nan], [1.197e6, nan, nan]]),
+        "Q": np.array([[900.0, 400.0, nan], [1200.0, nan, nan]]),
+    }
+    out = not_condensing_fill(ds, "wcc", dims, tables)
+    np.testing.assert_array_equal(out["capacity_ratio"], [[2.0, 0.5, 0.0], [3.0, 0.0, 0.0]])
+    np.testing.assert_array_equal(out["p_out"], [[0.999e6, 0.998e6, 0.998e6], [1.197e6, 1.197e6, 1.197e6]])
+    np.testing.assert_array_equal(out["Q"], [[900.0, 400.0, 400.0], [1200.0, 1200.0, 1200.0]])

@@ -15,7 +15,7 @@ from evtms.benches.base import STATUS_OUTSIDE_FLUID_RANGE
 from evtms.benches.wcc import (
     DEFAULT_PLATES,
     STATUS_COOLANT_FREEZES,
-    STATUS_COOLANT_NOT_BELOW_SATURATION,
+    STATUS_COOLANT_NOT_BELOW_INLET,
     STATUS_CORRELATION_OUTSIDE_RANGE,
     STATUS_FLOW_NOT_POSITIVE,
     STATUS_INLET_SUBCOOLED,
@@ -210,8 +210,8 @@ def test_states_the_condenser_cannot_take_are_nan_with_their_reason(fluid, param
         ((mdot, p, h_in, M_COOLANT, T_COOLANT), VALID),
         ((mdot, p, h_liquid, M_COOLANT, T_COOLANT), (STATUS_INLET_SUBCOOLED,)),
         ((mdot, 4.2e6, 480e3, M_COOLANT, T_COOLANT), (STATUS_SUPERCRITICAL,)),
-        ((mdot, p, h_in, M_COOLANT, 320.0), (STATUS_COOLANT_NOT_BELOW_SATURATION,)),
-        ((mdot, p, h_in, M_COOLANT, 335.0), (STATUS_COOLANT_NOT_BELOW_SATURATION,)),  # only desuperheating
+        ((mdot, p, h_in, M_COOLANT, 350.0), (STATUS_COOLANT_NOT_BELOW_INLET,)),  # warmer than the 70 degC inlet
+        ((mdot, p, 400e3, M_COOLANT, 320.0), (STATUS_COOLANT_NOT_BELOW_INLET,)),  # warmer than a two-phase inlet
         ((mdot, p, h_in, 0.0, T_COOLANT), (STATUS_FLOW_NOT_POSITIVE,)),
         ((-0.01, p, h_in, M_COOLANT, T_COOLANT), (STATUS_FLOW_NOT_POSITIVE,)),
         ((mdot, p, h_in, M_COOLANT, 230.0), (STATUS_COOLANT_FREEZES,)),
@@ -224,6 +224,26 @@ def test_states_the_condenser_cannot_take_are_nan_with_their_reason(fluid, param
         assert out["status"][k] in expected, (k, out["status"][k])
         if expected != VALID:
             assert all(np.isnan(out[v][k]) for v in ("Q", "h_out", "T_coolant_out", "capacity_ratio")), k
+
+
+def test_coolant_above_saturation_only_desuperheats(fluid, params, sizing):
+    # Coolant from 1 K below the 45 degC saturation to 1 K below the 70 degC vapour inlet.
+    p, h_in, mdot = sizing
+    T_c = T_COND + np.array([-1.0, -1e-6, 0.0, 1e-6, 5.0, 15.0, 24.0])
+    out = run(fluid, params, mdot=mdot, p_in=p, h_in=h_in, mdot_coolant=M_COOLANT, T_coolant_in=T_c)
+    above = T_c >= T_COND
+    assert np.isin(out["status"], VALID).all()
+    h_v = float(fluid.saturation(np.array([p]))["h_v"][0])
+    # Vapour out, no area condenses it, never colder than the coolant entering (second law, at
+    # the pressure the core is solved at; the drop cools the vapour by a few mK more).
+    assert (out["h_out"][above] > h_v).all() and (out["capacity_ratio"][above] == 0.0).all()
+    T_core = fluid.state("PH", np.full(7, p), out["h_out"], ("T",))["T"]
+    assert (T_core[above] >= T_c[above]).all()
+    np.testing.assert_allclose(out["Q"], mdot * (h_in - out["h_out"]), rtol=1e-12)
+    # Less heat the warmer the coolant; continuous where it passes the saturation.
+    assert (np.diff(out["Q"]) < 0).all()
+    np.testing.assert_allclose(out["Q"][1:4], out["Q"][2], rtol=1e-5)
+    assert out["Q"][-1] < 0.1 * out["Q"][-3]
 
 
 def test_coolant_leaving_beyond_its_table_is_flagged_not_capped(fluid, params):
@@ -241,8 +261,8 @@ def test_thesis_grid_declared(thesis):
     valid = np.isin(ds["status"].values, VALID)
     assert valid.mean() > 0.5
     assert (ds["Q"].values[valid] > 0).all()
-    # The invalid points are exactly those whose coolant is not below the inlet saturation.
-    assert set(np.unique(ds["status"].values[~valid])) == {STATUS_COOLANT_NOT_BELOW_SATURATION}
+    # The invalid points are exactly those whose coolant is not below the refrigerant's inlet temperature.
+    assert set(np.unique(ds["status"].values[~valid])) == {STATUS_COOLANT_NOT_BELOW_INLET}
 
 
 def test_cli_writes_a_lut_and_refuses_bad_input(tmp_path):
@@ -275,7 +295,7 @@ def test_cli_writes_a_lut_and_refuses_bad_input(tmp_path):
 _MASKS = (
     "inlet_subcooled",
     "supercritical",
-    "not_below_saturation",
+    "not_below_inlet",
     "bad_dp",
     "bad_flow",
     "coolant_freezes",
@@ -321,7 +341,7 @@ def test_compiled_wcc_is_the_array_solve_on_the_same_tables(compiled_and_referen
         np.testing.assert_array_equal(compiled[key], tabulated[key], err_msg=key)
     valid = _valid(tabulated)
     assert 0.5 < valid.mean() < 0.9  # valid points and several kinds of invalid one
-    assert compiled["inlet_subcooled"].any() and compiled["not_below_saturation"].any()
+    assert compiled["inlet_subcooled"].any() and compiled["not_below_inlet"].any()
     np.testing.assert_array_equal(compiled["outside_range"][valid], tabulated["outside_range"][valid])
     for key, value in tabulated.items():
         if key not in (*_MASKS, "outside_range"):

@@ -81,7 +81,7 @@ COLUMNS = (
     "outside_range",
     "inlet_subcooled",
     "supercritical",
-    "not_below_saturation",
+    "not_below_inlet",
     "bad_dp",
     "bad_flow",
     "coolant_freezes",
@@ -164,24 +164,28 @@ def solve_point_wcc(
     saturation(meta, sat, p_in, s)
     T_sat, h_l, h_v = s[_T], s[_HL], s[_HV]
     inlet_subcooled = h_in < h_l
-    not_below_saturation = (not (T_c_in < T_sat)) and math.isfinite(T_c_in + T_sat)
     h_in_ok = math.nan if inlet_subcooled else h_in
-    T_c_ok = math.nan if not_below_saturation else T_c_in
     T_in = ph_temperature(meta, sat, vap, liq, p_in, h_in_ok)
     rho_in = ph_density(meta, sat, vap, liq, p_in, h_in_ok)
+    not_below_inlet = (not (T_c_in < T_in)) and math.isfinite(T_c_in + T_in)
+    T_c_ok = math.nan if not_below_inlet else T_c_in
     row = np.empty(5)
     pt_state(meta, sat, vap, liq, p_in, T_c_ok, row)
     h_at_c = row[0]
+    if T_c_ok >= T_sat and not (h_at_c > h_v):  # vapour at the coolant's temperature, h_v as it tends to T_sat
+        h_at_c = h_v
     G = mdot / geo[_FLOW_REF]
     G_c = m_c / geo[_FLOW_C]
-    bad_props = (not math.isfinite(T_in + T_sat + h_at_c)) and not inlet_subcooled and not not_below_saturation
+    bad_props = (not math.isfinite(T_in + T_sat + h_at_c)) and not inlet_subcooled and not not_below_inlet
 
-    # Single-phase coefficients at each zone's mean temperature (Martin 1996).
+    # Single-phase coefficients at each zone's mean temperature (Martin 1996); the vapour zone
+    # ends at the saturation or the coolant's inlet temperature, whichever is warmer.
     superheated = h_in_ok > h_v
-    T_vap = 0.5 * (T_in + T_sat) if superheated else math.nan
+    T_vap = 0.5 * (T_in + (T_c_ok if T_c_ok > T_sat else T_sat)) if superheated else math.nan
     rho_vp, cp_vp, mu_vp, k_vp = _phase_props(meta, sat, vap, liq, p_in, T_vap, s, True)
     h_vap, Re_vap = _martin_htc(G, D_h, rho_vp, cp_vp, mu_vp, k_vp, angle)
-    rho_lq, cp_lq, mu_lq, k_lq = _phase_props(meta, sat, vap, liq, p_in, 0.5 * (T_sat + T_c_ok), s, False)
+    T_liq = 0.5 * (T_sat + (T_c_ok if T_c_ok < T_sat else T_sat))
+    rho_lq, cp_lq, mu_lq, k_lq = _phase_props(meta, sat, vap, liq, p_in, T_liq, s, False)
     h_liq, Re_liq = _martin_htc(G, D_h, rho_lq, cp_lq, mu_lq, k_lq, angle)
     R_fixed = geo[_R_WALL] + geo[_FOUL_REF] / A
     h_lv = h_v - h_l
@@ -249,7 +253,7 @@ def solve_point_wcc(
     # States the tables do not hold but CoolProp may: the caller solves those points with it.
     inputs_ok = math.isfinite(h_in + mdot + m_c + T_c_in) and not supercritical
     missing = not math.isfinite(T_sat + h_l + h_v)
-    missing = missing or (not inlet_subcooled and not not_below_saturation and not math.isfinite(T_in + rho_in))
+    missing = missing or (not inlet_subcooled and not not_below_inlet and not math.isfinite(T_in + rho_in))
     missing = missing or (math.isfinite(T_c_ok) and not math.isfinite(h_at_c))
     missing = missing or (math.isfinite(h_out) and not math.isfinite(rho_out))
     missing = missing or (p_ok >= curve_p_min and math.isfinite(h_out) and not math.isfinite(x_out + T_out))
@@ -273,7 +277,7 @@ def solve_point_wcc(
         1.0 if outside else 0.0,
         1.0 if inlet_subcooled else 0.0,
         1.0 if supercritical else 0.0,
-        1.0 if not_below_saturation else 0.0,
+        1.0 if not_below_inlet else 0.0,
         1.0 if bad_dp else 0.0,
         1.0 if bad_flow else 0.0,
         1.0 if coolant_freezes else 0.0,

@@ -49,12 +49,17 @@ inlet (nothing for a condenser to do; status 7), an inlet pressure at or
 above the critical (no saturation to condense at; status 8), non-positive
 flows (6), a coolant below its freezing point (5) or beyond its property
 table at inlet or outlet (1), and a coolant not colder than the refrigerant's
-saturation temperature (3). The last is a decision (A): with the coolant
-between the saturation and a superheated inlet temperature the core would
-still desuperheat, but it would condense nothing, and a condenser LUT point
-that delivers no liquid to the receiver has no place in a cycle; reporting
-such a point as a valid partial desuperheater would let a cycle solver
-interpolate between condensing and non-condensing states.
+inlet temperature (3; its saturation temperature for a two-phase inlet): no
+heat would leave the refrigerant.
+
+A coolant between the saturation and a superheated inlet's temperature only
+desuperheats: the refrigerant leaves as vapour, at the coolant's temperature
+at the most (the core's vapour zone ends there, Bell et al. 2015), and the
+capacity ratio is 0 (no area condenses it). Such a point is valid: ahead of
+the air condenser (the ``cabin+wcc`` chain) a WCC on a coolant warmer than
+the ambient air does exactly this, and its heat rate tends continuously to
+the condensing one's as the coolant falls to the saturation temperature, so
+a LUT cell across that edge interpolates it.
 
 Energy: ``Q = mdot (h_in - h_out) = mdot_coolant (h_c,out - h_c,in)`` (> 0,
 heat out of the refrigerant), both to round-off, in the coolant's tabulated
@@ -131,7 +136,7 @@ if TYPE_CHECKING:
 #: ``tests/test_wcc.py`` pins the point.
 DEFAULT_PLATES = 29
 
-STATUS_COOLANT_NOT_BELOW_SATURATION = 3
+STATUS_COOLANT_NOT_BELOW_INLET = 3
 STATUS_DP_EXCEEDS_INLET = 4
 STATUS_COOLANT_FREEZES = 5
 STATUS_FLOW_NOT_POSITIVE = 6
@@ -220,7 +225,7 @@ def solve_wcc(
         ``capacity_ratio`` [1] (plate area over the area needed to condense
         to saturated liquid), ``h_out_continued`` [J/kg], ``Re_coolant`` [1],
         and the masks ``outside_range`` (a correlation outside its data),
-        ``inlet_subcooled``, ``supercritical``, ``not_below_saturation``,
+        ``inlet_subcooled``, ``supercritical``, ``not_below_inlet``,
         ``bad_dp``, ``bad_flow``, ``coolant_freezes``, ``coolant_outside``
         (coolant inlet or outlet beyond its property table) and ``bad_props``.
     """
@@ -242,24 +247,30 @@ def solve_wcc(
     sat = fluid.saturation(p_in)  # NaN at and above the critical pressure
     T_sat, h_l, h_v = sat["T"], sat["h_l"], sat["h_v"]
     inlet_subcooled = h_in < h_l
-    not_below_saturation = ~(T_c_in < T_sat) & np.isfinite(T_c_in + T_sat)
     # What the core cannot take leaves the solve as NaN (Q = 0 there, blanked by its status).
     h_in_ok = np.where(inlet_subcooled, np.nan, h_in)
-    T_c_ok = np.where(not_below_saturation, np.nan, T_c_in)
     inlet = fluid.state("PH", p_in, h_in_ok, ("T", "D"))
     T_in = inlet["T"]
-    h_at_c = fluid.state("PT", p_in, T_c_ok, ("H",))["H"]  # subcooled liquid at the coolant's inlet temperature
+    not_below_inlet = ~(T_c_in < T_in) & np.isfinite(T_c_in + T_in)
+    T_c_ok = np.where(not_below_inlet, np.nan, T_c_in)
+    # The least enthalpy the refrigerant can reach, at the coolant's inlet temperature: subcooled
+    # liquid, or vapour where the coolant is not below the saturation (h_v as it tends to it).
+    h_at_c = fluid.state("PT", p_in, T_c_ok, ("H",))["H"]
+    h_at_c = np.where(T_c_ok >= T_sat, np.fmax(h_at_c, h_v), h_at_c)
     G = mdot / geo["flow_ref"]
     G_c = m_c / geo["flow_coolant"]
-    bad_props = ~np.isfinite(T_in + T_sat + h_at_c) & ~inlet_subcooled & ~not_below_saturation
+    bad_props = ~np.isfinite(T_in + T_sat + h_at_c) & ~inlet_subcooled & ~not_below_inlet
 
     # Single-phase refrigerant coefficients at each zone's mean temperature (Martin 1996): the
     # desuperheating zone from the inlet to saturation, the subcooling zone from saturation
     # towards the coolant's inlet temperature.
     superheated = h_in_ok > h_v
-    vap = refrigerant_props(fluid, p_in, np.where(superheated, 0.5 * (T_in + T_sat), np.nan), sat, "v")
+    # The vapour zone ends at the saturation, or at the coolant's inlet temperature where that is warmer.
+    T_vap = 0.5 * (T_in + np.fmax(T_sat, T_c_ok))
+    vap = refrigerant_props(fluid, p_in, np.where(superheated, T_vap, np.nan), sat, "v")
     h_vap, Re_vap = martin_htc(G, D_h, vap, angle)
-    liq = refrigerant_props(fluid, p_in, 0.5 * (T_sat + T_c_ok), sat, "l")
+    # (At the saturation where the coolant is not below it: no subcooling zone, but finite values.)
+    liq = refrigerant_props(fluid, p_in, 0.5 * (T_sat + np.fmin(T_c_ok, T_sat)), sat, "l")
     h_liq, Re_liq = martin_htc(G, D_h, liq, angle)
     R_fixed = geo["R_wall"] + hx.fouling_ref / A
     h_lv = h_v - h_l
@@ -318,7 +329,7 @@ def solve_wcc(
         "outside_range": outside,
         "inlet_subcooled": inlet_subcooled,
         "supercritical": supercritical,
-        "not_below_saturation": not_below_saturation,
+        "not_below_inlet": not_below_inlet,
         "bad_dp": bad_dp,
         "bad_flow": bad_flow,
         "coolant_freezes": coolant_freezes,
@@ -429,7 +440,7 @@ def wcc_heat_rate(inputs: dict[str, np.ndarray], params: Parameters, fluid: Flui
             (res["bad_flow"], STATUS_FLOW_NOT_POSITIVE),
             (res["coolant_freezes"], STATUS_COOLANT_FREEZES),
             (res["inlet_subcooled"], STATUS_INLET_SUBCOOLED),
-            (res["not_below_saturation"], STATUS_COOLANT_NOT_BELOW_SATURATION),
+            (res["not_below_inlet"], STATUS_COOLANT_NOT_BELOW_INLET),
             (res["coolant_outside"], STATUS_OUTSIDE_FLUID_RANGE),
             (res["bad_dp"], STATUS_DP_EXCEEDS_INLET),
             (res["bad_props"], STATUS_PROPERTY_FAILED),
@@ -452,7 +463,7 @@ def wcc_plates() -> PlateHXParams:
 
 FLAGS = {
     **COMMON_FLAGS,
-    STATUS_COOLANT_NOT_BELOW_SATURATION: "coolant_inlet_not_colder_than_refrigerant_saturation",
+    STATUS_COOLANT_NOT_BELOW_INLET: "coolant_inlet_not_colder_than_refrigerant_inlet",
     STATUS_DP_EXCEEDS_INLET: "pressure_drop_exceeds_inlet_pressure",
     STATUS_COOLANT_FREEZES: "coolant_below_freezing_point",
     STATUS_FLOW_NOT_POSITIVE: "mass_flow_not_positive",
@@ -480,7 +491,8 @@ BENCH = Bench(
     presets={
         # About the heat pump's working range: discharge 0.8-2.2 MPa (31-72 degC saturation),
         # superheated inlets at every pressure, 10-50 g/s, the heating loop's coolant at 20-70 degC.
-        # Points whose coolant is not below the saturation temperature are invalid (status 3).
+        # Points whose coolant is not below the refrigerant's inlet temperature are invalid (status 3);
+        # between that and the saturation the WCC only desuperheats (capacity ratio 0).
         "thesis": {
             "mdot": (0.01, 0.02, 0.03, 0.05),
             "p_in": (0.8e6, 1.2e6, 1.6e6, 2.2e6),

@@ -85,8 +85,10 @@ _CONDENSER_LOW = {
         "the water-cooled condenser outlet condition lies below the discharge pressure",
     ),
 }
-# A chain (the WCC ahead of the condenser) is searched from condensing just above its warmest secondary:
-# below it one of the two condenses nothing (the WCC's bench refuses such a point).
+# A chain (the WCC ahead of the condenser) is searched from condensing just above its warmest secondary.
+# Below a warmer coolant the WCC would only desuperheat and the condenser condense the rest: a real
+# state, but there the chain on LUTs leaves the WCC LUT's pressure axis (from 20 degC saturation) and
+# meets the condenser's cells at its air's wrong side, so both model sources stop at the same floor.
 _CONDENSER_LOW["chain"] = (
     "the condensing chain condenses more than the cycle needs even just above its warmest secondary inlet "
     "(the WCC's coolant or the air): the cycle would condense below it, where one of the two takes no part",
@@ -224,8 +226,8 @@ def condensing(ctx: SolveContext, ops: Ops, mdot, p_in, h_in) -> dict:
     chain holds more area than it needs whatever the second does: its ``capacity_ratio`` is
     then the largest the models give (:data:`evtms.hx.counterflow.CAPACITY_RATIO_MAX`, a liquid
     inlet's), so that the closure's residual keeps falling with the discharge pressure; a
-    first component that condenses nothing (its coolant not colder than the refrigerant's
-    saturation, NaN) leaves the chain without a state.
+    first component that takes no heat (its coolant not colder than the refrigerant entering,
+    NaN) leaves the chain without a state.
     """
     chain = ctx.circuit.chain
     first = _condensing_stage(ctx, ops, chain[0].component, mdot, p_in, h_in)
@@ -248,8 +250,8 @@ def condensing(ctx: SolveContext, ops: Ops, mdot, p_in, h_in) -> dict:
 
 def condensing_secondary(ctx: SolveContext, ops: Ops) -> np.ndarray:
     """The warmest secondary inlet temperature of the condensing chain [K] (ambient air, a coolant
-    loop): the refrigerant must condense above it in each of the chain's components (a WCC whose
-    coolant is not colder than the saturation condenses nothing, its bench's status 3)."""
+    loop): the discharge search starts above it (a WCC on a coolant warmer than the saturation
+    only desuperheats; :data:`_CONDENSER_LOW` says why the chain is not searched there)."""
     chain = ctx.circuit.chain
     if len(chain) == 1:  # the usual circuit: its one secondary as it is (a hot path)
         return ops[chain[0].secondary_temperature]

@@ -75,7 +75,9 @@ CONDENSING = ("condenser", "wcc")
 #: from which its outlet (the second's inlet) follows. Its outlet enthalpy itself goes as the inverse
 #: of the refrigerant flow (the heat over the flow) and was up to 2 kJ/kg off between the flow nodes,
 #: which the condenser behind it, left with a small share of the heat, turned into 5 % of discharge
-#: pressure.
+#: pressure. The heat rate gets the curvature correction (:data:`CURVED`): it bends where the coolant
+#: passes the saturation (below it the WCC condenses too); corrected, its worst error in the chain on
+#: 100 random points fell from 6.0 to 1.7 % of itself (1.2 to 0.7 % of the condensing heat).
 CHAIN_FIRST_OUTPUTS = ("Q",)
 
 #: Where the condenser's tables start for a circuit without a condensing chain, by axis: every
@@ -91,7 +93,7 @@ CURVED = {
     "condenser": ("capacity_ratio", "h_out_continued", SCALED),
     "evaporator": ("h_out_continued", "Q_latent"),
     "chiller": ("h_out_continued", "p_out"),
-    "wcc": ("capacity_ratio", "h_out_continued"),
+    "wcc": ("capacity_ratio", "h_out_continued", "Q"),
 }
 
 #: The operating inputs each component's model takes as they are, by the component's axis name:

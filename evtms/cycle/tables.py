@@ -8,9 +8,8 @@ neither decompresses the table nor computes its curvature columns again, and
 a single operating point touches only the pages of the cells it lands in.
 
 The WCC's tables are filled where its coolant is not below the refrigerant's
-saturation (:func:`not_condensing_fill`): the bench leaves those nodes NaN,
-and the heat pump condenses a few kelvin above its coolant, inside the cells
-that touch them.
+inlet temperature (:func:`not_condensing_fill`): the bench leaves those nodes
+NaN, and a cycle's roots may lie inside the cells that touch them.
 """
 
 from __future__ import annotations
@@ -37,16 +36,20 @@ if TYPE_CHECKING:
     from evtms.luts.validate import LutMetadata
 
 
-#: Condensing components whose closure variables are filled at the nodes where the secondary is not
-#: below the refrigerant's saturation (:func:`not_condensing_fill`), by the status meaning of those nodes.
-NOT_CONDENSING = {"wcc": "coolant_inlet_not_colder_than_refrigerant_saturation"}
+#: Condensing components whose closure variables are filled at the nodes where no heat leaves the
+#: refrigerant (:func:`not_condensing_fill`), by the status meanings of those nodes: the secondary
+#: not below the refrigerant's inlet temperature, or (LUTs written before the WCC's bench solved
+#: its desuperheating-only states) not below its saturation.
+NOT_CONDENSING = {
+    "wcc": ("coolant_inlet_not_colder_than_refrigerant_inlet", "coolant_inlet_not_colder_than_refrigerant_saturation")
+}
 #: The variables filled there.
 _FILLED = ("capacity_ratio", "p_out", "Q")
 
 #: Status meanings of a refrigerant on the wrong side of its secondary stream: the condenser's and
-#: the evaporating benches' inlet, and the WCC's coolant not below the refrigerant's saturation
-#: (which may still desuperheat, but condenses nothing).
-_WRONG_SIDE = ("refrigerant_inlet_not_", "coolant_inlet_not_colder_than_refrigerant_saturation")
+#: the evaporating benches' inlet, and the WCC's coolant not below the refrigerant's inlet (or, in
+#: older WCC LUTs, its saturation).
+_WRONG_SIDE = ("refrigerant_inlet_not_", "coolant_inlet_not_colder_than_refrigerant_")
 
 
 def wrong_side_flags(flags: dict[int, str]) -> tuple[int, ...]:
@@ -384,25 +387,24 @@ def stored_variables(variables: list[str], component: str | None = None) -> list
 def not_condensing_fill(ds, component: str, dims: tuple[str, ...], tables: dict[str, np.ndarray]) -> dict:
     """``tables`` of a condensing LUT with its closure variables filled where it condenses nothing.
 
-    Where the secondary (the WCC's coolant) enters not below the refrigerant's saturation
-    temperature, the bench condenses nothing and leaves the node NaN (its status
-    :data:`NOT_CONDENSING`). The cycle condenses a few kelvin above the coolant, so
-    its roots lie in cells that touch such nodes: left NaN, those cells would read as
-    "no heat flow" (the closure's residual jumping to 1 across them) and put the discharge
-    pressure on the next node above the root. There the nodes take the limits the
-    bench's own outputs tend to as the saturation falls to the coolant temperature:
-    ``capacity_ratio`` 0 (the area to condense fully grows without bound as the
-    temperature difference vanishes; the bench gives 0 already where the coolant cannot
-    take the latent heat) and ``p_out`` the inlet pressure less the drop of the nearest
-    condensing node along the coolant-temperature axis (colder coolant; no drop where
-    there is none, the drop being a few kPa). ``Q`` (from which a condensing chain's first
-    component gives the second its outlet) is that node's too, 0 where there is none.
-    Other variables stay NaN there.
+    Where the secondary (the WCC's coolant) enters not below the refrigerant's inlet
+    temperature, no heat leaves the refrigerant and the bench leaves the node NaN (its
+    status :data:`NOT_CONDENSING`; in LUTs written before the bench solved the
+    desuperheating-only states, every node whose coolant is not below the saturation).
+    A cycle's roots may lie in cells that touch such nodes: left NaN, those cells would
+    read as "no heat flow" (the closure's residual jumping to 1 across them) and put the
+    discharge pressure on the next node above the root. There the nodes take the limits
+    the bench's own outputs tend to as the coolant warms to the edge: ``capacity_ratio`` 0
+    (no area condenses the refrigerant) and ``p_out`` the inlet pressure less the drop of
+    the nearest valid node along the coolant-temperature axis (colder coolant; no drop
+    where there is none, the drop being a few kPa). ``Q`` (from which a condensing chain's
+    first component gives the second its outlet) is that node's too, 0 where there is
+    none. Other variables stay NaN there.
     """
     if not set(_FILLED) & set(tables):
         return tables
     status = ds["status"].transpose(*dims).values
-    codes = [c for c, m in status_flags(ds["status"].attrs).items() if m == NOT_CONDENSING[component]]
+    codes = [c for c, m in status_flags(ds["status"].attrs).items() if m in NOT_CONDENSING[component]]
     off = np.isin(status, codes)
     if not off.any():
         return tables

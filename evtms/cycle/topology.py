@@ -22,9 +22,10 @@ the superheat at that branch's outlet:
 - ``cabin+wcc``: the cabin loop with the WCC ahead of the front condenser
   in series: the discharge gas gives heat to a coolant loop first (the
   e-drive loop rejecting, or the heating loop reheating), the condenser
-  condenses the rest into the receiver. A WCC whose coolant is not colder
-  than the condensing refrigerant takes no part (the WCC bench's status 3):
-  such points lie outside the circuit's envelope.
+  condenses the rest into the receiver. The discharge is searched from
+  condensing above the warmer of the WCC's coolant and the air: a cycle
+  that would condense below a warmer coolant (the WCC only desuperheating)
+  lies outside the circuit's envelope.
 
 :data:`INPUTS` declares every operating input once (units, meaning, allowed
 range, how the command line takes it); a topology lists the ones it uses.
