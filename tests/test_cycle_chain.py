@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from evtms.cli import app
 from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
-from evtms.cycle.solver import CYCLE_FLAGS, VALID_CYCLE_FLAGS
+from evtms.cycle.solver import VALID_CYCLE_FLAGS
 from evtms.cycle.topology import TOPOLOGIES
 
 runner = CliRunner()
@@ -85,14 +85,28 @@ def test_the_wcc_ahead_beats_the_condenser_alone(chain, cabin_alone):
     assert np.all(cabin_alone["Q_wcc"] == 0.0)
 
 
-def test_a_coolant_not_colder_than_the_condensing_refrigerant_has_no_state():
-    """The WCC condenses nothing with its coolant at 60 degC against refrigerant condensing near 45 degC
-    (its bench's status 3): the chain's discharge search starts above the warmest of its secondaries
-    and finds no state where both condense at this speed; the point says why."""
-    res = run_cycle(_points(T_coolant_h_in=333.15, speed=0.2), circuit="cabin+wcc")
-    bad = ~np.isin(res["status"], VALID_CYCLE_FLAGS)
-    assert bad.all(), [CYCLE_FLAGS[s] for s in res["status"]]
-    assert all("warmest secondary inlet" in r for r in res["reason"]) and np.isnan(res["Q_wcc"]).all()
+def test_a_coolant_warmer_than_the_condensing_refrigerant_only_desuperheats():
+    """With its coolant at 45 and 60 degC against refrigerant condensing near 42-43 degC the WCC only
+    desuperheats the discharge gas (less heat the warmer the coolant, the condenser condensing all
+    of it below the coolant's temperature); at 85 degC, warmer than the 67 degC discharge, it takes
+    nothing and the circuit is the condenser alone."""
+    from evtms.fluid import Fluid
+
+    warm = [run_cycle(_points(T_coolant_h_in=t, speed=0.2), circuit="cabin+wcc") for t in (318.15, 333.15, 358.15)]
+    pts = _points(speed=0.2)
+    alone = run_cycle(
+        OperatingPoints(**{k: getattr(pts, k) for k in TOPOLOGIES["cabin"].inputs if k != "subcooling"}),
+        circuit="cabin",
+    )
+    for res in (*warm, alone):
+        assert np.isin(res["status"], VALID_CYCLE_FLAGS).all(), res["reason"]
+    t_sat = [Fluid("R134a").saturation(res["p_B"])["T"] for res in warm[:2]]
+    assert np.all(t_sat[0] < 318.15) and np.all(t_sat[1] < 333.15)
+    assert np.all(warm[0]["Q_wcc"] > warm[1]["Q_wcc"]) and np.all(warm[1]["Q_wcc"] > 0)
+    assert np.all(warm[0]["p_B"] < warm[1]["p_B"]) and np.all(warm[1]["p_B"] < alone["p_B"])
+    assert np.all(warm[2]["T_B"] < 358.15) and np.all(warm[2]["Q_wcc"] == 0.0)
+    for key in ("p_B", "p_A", "Q_cond", "COP"):
+        np.testing.assert_allclose(warm[2][key], alone[key], rtol=1e-12, err_msg=key)
 
 
 def test_the_chain_on_luts_follows_the_physics(cycle_luts_dir, chain):
@@ -103,6 +117,23 @@ def test_the_chain_on_luts_follows_the_physics(cycle_luts_dir, chain):
     for name in ("p_A", "p_B", "Q_cond", "Q_wcc", "COP"):
         np.testing.assert_allclose(lut[name], chain[name], rtol=1e-3, err_msg=name)
     assert np.all(np.abs(lut["balance_relative"]) < 1e-6)
+
+
+def test_the_chain_on_luts_follows_the_physics_at_its_edges(cycle_luts_dir):
+    """Where the WCC's coolant is warmer than the condensing refrigerant (it only desuperheats, and
+    the LUT cells straddle the coolant passing the saturation), and where the condenser behind it
+    condenses a kelvin or two above the air (cells holding nodes on the air's wrong side), the LUT
+    cycle still lands within 1 % of the physics (measured: 0.7 % worst, the COP at 45 degC)."""
+    pts = _points(T_coolant_h_in=np.array([318.15, 333.15, 289.0, 291.0]), speed=0.2)
+    pts.T_amb[2:] = (295.5, 296.5)
+    pts.mdot_coolant_h[2:] = 0.2
+    direct = run_cycle(pts, circuit="cabin+wcc")
+    lut = run_cycle(pts, load_cycle_luts(cycle_luts_dir, "cabin+wcc"), circuit="cabin+wcc")
+    assert np.isin(direct["status"], VALID_CYCLE_FLAGS).all(), direct["reason"]
+    assert (lut["status"] == direct["status"]).all(), lut["reason"]
+    for name in ("p_A", "p_B", "Q_cond", "COP"):
+        np.testing.assert_allclose(lut[name], direct[name], rtol=1e-2, err_msg=name)
+    np.testing.assert_allclose(lut["Q_wcc"], direct["Q_wcc"], rtol=0.0, atol=1e-2 * direct["Q_cond"].min())
 
 
 def test_only_the_chain_reads_the_condensers_two_phase_inlets(cycle_luts_dir):

@@ -514,12 +514,18 @@ BENCH = Bench(
         # 1.1 million points, about 10 s compiled). The pressure every 2 K (not 4 K): with the chiller's
         # physics in place of its LUT the WCC's part of the hp cycle's worst error fell from 1.02 to 0.50 %
         # (discharge pressure) and from 1.41 to 0.93 % (COP); 2.1 million points, about 19 s compiled.
+        # The WCC ahead of the condenser (cabin+wcc) condenses from just above the air, down to 10 degC
+        # saturation (the pressure from there), and its heat rate bends where the coolant passes the
+        # saturation (below it the WCC condenses too, above it only desuperheats): the coolant every
+        # 1.25 K from 10 degC took that circuit's worst LUT error of the COP from 2.14 to 0.90 % and of
+        # the WCC's share of the heat from 2.15 to 0.83 % on 100 random points (hp unchanged within
+        # 0.03 %); 4.6 million points.
         "cycle": {
             "mdot": tuple(np.geomspace(0.002, 0.15, 13)),
-            "p_in": pressure_nodes(np.arange(20.0, 93.0, 2.0)),
+            "p_in": pressure_nodes(np.arange(10.0, 93.0, 2.0)),
             "h_in": tuple(np.linspace(405e3, 535e3, 14)),
             "mdot_coolant": tuple(np.geomspace(0.05, 0.36, 11)),
-            "T_coolant_in": tuple(278.15 + 2.5 * np.arange(29)),
+            "T_coolant_in": (278.15, 280.65, *(283.15 + 1.25 * np.arange(53))),
         },
     },
 )

@@ -85,15 +85,6 @@ _CONDENSER_LOW = {
         "the water-cooled condenser outlet condition lies below the discharge pressure",
     ),
 }
-# A chain (the WCC ahead of the condenser) is searched from condensing just above its warmest secondary.
-# Below a warmer coolant the WCC would only desuperheat and the condenser condense the rest: a real
-# state, but there the chain on LUTs leaves the WCC LUT's pressure axis (from 20 degC saturation) and
-# meets the condenser's cells at its air's wrong side, so both model sources stop at the same floor.
-_CONDENSER_LOW["chain"] = (
-    "the condensing chain condenses more than the cycle needs even just above its warmest secondary inlet "
-    "(the WCC's coolant or the air): the cycle would condense below it, where one of the two takes no part",
-    _CONDENSER_LOW["condenser"][1],
-)
 _CONDENSER_HIGH = {
     "condenser": (
         "the condenser cannot reach its outlet condition up to the highest discharge pressure searched",
@@ -225,14 +216,21 @@ def condensing(ctx: SolveContext, ops: Ops, mdot, p_in, h_in) -> dict:
     first condenses the refrigerant to liquid on its own (its capacity ratio 1 or more), the
     chain holds more area than it needs whatever the second does: its ``capacity_ratio`` is
     then the largest the models give (:data:`evtms.hx.counterflow.CAPACITY_RATIO_MAX`, a liquid
-    inlet's), so that the closure's residual keeps falling with the discharge pressure; a
-    first component that takes no heat (its coolant not colder than the refrigerant entering,
-    NaN) leaves the chain without a state.
+    inlet's), so that the closure's residual keeps falling with the discharge pressure. A
+    first component on a coolant warmer than the saturation only desuperheats (its capacity
+    ratio 0); one on a coolant not colder than the refrigerant entering takes no heat (its
+    bench's wrong-side status) and passes the refrigerant on as it came, as a closed branch
+    does (:func:`evtms.cycle.branches.branch`).
     """
     chain = ctx.circuit.chain
     first = _condensing_stage(ctx, ops, chain[0].component, mdot, p_in, h_in)
     if len(chain) == 1:
         return first
+    idle = no_heat_flow(first) & np.isfinite(np.asarray(h_in, float))
+    if idle.any():
+        first = dict(first)
+        for key, through in (("p_out", p_in), ("h_out", h_in), ("capacity_ratio", 0.0), ("reason", "")):
+            first[key] = np.where(idle, through, first[key])
     # The first's outlet is the second's inlet; a liquid outlet gives the second a liquid inlet.
     second = _condensing_stage(ctx, ops, chain[1].component, mdot, first["p_out"], first["h_out"])
     out = dict(second)
@@ -249,13 +247,11 @@ def condensing(ctx: SolveContext, ops: Ops, mdot, p_in, h_in) -> dict:
 
 
 def condensing_secondary(ctx: SolveContext, ops: Ops) -> np.ndarray:
-    """The warmest secondary inlet temperature of the condensing chain [K] (ambient air, a coolant
-    loop): the discharge search starts above it (a WCC on a coolant warmer than the saturation
-    only desuperheats; :data:`_CONDENSER_LOW` says why the chain is not searched there)."""
-    chain = ctx.circuit.chain
-    if len(chain) == 1:  # the usual circuit: its one secondary as it is (a hot path)
-        return ops[chain[0].secondary_temperature]
-    return np.maximum.reduce([ops[c.secondary_temperature] for c in chain])
+    """The secondary inlet temperature [K] the refrigerant must condense above (ambient air, a
+    coolant loop): that of the chain's last component, whose outlet the receiver holds. A
+    component ahead of it may meet a warmer secondary and then only desuperheat (a WCC on an
+    e-drive loop warmer than the air)."""
+    return ops[ctx.circuit.condensing.secondary_temperature]
 
 
 def discharge_side(ctx: SolveContext, ops: Ops, p_A: np.ndarray, p_B: np.ndarray) -> dict:
@@ -323,9 +319,8 @@ def solve_discharge(ctx: SolveContext, state: SolveState, ops: Ops, p_A: np.ndar
     )
     state.slope[idx] = np.where(br.slope < 0, br.slope, state.slope[idx])
     component = ctx.circuit.condensing.component
-    low = _CONDENSER_LOW["chain" if len(ctx.circuit.chain) > 1 else component]
     status, reason = range_status(
-        br, lo, lo_axis, hi, hi_axis, STATUS_CONDENSER_NO_ROOT, low, _CONDENSER_HIGH[component]
+        br, lo, lo_axis, hi, hi_axis, STATUS_CONDENSER_NO_ROOT, _CONDENSER_LOW[component], _CONDENSER_HIGH[component]
     )
     status[~np.isfinite(p_A)] = STATUS_OUTSIDE_ENVELOPE
     p_B = np.full(n, np.nan)

@@ -126,7 +126,7 @@ class CycleLut:
             recipe["approach"] = {"superheat_min": SUPERHEAT_MIN, "approach_min": APPROACH_MIN, "version": 1}
         if SCALED in variables:
             recipe["saturation"] = saturation.digest()
-            recipe["scaled"] = {"dt_min": DT_MIN, "dh_min": DH_MIN, "version": 1}
+            recipe["scaled"] = {"dt_min": DT_MIN, "dh_min": DH_MIN, "version": 2}
         if self.component in NOT_CONDENSING and set(_FILLED) & set(variables):
             recipe["not_condensing_fill"] = {"variables": list(_FILLED), "version": 1}
         start = window_start(self.axes, window)
@@ -249,6 +249,8 @@ class DatasetLut:
                 tables[v] = self._values(v)
         if self.component in NOT_CONDENSING:
             tables = not_condensing_fill(self.ds, self.component, self.dims, tables)
+        if SCALED in variables:
+            tables = self._wrong_side_fill(tables)
         axes = [(d, self.axes[d]) for d in self.dims]
         return Interpolator.table_arrays(axes, tables, "nan", curvature, self.fixed)
 
@@ -296,6 +298,33 @@ class DatasetLut:
         scaled = _carried(scaled, p_axis, downward=True, only=cold & ~liquid)
         # A cold node whose neighbours up the pressure axis are liquid: from up the enthalpy axis.
         return _carried(scaled, h_axis, downward=True, only=cold & np.isnan(scaled))
+
+    def _wrong_side_fill(self, tables: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """A chain condenser's ``tables`` with ``capacity_ratio`` and ``p_out`` filled at the nodes
+        where its refrigerant enters not warmer than the air (the bench's wrong-side status, NaN).
+
+        Behind the WCC the condenser finishes condensing a few kelvin, or one, above the air, in
+        cells that touch such nodes (the saturation or a liquid inlet below the air): left NaN,
+        the outlet pressure of the whole cell is NaN, and with it the scaled ratio's factor and
+        the cycle's state. There ``capacity_ratio`` takes its limit 0 (no heat flows; the scaled
+        ratio, which the two-phase inlets read, is filled in :meth:`_scaled`) and ``p_out`` the
+        inlet pressure times the outlet-to-inlet ratio of the nearest valid node up the pressure
+        axis, else up the enthalpy axis (the drop being a few kPa).
+        """
+        status = self.ds["status"].transpose(*self.dims).values
+        off = np.isin(status, wrong_side_flags(self.status_flags()))
+        if not off.any():
+            return tables
+        tables = dict(tables)
+        if "capacity_ratio" in tables:
+            tables["capacity_ratio"] = np.where(off, 0.0, tables["capacity_ratio"])
+        if "p_out" in tables:
+            p_in = self.axes["p_in"].reshape([-1 if d == "p_in" else 1 for d in self.dims])
+            ratio = np.where(off, np.nan, tables["p_out"] / p_in)
+            ratio = _carried(ratio, self.dims.index("p_in"), downward=True, only=off)
+            ratio = _carried(ratio, self.dims.index("h_in"), downward=True, only=off & np.isnan(ratio))
+            tables["p_out"] = np.where(off, p_in * ratio, tables["p_out"])
+        return tables
 
     def secondary_inlet(self) -> np.ndarray | float:
         """The secondary inlet temperature [K] at the nodes: its axis (broadcast) or the value the LUT was made at."""

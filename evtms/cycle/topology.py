@@ -23,9 +23,8 @@ the superheat at that branch's outlet:
   in series: the discharge gas gives heat to a coolant loop first (the
   e-drive loop rejecting, or the heating loop reheating), the condenser
   condenses the rest into the receiver. The discharge is searched from
-  condensing above the warmer of the WCC's coolant and the air: a cycle
-  that would condense below a warmer coolant (the WCC only desuperheating)
-  lies outside the circuit's envelope.
+  condensing above the air: with its coolant warmer than that, the WCC only
+  desuperheats; not even colder than the discharge gas, it takes no heat.
 
 :data:`INPUTS` declares every operating input once (units, meaning, allowed
 range, how the command line takes it); a topology lists the ones it uses.
