@@ -162,8 +162,10 @@ def small_maps(monkeypatch):
 _NEEDS = {"cycle_luts": False, "demo": False}
 
 #: The background job: the cycle LUTs (``evtms.workflows.demo.ensure_luts``, as 'evtms bench all --grid cycle'
-#: writes them), a marker when they are complete, then (if asked) 'evtms demo' into a fresh folder
-#: holding a copy of them, with its result as JSON. With ``EVTMS_TEST_CYCLE_LUTS=DIR`` (development
+#: writes them), a marker when they are complete, the derived tables every circuit reads built into the
+#: session's cache (one point each; the tests that need them then find them, and wait for one being
+#: built: the cache locks it), then (if asked) 'evtms demo' into a fresh folder holding hard links to
+#: them (the same cache entries), with its result as JSON. With ``EVTMS_TEST_CYCLE_LUTS=DIR`` (development
 #: loops only; CI leaves it unset and builds them) the LUTs of DIR are copied first, and only the
 #: ones that are stale for the current parameters are built.
 _BACKGROUND = """
@@ -187,8 +189,20 @@ if demo:
     out = Path(demo)
     (out / "luts" / "cycle").mkdir(parents=True)
     for f in sorted(luts.glob("*.nc")):  # before the tests may add map caches to the folder
-        shutil.copy2(f, out / "luts" / "cycle" / f.name)
+        try:
+            os.link(f, out / "luts" / "cycle" / f.name)
+        except OSError:  # another file system: a copy (its own cache entries)
+            shutil.copy2(f, out / "luts" / "cycle" / f.name)
 done.touch()
+
+import numpy as np
+
+from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
+from evtms.cycle.topology import INPUTS, TOPOLOGIES
+
+for name in ("cabin+wcc", "hp", "cabin+chiller", "chiller", "cabin"):  # those the tests need last first
+    inputs = {k: np.array([INPUTS[k].default]) for k in TOPOLOGIES[name].inputs}
+    run_cycle(OperatingPoints(**inputs), load_cycle_luts(luts, name), circuit=name)
 if demo:
     from evtms.workflows.demo import run_demo
     from evtms.system.maps import MapSettings

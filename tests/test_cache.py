@@ -21,7 +21,8 @@ def cache_dir(tmp_path, monkeypatch):
 
 
 def _entries(folder):
-    return sorted(p.name for p in folder.iterdir()) if folder.exists() else []
+    """The cache's entries (not its build locks, kept in ``.locks``)."""
+    return sorted(p.name for p in folder.iterdir() if p.name != ".locks") if folder.exists() else []
 
 
 def test_second_call_reads_the_cache_memory_mapped(tmp_path):
@@ -55,6 +56,7 @@ def test_a_changed_source_or_recipe_rebuilds_and_drops_the_stale_entry(tmp_path,
     assert len(_entries(cache_dir)) == 1
     assert cached_arrays("thing", [src], {"v": 2}, build)[0]["x"][0] == 3.0
     assert len(_entries(cache_dir)) == 1
+    assert len(list((cache_dir / ".locks").iterdir())) == 1  # the stale entries' locks went with them
 
 
 def test_a_hard_link_finds_the_entry_and_a_copy_does_not(tmp_path, cache_dir):
@@ -102,30 +104,42 @@ def test_disabled_cache_writes_nothing(tmp_path, monkeypatch, cache_dir):
     assert not cache_dir.exists()
 
 
-def test_concurrent_builders_all_get_whole_arrays_and_one_entry_stays(tmp_path, cache_dir):
+@pytest.mark.parametrize("through_links", [False, True])
+def test_concurrent_builders_build_once_all_get_whole_arrays_and_one_entry_stays(tmp_path, cache_dir, through_links):
+    """Six builders of one entry at once (through one path, or through hard links to one file, as
+    the demo and the tests reach one LUT): the first builds, the others wait for its entry."""
+    import os
+
     src = tmp_path / "a.nc"
     src.write_bytes(b"one")
+    paths = [src] * 6
+    if through_links:
+        paths = [tmp_path / f"link{i}.nc" for i in range(6)]
+        for p in paths:
+            os.link(src, p)
     start = threading.Barrier(6)
-    results, errors = [], []
+    results, errors, builds = [], [], []
 
     def build():
+        builds.append(1)
         time.sleep(0.05)
         return {"x": np.arange(100_000.0)}, {}
 
-    def worker():
+    def worker(path):
         try:
             start.wait()
-            results.append(cached_arrays("thing", [src], {}, build)[0]["x"])
+            results.append(cached_arrays("thing", [path], {}, build)[0]["x"])
         except Exception as exc:  # noqa: BLE001 - the test reports any failure
             errors.append(exc)
 
-    threads = [threading.Thread(target=worker) for _ in range(6)]
+    threads = [threading.Thread(target=worker, args=(p,)) for p in paths]
     for t in threads:
         t.start()
     for t in threads:
         t.join()
     assert not errors
     assert len(results) == 6 and all(np.array_equal(r, np.arange(100_000.0)) for r in results)
+    assert len(builds) == 1
     assert len(_entries(cache_dir)) == 1  # no temporary folder left behind
 
 

@@ -21,6 +21,8 @@ recipe (evtms version, variables, options), so it is cached:
   lands in, so a single operating point neither reads nor holds whole tables;
 - written to a temporary folder and renamed into place, so concurrent runs
   never see half an entry (the first complete one wins, the others use it);
+  a run about to build an entry another process is building waits for it
+  (a lock per entry, :data:`LOCK_WAIT` at most) instead of building it too;
 - skipped silently where the cache folder cannot be written: the arrays are
   then built in memory, as without a cache (``EVTMS_NO_CACHE=1`` forces that).
 """
@@ -33,6 +35,7 @@ import json
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
@@ -50,6 +53,10 @@ from evtms.luts.store import (
 )
 
 __all__ = ["CACHE_DIR_ENV", "DISABLE_ENV", "cache_key", "cache_root", "cached_arrays"]
+
+#: The longest a run waits for another process building the same entry [s]; then it builds its own
+#: (a lock left by a stopped process is released with it, so this only bounds a slow builder).
+LOCK_WAIT = 600.0
 
 
 def cache_key(sources: Sequence[str | Path], recipe: Mapping) -> str:
@@ -109,13 +116,50 @@ def cached_arrays(
         got = _load(found)
         if got is not None:
             return got
-    arrays, info = build()
-    with contextlib.suppress(OSError):
-        _store(entry, arrays, info)
-        got = _load(entry)
-        if got is not None:
-            return got
+    with _building(name, key):
+        for found in array_entries(name, key):  # finished by another process while this one waited
+            got = _load(found)
+            if got is not None:
+                return got
+        arrays, info = build()
+        with contextlib.suppress(OSError):
+            _store(entry, arrays, info)
+            got = _load(entry)
+            if got is not None:
+                return got
     return arrays, info
+
+
+@contextlib.contextmanager
+def _building(name: str, key: str):
+    """Hold the build lock of the arrays ``name`` with cache key ``key`` (whatever their sources'
+    paths), waiting at most :data:`LOCK_WAIT` for another process that holds it. Without POSIX
+    locks, or where the lock file cannot be made, nothing is held (each run builds its own)."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    try:
+        locks = cache_root() / ".locks"
+        locks.mkdir(parents=True, exist_ok=True)
+        fd = os.open(locks / f"{name}-{key[:32]}.lock", os.O_CREAT | os.O_RDWR, 0o600)
+    except OSError:
+        yield
+        return
+    try:
+        deadline = time.monotonic() + LOCK_WAIT
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except OSError:
+                if time.monotonic() > deadline:
+                    break  # build without it rather than wait on
+                time.sleep(0.05)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
 
 
 def _store(entry: Path, arrays: Mapping[str, np.ndarray], info: dict) -> None:
@@ -141,3 +185,6 @@ def _store(entry: Path, arrays: Mapping[str, np.ndarray], info: dict) -> None:
             shutil.rmtree(tmp, ignore_errors=True)
     for old in stale_array_entries(entry):
         shutil.rmtree(old, ignore_errors=True)
+        # Its lock: "<name>-<sources>-<key>" locks as "<name>-<key>".
+        with contextlib.suppress(OSError):
+            (root / ".locks" / f"{old.name[:-46]}-{old.name[-32:]}.lock").unlink()
