@@ -33,20 +33,54 @@ def _forkserver_preload():
     multiprocessing.set_forkserver_preload(["CoolProp", "evtms.benches", "evtms.benches.chunked"])
 
 
-@pytest.fixture(scope="session", autouse=True)
-def private_cache(tmp_path_factory):
-    """The session's own cache of derived LUT tables (subprocesses inherit it), never the user's."""
-    import os
+#: The environment variable naming the run's shared folder (made by the first process of the run,
+#: inherited by xdist's workers): the derived tables' cache, the background job's LUTs and demo.
+SHARED_ENV = "EVTMS_TEST_SHARED"
+
+
+def _is_worker(config) -> bool:
+    return hasattr(config, "workerinput")
+
+
+def pytest_configure(config):
+    """The run's shared folder and its cache of derived LUT tables (never the user's), made once by
+    the first process (pytest itself, or xdist's controller before it starts the workers)."""
+    import tempfile
 
     from evtms.luts.cache import CACHE_DIR_ENV
 
-    old = os.environ.get(CACHE_DIR_ENV)
-    os.environ[CACHE_DIR_ENV] = str(tmp_path_factory.mktemp("evtms-cache"))
-    yield
-    if old is None:
-        os.environ.pop(CACHE_DIR_ENV, None)
-    else:
-        os.environ[CACHE_DIR_ENV] = old
+    if _is_worker(config):
+        return
+    shared = tempfile.mkdtemp(prefix="evtms-tests-")
+    config._evtms_env = {k: os.environ.get(k) for k in (SHARED_ENV, CACHE_DIR_ENV)}
+    os.environ[SHARED_ENV] = shared
+    os.environ[CACHE_DIR_ENV] = os.path.join(shared, "cache")
+
+
+def pytest_unconfigure(config):
+    """Stop the background job (its whole process group) and remove the shared folder."""
+    import json
+    import shutil
+    import signal
+
+    if _is_worker(config) or not hasattr(config, "_evtms_env"):
+        return
+    shared = os.environ.get(SHARED_ENV)
+    job = os.path.join(shared or "", "job.json")
+    if shared and os.path.exists(job):
+        with open(job) as f:
+            pid = json.load(f)["pid"]
+        try:
+            os.killpg(pid, signal.SIGTERM)
+        except OSError:
+            pass  # finished already
+    if shared:
+        shutil.rmtree(shared, ignore_errors=True)
+    for k, v in config._evtms_env.items():
+        if v is None:
+            os.environ.pop(k, None)
+        else:
+            os.environ[k] = v
 
 
 @pytest.fixture(scope="session")
@@ -163,55 +197,66 @@ _NEEDS = {"cycle_luts": False, "demo": False}
 
 #: The background job: the cycle LUTs (``evtms.workflows.demo.ensure_luts``, as 'evtms bench all --grid cycle'
 #: writes them), a marker when they are complete, the derived tables every circuit reads built into the
-#: session's cache (one point each; the tests that need them then find them, and wait for one being
-#: built: the cache locks it), then (if asked) 'evtms demo' into a fresh folder holding hard links to
-#: them (the same cache entries), with its result as JSON. With ``EVTMS_TEST_CYCLE_LUTS=DIR`` (development
-#: loops only; CI leaves it unset and builds them) the LUTs of DIR are copied first, and only the
-#: ones that are stale for the current parameters are built.
+#: run's cache (one point each; the tests that need them then find them, and wait for one being built:
+#: the cache locks it), then (if asked) 'evtms demo' into a fresh folder holding hard links to them (the
+#: same cache entries), with its result as JSON; a ``failed`` marker if any of it raises. With
+#: ``EVTMS_TEST_CYCLE_LUTS=DIR`` (development loops only; CI leaves it unset and builds them) the LUTs of
+#: DIR are copied first, and only the ones that are stale for the current parameters are built.
 _BACKGROUND = """
 import json
 import os
 import shutil
 import sys
+import traceback
 from pathlib import Path
 
-from evtms.workflows.demo import ensure_luts
-from evtms.benches.parameters import Parameters
 
-os.nice(10)  # the tests run first: timing checks (e.g. 'evtms --help' under 1 s) keep their CPU
-luts, done, demo = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
-seed = os.environ.get("EVTMS_TEST_CYCLE_LUTS")
-if seed:  # a development loop's copy of LUTs built before; ensure_luts rebuilds any that is stale or missing
-    for f in sorted(Path(seed).glob("*.nc")):
-        shutil.copy2(f, luts / f.name)
-ensure_luts(luts, "cycle", Parameters(), workers=2)
-if demo:
-    out = Path(demo)
-    (out / "luts" / "cycle").mkdir(parents=True)
-    for f in sorted(luts.glob("*.nc")):  # before the tests may add map caches to the folder
-        try:
-            os.link(f, out / "luts" / "cycle" / f.name)
-        except OSError:  # another file system: a copy (its own cache entries)
-            shutil.copy2(f, out / "luts" / "cycle" / f.name)
-done.touch()
+def main(luts, work, demo, axes):
+    from evtms.workflows.demo import ensure_luts
+    from evtms.benches.parameters import Parameters
 
-import numpy as np
+    seed = os.environ.get("EVTMS_TEST_CYCLE_LUTS")
+    if seed:  # a development loop's copy of LUTs built before; ensure_luts rebuilds any stale or missing
+        for f in sorted(Path(seed).glob("*.nc")):
+            shutil.copy2(f, luts / f.name)
+    ensure_luts(luts, "cycle", Parameters(), workers=2)
+    if demo:
+        out = Path(demo)
+        (out / "luts" / "cycle").mkdir(parents=True)
+        for f in sorted(luts.glob("*.nc")):  # before the tests may add map caches to the folder
+            try:
+                os.link(f, out / "luts" / "cycle" / f.name)
+            except OSError:  # another file system: a copy (its own cache entries)
+                shutil.copy2(f, out / "luts" / "cycle" / f.name)
+    (work / "luts.done").touch()
 
-from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
-from evtms.cycle.topology import INPUTS, TOPOLOGIES
+    import numpy as np
 
-for name in ("cabin+wcc", "hp", "cabin+chiller", "chiller", "cabin"):  # those the tests need last first
-    inputs = {k: np.array([INPUTS[k].default]) for k in TOPOLOGIES[name].inputs}
-    run_cycle(OperatingPoints(**inputs), load_cycle_luts(luts, name), circuit=name)
-if demo:
-    from evtms.workflows.demo import run_demo
-    from evtms.system.maps import MapSettings
+    from evtms.cycle import OperatingPoints, load_cycle_luts, run_cycle
+    from evtms.cycle.topology import INPUTS, TOPOLOGIES
 
-    messages = []
-    axes = json.loads(sys.argv[4])
-    r = run_demo(out, workers=2, notify=messages.append, map_settings=MapSettings(axes=axes))
-    result = {"index": str(r.index), "computed": r.computed, "reused": r.reused, "timings": r.timings}
-    (out.parent / "demo.json").write_text(json.dumps({"result": result, "messages": messages}))
+    for name in ("cabin+wcc", "hp", "cabin+chiller", "chiller", "cabin"):  # those the tests need last first
+        inputs = {k: np.array([INPUTS[k].default]) for k in TOPOLOGIES[name].inputs}
+        run_cycle(OperatingPoints(**inputs), load_cycle_luts(luts, name), circuit=name)
+    if demo:
+        from evtms.workflows.demo import run_demo
+        from evtms.system.maps import MapSettings
+
+        messages = []
+        r = run_demo(out, workers=2, notify=messages.append, map_settings=MapSettings(axes=axes))
+        result = {"index": str(r.index), "computed": r.computed, "reused": r.reused, "timings": r.timings}
+        (work / "demo.json").write_text(json.dumps({"result": result, "messages": messages}))
+
+
+os.nice(10)  # the tests run first
+work = Path(sys.argv[2])
+try:
+    main(Path(sys.argv[1]), work, sys.argv[3], json.loads(sys.argv[4]))
+except BaseException:
+    traceback.print_exc()
+    sys.stdout.flush()
+    (work / "failed").touch()
+    raise
 """
 
 
@@ -240,57 +285,63 @@ def pytest_collection_modifyitems(session, config, items):
 
 
 @pytest.fixture(scope="session", autouse=True)
-def _background(private_cache, tmp_path_factory):
-    """Start the background job if a collected test needs the cycle LUTs; stop it at the end."""
+def _background():
+    """The run's background job if a collected test needs the cycle LUTs: started by the first process
+    that asks (xdist's workers share it through the run's folder), stopped when the run ends
+    (:func:`pytest_unconfigure`). ``None`` where no collected test needs it."""
+    import fcntl
     import json
-    import os
-    import signal
     import subprocess
     import sys
-    import tempfile
+    from pathlib import Path
 
     if not _NEEDS["cycle_luts"]:
-        yield None
-        return
-    luts = tmp_path_factory.mktemp("cycle_luts")
-    work = tmp_path_factory.mktemp("background")
-    demo = work / "demo" if _NEEDS["demo"] else ""
-    log = tempfile.TemporaryFile()
-    # Its own process group: a session that ends early stops the job and its workers.
-    proc = subprocess.Popen(
-        [sys.executable, "-c", _BACKGROUND, str(luts), str(work / "luts.done"), str(demo), json.dumps(SMALL_MAP_AXES)],
-        stdout=log,
-        stderr=subprocess.STDOUT,
-        start_new_session=True,
-    )
-    yield {"proc": proc, "luts": luts, "done": work / "luts.done", "demo": demo, "log": log}
-    if proc.poll() is None:
-        os.killpg(proc.pid, signal.SIGTERM)
-        proc.wait()
-    log.close()
+        return None
+    shared = Path(os.environ[SHARED_ENV])
+    job = {
+        "luts": shared / "cycle_luts",
+        "work": shared / "background",
+        "demo": shared / "background" / "demo" if _NEEDS["demo"] else "",
+        "log": shared / "background.log",
+    }
+    with open(shared / "start.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (shared / "job.json").exists():
+            job["luts"].mkdir()
+            job["work"].mkdir()
+            with open(job["log"], "wb") as log:
+                # Its own process group: the run's end stops the job and its workers.
+                proc = subprocess.Popen(
+                    [sys.executable, "-c", _BACKGROUND, str(job["luts"]), str(job["work"]), str(job["demo"]),
+                     json.dumps(SMALL_MAP_AXES)],
+                    stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+                )  # fmt: skip
+            (shared / "job.json").write_text(json.dumps({"pid": proc.pid}))
+    return job
 
 
-def _background_failed(job, what):
-    job["log"].seek(0)
-    pytest.fail(f"{what} failed in the background job:\n{job['log'].read().decode(errors='replace')}", pytrace=False)
+def _wait_for(job, marker: str, what: str):
+    """Wait until the background job writes ``marker`` in its folder; fail with its log if it fails."""
+    import time
+
+    while not (job["work"] / marker).exists():
+        if (job["work"] / "failed").exists():
+            log = job["log"].read_text(errors="replace")
+            pytest.fail(f"{what} failed in the background job:\n{log}", pytrace=False)
+        time.sleep(0.1)
 
 
 @pytest.fixture(scope="session")
 def cycle_luts_dir(_background, tmp_path_factory, params):
     """Every bench's LUT on the 'cycle' grid preset, as 'evtms bench all --grid cycle' writes them
-    (``evtms.workflows.demo.ensure_luts(folder, "cycle", Parameters(), workers=2)``, started with the session)."""
-    import time
-
+    (``evtms.workflows.demo.ensure_luts(folder, "cycle", Parameters(), workers=2)``, started with the run)."""
     if _background is None:  # requested by name at run time only: build it here
         from evtms.workflows.demo import ensure_luts
 
         folder = tmp_path_factory.mktemp("cycle_luts")
         ensure_luts(folder, "cycle", params, workers=2)
         return folder
-    while not _background["done"].exists() and _background["proc"].poll() is None:
-        time.sleep(0.1)
-    if not _background["done"].exists():
-        _background_failed(_background, "building the cycle LUTs")
+    _wait_for(_background, "luts.done", "building the cycle LUTs")
     return _background["luts"]
 
 
@@ -316,13 +367,11 @@ def demo_run(_background, tmp_path_factory, cycle_luts_dir):
         messages = []
         result = run_demo(out, workers=2, notify=messages.append, map_settings=MapSettings(axes=SMALL_MAP_AXES))
         return out, result, messages
-    if _background["proc"].wait() != 0:
-        _background_failed(_background, "the demo")
-    out = _background["demo"]
-    saved = json.loads((out.parent / "demo.json").read_text())
+    _wait_for(_background, "demo.json", "the demo")
+    saved = json.loads((_background["work"] / "demo.json").read_text())
     r = saved["result"]
     result = DemoResult(index=Path(r["index"]), computed=r["computed"], reused=r["reused"], timings=r["timings"])
-    return out, result, saved["messages"]
+    return _background["demo"], result, saved["messages"]
 
 
 @pytest.fixture(scope="session")
