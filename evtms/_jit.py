@@ -20,6 +20,14 @@ when that folder can be written, else to a per-user folder
 ``NUMBA_CACHE_DIR`` overrides both. So an install into a read-only
 site-packages still compiles once per user, not once per run.
 
+Processes that start together (a sweep's workers, a test run's) would each
+compile a kernel the cache does not hold yet: for seconds per bench kernel,
+about 16 s for the simulator's loop. :func:`jit` therefore compiles under a
+lock file beside the function's cache: the first process compiles and saves,
+the others wait and load its machine code (numba reads the cache before it
+compiles). A lock held past :data:`COMPILE_WAIT` (a stopped process releases
+its locks) is not waited on further.
+
 A process pays numba's start-up once: its import, then, on the first call of
 any compiled function, the set-up of its compiler (most of it even when the
 machine code comes from the cache). numba imports SciPy's BLAS (for ``np.dot``
@@ -36,10 +44,15 @@ import sys
 
 import numpy as np
 
+from evtms._locks import file_lock
+
 #: Modules numba binds only for features no evtms kernel uses: SciPy (``np.dot``, ``np.linalg``
 #: in compiled code call its BLAS and LAPACK) and cffi (calls into cffi libraries).
 _UNUSED_BY_KERNELS = ("scipy", "cffi")
 _lean = False
+
+#: The longest a process waits for another one compiling the same kernel [s] before compiling it too.
+COMPILE_WAIT = 300.0
 
 
 def lean_numba() -> None:
@@ -88,10 +101,32 @@ def numba_enabled() -> bool:
 
 
 def jit(fn):
-    """``fn`` compiled by numba (no Python objects, cached), or ``fn`` itself."""
+    """``fn`` compiled by numba (no Python objects, cached, one process at a time), or ``fn`` itself."""
     if not numba_enabled():
         return fn
-    return load_numba().njit(cache=True, nogil=True)(fn)
+    dispatcher = load_numba().njit(cache=True, nogil=True)(fn)
+    _compile_one_at_a_time(dispatcher)
+    return dispatcher
+
+
+def _compile_one_at_a_time(dispatcher) -> None:
+    """Make ``dispatcher`` compile a new signature under its lock file (module docstring).
+
+    numba compiles, in one process, under its own compiler lock; it is taken first here, so that
+    within a process only the thread holding it waits on lock files, and nested compilations (a
+    kernel calling another) take theirs in call order in every process.
+    """
+    from numba.core.compiler_lock import global_compiler_lock
+
+    compile_signature = dispatcher.compile
+    cache = dispatcher._cache
+    lock_path = os.path.join(cache._cache_path, cache._cache_file._index_name + ".lock")
+
+    def compile_locked(sig):
+        with global_compiler_lock, file_lock(lock_path, COMPILE_WAIT):
+            return compile_signature(sig)
+
+    dispatcher.compile = compile_locked
 
 
 def kernel_array(a, dtype=np.float64) -> np.ndarray:

@@ -35,13 +35,13 @@ import json
 import os
 import shutil
 import tempfile
-import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from evtms import __version__
+from evtms._locks import file_lock
 from evtms.luts.store import (
     CACHE_DIR_ENV,
     DISABLE_ENV,
@@ -130,36 +130,10 @@ def cached_arrays(
     return arrays, info
 
 
-@contextlib.contextmanager
 def _building(name: str, key: str):
-    """Hold the build lock of the arrays ``name`` with cache key ``key`` (whatever their sources'
-    paths), waiting at most :data:`LOCK_WAIT` for another process that holds it. Without POSIX
-    locks, or where the lock file cannot be made, nothing is held (each run builds its own)."""
-    try:
-        import fcntl
-    except ImportError:
-        yield
-        return
-    try:
-        locks = cache_root() / ".locks"
-        locks.mkdir(parents=True, exist_ok=True)
-        fd = os.open(locks / f"{name}-{key[:32]}.lock", os.O_CREAT | os.O_RDWR, 0o600)
-    except OSError:
-        yield
-        return
-    try:
-        deadline = time.monotonic() + LOCK_WAIT
-        while True:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
-            except OSError:
-                if time.monotonic() > deadline:
-                    break  # build without it rather than wait on
-                time.sleep(0.05)
-        yield
-    finally:
-        os.close(fd)  # releases the lock
+    """The build lock of the arrays ``name`` with cache key ``key`` (whatever their sources' paths),
+    waited for :data:`LOCK_WAIT` at most (:func:`evtms._locks.file_lock`)."""
+    return file_lock(cache_root() / ".locks" / f"{name}-{key[:32]}.lock", LOCK_WAIT)
 
 
 def _store(entry: Path, arrays: Mapping[str, np.ndarray], info: dict) -> None:
