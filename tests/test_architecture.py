@@ -29,6 +29,7 @@ END = "<!-- end of the module diagram -->"
 #: The layers, lowest first: a package imports packages of lower layers only, none of its own layer
 #: (luts, for one, knows no physics: neither fluid nor params).
 LAYERS = (
+    ("_locks",),
     ("errors", "_jit"),
     ("paths", "params", "fluid", "luts"),
     ("fluid_tables",),

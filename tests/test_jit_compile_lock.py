@@ -12,7 +12,7 @@ import pytest
 
 from evtms._jit import numba_enabled
 
-KERNEL = '''
+KERNEL = """
 import numpy as np
 from evtms._jit import jit
 
@@ -24,9 +24,9 @@ def kernel(x):
         v = x[i]
         total += np.sin(v) * np.cos(v) + np.sqrt(abs(v)) - np.exp(-v * v)
     return total
-'''
+"""
 
-CALLER = '''
+CALLER = """
 import os, sys, time
 from pathlib import Path
 import numpy as np
@@ -38,7 +38,7 @@ while not go.exists():
 m.kernel(np.arange(3.0))
 stats = m.kernel.stats
 print(sum(stats.cache_misses.values()), sum(stats.cache_hits.values()))
-'''
+"""
 
 
 @pytest.mark.skipif(not numba_enabled(), reason="numba is not importable (or EVTMS_NO_NUMBA is set)")
