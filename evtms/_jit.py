@@ -119,8 +119,11 @@ def _compile_one_at_a_time(dispatcher) -> None:
     from numba.core.compiler_lock import global_compiler_lock
 
     compile_signature = dispatcher.compile
-    cache = dispatcher._cache
-    lock_path = os.path.join(cache._cache_path, cache._cache_file._index_name + ".lock")
+    try:  # numba's cache internals: a numba without them compiles as it always did, unlocked
+        cache = dispatcher._cache
+        lock_path = os.path.join(cache._cache_path, cache._cache_file._index_name + ".lock")
+    except AttributeError:
+        return
 
     def compile_locked(sig):
         with global_compiler_lock, file_lock(lock_path, COMPILE_WAIT):

@@ -111,16 +111,13 @@ def cached_arrays(
     key = cache_key(sources, recipe)
     entry = array_entry(name, sources, key)
     # This path's entry, else one made through a hard link to the same files (same key).
-    candidates = [entry] if entry.is_dir() else array_entries(name, key)
-    for found in candidates:
-        got = _load(found)
+    got = _first_loadable([entry] if entry.is_dir() else array_entries(name, key))
+    if got is not None:
+        return got
+    with file_lock(_lock_path(name, key), LOCK_WAIT):
+        got = _first_loadable(array_entries(name, key))  # finished by another process while this one waited
         if got is not None:
             return got
-    with _building(name, key):
-        for found in array_entries(name, key):  # finished by another process while this one waited
-            got = _load(found)
-            if got is not None:
-                return got
         arrays, info = build()
         with contextlib.suppress(OSError):
             _store(entry, arrays, info)
@@ -130,10 +127,18 @@ def cached_arrays(
     return arrays, info
 
 
-def _building(name: str, key: str):
-    """The build lock of the arrays ``name`` with cache key ``key`` (whatever their sources' paths),
-    waited for :data:`LOCK_WAIT` at most (:func:`evtms._locks.file_lock`)."""
-    return file_lock(cache_root() / ".locks" / f"{name}-{key[:32]}.lock", LOCK_WAIT)
+def _first_loadable(entries: Sequence[Path]) -> tuple[dict[str, np.ndarray], dict] | None:
+    """The arrays and info of the first of ``entries`` that loads whole, else None."""
+    for found in entries:
+        got = _load(found)
+        if got is not None:
+            return got
+    return None
+
+
+def _lock_path(name: str, key: str) -> Path:
+    """The build lock of the arrays ``name`` with cache key ``key``, whatever their sources' paths."""
+    return cache_root() / ".locks" / f"{name}-{key[:32]}.lock"
 
 
 def _store(entry: Path, arrays: Mapping[str, np.ndarray], info: dict) -> None:
@@ -159,6 +164,5 @@ def _store(entry: Path, arrays: Mapping[str, np.ndarray], info: dict) -> None:
             shutil.rmtree(tmp, ignore_errors=True)
     for old in stale_array_entries(entry):
         shutil.rmtree(old, ignore_errors=True)
-        # Its lock: "<name>-<sources>-<key>" locks as "<name>-<key>".
-        with contextlib.suppress(OSError):
-            (root / ".locks" / f"{old.name[:-46]}-{old.name[-32:]}.lock").unlink()
+        with contextlib.suppress(OSError):  # and its lock: "<name>-<sources hash>-<key>" locks as "<name>-<key>"
+            _lock_path(old.name[:-46], old.name[-32:]).unlink()
