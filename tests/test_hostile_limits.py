@@ -276,11 +276,11 @@ import numpy as np
 import evtms.system.maps as maps
 
 # A slow solver (the workers are forked: they run it too) on chunks of 500 of the maps' 100,000
-# nodes: 200 chunks, a minute and a half on two workers if the build ran to its end. Each process
+# nodes: 200 chunks of 30 s each, an hour on two workers if the build ran to its end. Each process
 # that solves leaves a mark in the working folder as it starts its first chunk.
 def slow(folder, topology, inputs):
     Path(f"solving-{os.getpid()}").touch()
-    time.sleep(0.8)
+    time.sleep(30.0)
     return {k: np.zeros(next(iter(inputs.values())).size) for k in maps._RESULT_KEYS}
 
 maps._solve_in_worker = slow
@@ -340,7 +340,7 @@ def _interrupt_map_build(
             while started not in out.read_bytes() + err.read_bytes() or len(list(cwd.glob("solving-*"))) < workers:
                 assert proc.poll() is None and time.monotonic() < deadline, err.read_text()
                 time.sleep(0.05)
-            time.sleep(0.2)  # the workers in the middle of a chunk (0.8 s each)
+            time.sleep(0.2)  # the workers in the middle of a chunk (30 s each)
             sent = time.monotonic()
             os.killpg(proc.pid, signal.SIGINT)
             proc.wait(timeout=60)
@@ -355,12 +355,13 @@ def _interrupt_map_build(
 
 
 def test_ctrl_c_while_the_cycle_maps_build_stops_at_once(tmp_path, tiny_luts):
-    """Two workers build the maps when Ctrl-C comes: they finish their chunk, the others are
-    dropped, and the build raises EvtmsInterrupted (a KeyboardInterrupt) saying what stopped."""
+    """Two workers build the maps when Ctrl-C comes: they are ended at once (a chunk saves nothing),
+    no other chunk starts, and the build raises EvtmsInterrupted (a KeyboardInterrupt) saying what
+    stopped."""
     shutil.copytree(tiny_luts, tmp_path / "luts")
     code, stopped, out, err = _interrupt_map_build(tmp_path, _LOAD_MAPS, "luts", started=b"building", workers=2)
     assert code == 130, (out, err)
-    assert stopped < 10, stopped  # one chunk per worker (0.8 s), not the 200 queued ones
+    assert stopped < 10, stopped  # not the running chunks' 30 s, nor the 200 queued ones
     assert "EvtmsInterrupted: interrupted while building the cycle maps ac, chiller, ac+chiller of 'luts'" in out
     assert "KeyboardInterrupt: True" in out and "Traceback" not in err
     assert not list((tmp_path / "luts").glob("maps/*.nc"))

@@ -264,7 +264,8 @@ class PoolRunner:
     for the running ones only, so the job stops within one chunk's time. A
     worker that dies fails the sweep (its saved chunks are kept for
     ``resume``); dask would rerun the chunk. Any other job of picklable chunks
-    runs the same way (the cycle maps' build, :mod:`evtms.system.maps`).
+    runs the same way (the cycle maps' build, :mod:`evtms.system.maps`, whose
+    chunks save nothing: it ends its workers at once, ``close(kill=True)``).
 
     Parameters
     ----------
@@ -305,7 +306,13 @@ class PoolRunner:
             for fut in futures:
                 fut.cancel()
 
-    def close(self) -> None:
+    def close(self, kill: bool = False) -> None:
+        """Shut the pool down: the chunks not started are dropped and the running ones finish;
+        with ``kill`` the workers are ended at once (a job whose chunks save nothing, which
+        would otherwise keep a stopped command waiting for its longest chunk)."""
+        if kill:  # concurrent.futures has no public way to end busy workers before Python 3.14
+            for proc in list((getattr(self._pool, "_processes", None) or {}).values()):
+                proc.terminate()
         self._pool.shutdown(wait=True, cancel_futures=True)
 
 
