@@ -286,6 +286,45 @@ def test_cache_is_read_back_and_rebuilt_when_a_lut_or_the_settings_change(cycle_
     assert calls
 
 
+def test_a_map_file_read_once_comes_back_from_the_user_cache_until_it_changes(
+    cycle_luts_dir, small, tmp_path, monkeypatch
+):
+    """The second read of a map file takes its arrays from the user cache (no netCDF read), equal
+    to the file's; a map file rewritten under the same key is read again, not served stale."""
+    import evtms.luts.validate as validate
+    from evtms.system.maps import read_map, write_map
+
+    folder = _luts_copy(cycle_luts_dir, tmp_path / "luts")
+    load_maps(folder, small, names=("chiller",))
+    path = folder / "maps" / "chiller.nc"
+    from_file = read_map(path)
+    first = load_maps(folder, small, names=("chiller",))["chiller"]  # the file read, its arrays kept
+    real = validate.read_map_lut
+
+    def refused(*args, **kwargs):
+        raise AssertionError("the map file was read again")
+
+    monkeypatch.setattr(validate, "read_map_lut", refused)
+    cached = load_maps(folder, small, names=("chiller",))["chiller"]
+    assert isinstance(cached.values, np.memmap) or isinstance(cached.values.base, np.memmap)
+    for m in (first, cached):
+        assert np.array_equal(m.values, from_file.values) and m.filled == from_file.filled
+        assert np.array_equal(m.filled_nodes, from_file.filled_nodes)
+        assert np.array_equal(m.attrs["status"], from_file.attrs["status"])
+        assert all(np.array_equal(a, b) for a, b in zip(m.nodes, from_file.nodes, strict=True))
+        assert {k: v for k, v in m.attrs.items() if k != "status"} == {
+            k: v for k, v in from_file.attrs.items() if k != "status"
+        }
+    monkeypatch.setattr(validate, "read_map_lut", real)
+    changed = CycleMap(
+        "chiller", from_file.axes, from_file.nodes, from_file.values * 2.0, from_file.filled,
+        from_file.filled_nodes, from_file.attrs,
+    )  # fmt: skip
+    write_map(changed, path)
+    again = load_maps(folder, small, names=("chiller",))["chiller"]
+    assert np.array_equal(again.values, from_file.values * 2.0)
+
+
 def test_a_map_cached_in_the_previous_format_is_rebuilt(cycle_luts_dir, small, tmp_path):
     """A format-2 file (xarray's netCDF, no lut_kind) carrying the current key is not taken: rebuilt."""
     import xarray as xr

@@ -211,6 +211,7 @@ class LutStore:
         keys: Mapping[str, str],
         build: Callable[[Sequence[str]], Mapping[str, MapTable]],
         convert: Callable[[MapTable], T] = lambda table: table,
+        read: Callable[[Path, str], T] | None = None,
     ) -> dict[str, T]:
         """The maps named in ``keys``, each read from the first of its :meth:`map_places` that holds it, else built.
 
@@ -232,6 +233,11 @@ class LutStore:
         convert : callable, optional
             Turns a map table into what the caller uses; raises ValueError,
             KeyError or TypeError for a file it cannot use (rebuilt then).
+        read : callable, optional
+            ``read(path, key)``: what ``convert`` makes of the map file ``path``
+            carrying ``key``, raising as the default does (``convert`` of
+            :func:`~evtms.luts.validate.read_map_lut` with the key expected),
+            e.g. through a cache of its arrays.
 
         Returns
         -------
@@ -242,13 +248,18 @@ class LutStore:
         from evtms.luts.validate import read_map_lut
 
         use_files = caching()
+        if read is None:
+
+            def read(path: Path, key: str) -> T:
+                return convert(read_map_lut(path, {KEY_ATTR: key}))
+
         maps: dict[str, T] = {}
         for name, key in keys.items():
             for path in self.map_places(name) if use_files else ():
                 if not path.is_file():
                     continue
                 try:
-                    maps[name] = convert(read_map_lut(path, {KEY_ATTR: key}))
+                    maps[name] = read(path, key)
                     break
                 except (EvtmsInputError, OSError, ValueError, KeyError, TypeError):
                     continue  # stale, damaged or of another format: the next place, else rebuild
