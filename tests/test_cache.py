@@ -174,3 +174,72 @@ def test_cycle_on_cached_tables_is_identical_and_needs_no_coolprop(cycle_luts_di
     assert first["coolprop"] is True  # the first run built the saturation curve and the valve area
     assert second["coolprop"] is False
     assert first["p_A"] == second["p_A"] and first["COP"] == second["COP"]
+
+
+def test_tagged_values_come_back_with_their_types_shapes_and_bits():
+    import json
+
+    from evtms.luts.cache import tagged, untagged
+
+    value = {
+        "a": np.array([[0.1, np.nan], [-np.inf, 1e-300]]),
+        "flags": np.array([0, 5, 7], np.int8),
+        "s": np.float64(1 / 3),
+        "i": np.int32(-4),
+        "u": np.array(["x", "yz"]),
+        "dtype": np.dtype("<f4"),
+        "t": (1, "two", (3.5,)),
+        7: [None, True, "text", 2**70],
+    }
+    back = untagged(json.loads(json.dumps(tagged(value))))
+    assert list(back) == list(value)
+    for k, v in value.items():
+        if isinstance(v, np.ndarray):
+            assert back[k].dtype == v.dtype and back[k].shape == v.shape
+            assert back[k].tobytes() == v.tobytes()
+        else:
+            assert type(back[k]) is type(v) and back[k] == v, k
+    with pytest.raises(TypeError):
+        tagged({"x": object()})
+
+
+def test_a_lut_header_is_checked_once_per_file_version(cycle_luts_dir, tmp_path, monkeypatch):
+    """A second read of an unchanged LUT's header comes from the cache, equal to the first and
+    without opening the file; a rewritten file is read and checked again, and a file that breaks
+    a rule is refused every time (never cached)."""
+    import dataclasses
+    import shutil
+
+    import evtms.luts.validate as validate
+
+    path = tmp_path / "compressor.nc"
+    shutil.copy2(cycle_luts_dir / "compressor.nc", path)
+    first = validate.read_lut_metadata(path, "compressor")
+    real = validate._netcdf
+
+    def refused(*args, **kwargs):
+        raise AssertionError("the file was opened")
+
+    monkeypatch.setattr(validate, "_netcdf", refused)
+    again = validate.read_lut_metadata(path, "compressor")
+    for f in dataclasses.fields(first):
+        a, b = getattr(first, f.name), getattr(again, f.name)
+        if f.name == "axes":
+            assert all(a[d].dtype == b[d].dtype and np.array_equal(a[d], b[d]) for d in a) and list(a) == list(b)
+        elif f.name == "variables":
+            assert list(a) == list(b)
+            for v in a:
+                assert list(a[v]) == list(b[v])
+                assert all(np.array_equal(a[v][k], b[v][k]) and type(a[v][k]) is type(b[v][k]) for k in a[v])
+        else:
+            assert a == b, f.name
+    monkeypatch.setattr(validate, "_netcdf", real)
+    with pytest.raises(validate.LutFormatError, match="the evaporator LUT is needed"):
+        validate.read_lut_metadata(path, "evaporator")  # another question about the file
+
+    time.sleep(0.01)
+    shutil.copy2(cycle_luts_dir / "condenser.nc", path)  # the same path, another file
+    with pytest.raises(validate.LutFormatError, match="holds the condenser LUT"):
+        validate.read_lut_metadata(path, "compressor")
+    with pytest.raises(validate.LutFormatError, match="holds the condenser LUT"):
+        validate.read_lut_metadata(path, "compressor")

@@ -52,7 +52,7 @@ from evtms.luts.store import (
     stale_array_entries,
 )
 
-__all__ = ["CACHE_DIR_ENV", "DISABLE_ENV", "cache_key", "cache_root", "cached_arrays"]
+__all__ = ["CACHE_DIR_ENV", "DISABLE_ENV", "cache_key", "cache_root", "cached_arrays", "tagged", "untagged"]
 
 #: The longest a run waits for another process building the same entry [s]; then it builds its own
 #: (a lock left by a stopped process is released with it, so this only bounds a slow builder).
@@ -166,3 +166,56 @@ def _store(entry: Path, arrays: Mapping[str, np.ndarray], info: dict) -> None:
         shutil.rmtree(old, ignore_errors=True)
         with contextlib.suppress(OSError):  # and its lock: "<name>-<sources hash>-<key>" locks as "<name>-<key>"
             _lock_path(old.name[:-46], old.name[-32:]).unlink()
+
+
+def tagged(value):
+    """``value`` as JSON values, its NumPy arrays, scalars and dtypes, tuples and dicts tagged so
+    that :func:`untagged` gives them back as they were (types, shapes and bits; a float's JSON
+    text is its shortest repr, which reads back to the same double). For an ``info`` of
+    :func:`cached_arrays` holding more than JSON's types (no pickle: the cache holds data, not code).
+
+    Raises
+    ------
+    TypeError
+        A value of another type.
+    """
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind not in "biufcUS":
+            raise TypeError(f"an array of {value.dtype} is not cached")
+        return {"__nd__": [value.dtype.str, list(value.shape), value.ravel().tolist()]}
+    if isinstance(value, np.generic):
+        return {"__np__": [value.dtype.str, value.item()]}
+    if isinstance(value, np.dtype):
+        return {"__dtype__": value.str}
+    if isinstance(value, tuple):
+        return {"__tuple__": [tagged(v) for v in value]}
+    if isinstance(value, dict):
+        return {"__dict__": [[tagged(k), tagged(v)] for k, v in value.items()]}
+    if isinstance(value, list):
+        return [tagged(v) for v in value]
+    if value is None or isinstance(value, str | bool | int | float):
+        return value
+    raise TypeError(f"a {type(value).__name__} is not cached")
+
+
+def untagged(value):
+    """What :func:`tagged` was given."""
+    if isinstance(value, list):
+        return [untagged(v) for v in value]
+    if not isinstance(value, dict):
+        return value
+    (tag, body), *rest = value.items()
+    if rest:
+        raise ValueError("not a tagged value")
+    if tag == "__nd__":
+        dtype, shape, items = body
+        return np.array(items, dtype=np.dtype(dtype)).reshape(shape)
+    if tag == "__np__":
+        return np.dtype(body[0]).type(body[1])
+    if tag == "__dtype__":
+        return np.dtype(body)
+    if tag == "__tuple__":
+        return tuple(untagged(v) for v in body)
+    if tag == "__dict__":
+        return {untagged(k): untagged(v) for k, v in body}
+    raise ValueError(f"unknown tag {tag!r}")
