@@ -188,15 +188,61 @@ def evtms_command() -> list[str]:
 
 #: Runs argv[2:] and writes its wall time and own rusage to argv[1]. A forked child's peak RSS
 #: starts from its parent's high-water mark (Linux carries it across exec), so the command is
-#: started from this small launcher, not from the benchmark holding the LUTs in memory.
+#: started from this small launcher, not from the benchmark holding the LUTs in memory. Peak RSS
+#: counts the pages of memory-mapped files a process touched (the LUT cache's tables, shared with
+#: every other process and the page cache): every 0.25 s the launcher also reads the anonymous
+#: (private) resident memory of the command's process tree from /proc, the largest process's and
+#: the sum over the tree, and keeps their peaks (NaN where there is no /proc).
 LAUNCHER = """
 import json, os, subprocess, sys, time
+
+def private_kb(root):
+    children = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    children.setdefault(int(f.read().rsplit(")", 1)[1].split()[1]), []).append(int(d))
+            except (OSError, ValueError, IndexError):
+                continue
+    total = largest = 0
+    todo = [root]
+    while todo:
+        pid = todo.pop()
+        todo += children.get(pid, [])
+        try:
+            with open(f"/proc/{pid}/status") as f:
+                kb = next((int(line.split()[1]) for line in f if line.startswith("RssAnon:")), 0)
+        except OSError:
+            continue
+        total, largest = total + kb, max(largest, kb)
+    return total, largest
+
 t0 = time.perf_counter()
 proc = subprocess.Popen(sys.argv[2:])
-_, status, usage = os.wait4(proc.pid, 0)
+tree = one = 0.0
+proc_fs = os.path.isdir("/proc/self")
+while True:
+    pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+    if pid:
+        break
+    if proc_fs:
+        total, largest = private_kb(proc.pid)
+        tree, one = max(tree, total), max(one, largest)
+    time.sleep(0.25)
 wall = time.perf_counter() - t0
+nan = float("nan")
 with open(sys.argv[1], "w") as f:
-    json.dump({"wall_s": wall, "rss_mb": usage.ru_maxrss / 1024.0, "rc": os.waitstatus_to_exitcode(status)}, f)
+    json.dump(
+        {
+            "wall_s": wall,
+            "rss_mb": usage.ru_maxrss / 1024.0,
+            "private_mb": one / 1024.0 if proc_fs else nan,
+            "private_tree_mb": tree / 1024.0 if proc_fs else nan,
+            "rc": os.waitstatus_to_exitcode(status),
+        },
+        f,
+    )
 """
 
 
@@ -238,6 +284,10 @@ def child_row(runs: list[dict]) -> str:
     rss = [r["rss_mb"] for r in runs]
     failed = sum(r["rc"] != 0 for r in runs)
     text = f"{np.median(walls):.2f} s, {np.median(rss):.0f} MB"
+    private = [r.get("private_mb", np.nan) for r in runs]
+    tree = [r.get("private_tree_mb", np.nan) for r in runs]
+    if np.isfinite(private).all() and np.isfinite(tree).all():
+        text += f" (private {np.median(private):.0f} MB, all processes at once {np.median(tree):.0f} MB)"
     if len(runs) > 1:
         text += f" (median of {len(runs)}; {min(walls):.2f}-{max(walls):.2f} s)"
     if failed:
@@ -253,6 +303,8 @@ def child_fields(runs: list[dict]) -> dict:
     return {
         "wall_s": float(np.median([r["wall_s"] for r in ok])),
         "rss_mb": float(np.median([r["rss_mb"] for r in ok])),
+        "private_mb": float(np.median([r.get("private_mb", np.nan) for r in ok])),
+        "private_tree_mb": float(np.median([r.get("private_tree_mb", np.nan) for r in ok])),
         "walls_s": [r["wall_s"] for r in runs],
         "failed": len(runs) - len(ok),
     }
