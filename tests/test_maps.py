@@ -357,8 +357,22 @@ def test_unwritable_lut_folder_falls_back_to_the_user_cache(cycle_luts_dir, smal
     assert not calls
 
 
-def test_worker_processes_give_the_serial_map(cycle_luts_dir, small, maps, monkeypatch):
+def test_worker_processes_give_the_serial_map(cycle_luts_dir, small, maps, monkeypatch, tmp_path):
+    """Two workers, chunks of 10 nodes and an empty user cache: the workers first build the
+    circuit's derived tables, one component each at a time, the largest LUT first; the map is
+    the serial one."""
+    from evtms.luts.cache import CACHE_DIR_ENV
+    from evtms.luts.store import LutStore
+
     monkeypatch.setattr(maps_module, "POOL_FROM_POINTS", 0)
     monkeypatch.setattr(maps_module, "CHUNK_POINTS", 10)
+    monkeypatch.setenv(CACHE_DIR_ENV, str(tmp_path / "cache"))
+    plan = maps_module._plan("chiller", cycle_luts_dir, small)
+    tasks = maps_module._table_tasks([plan, plan], cycle_luts_dir)
+    assert sorted(c for _, c in tasks) == ["chiller", "compressor", "condenser"]
+    sizes = [LutStore(cycle_luts_dir).lut(c).stat().st_size for _, c in tasks]
+    assert sizes == sorted(sizes, reverse=True)
     par = build_map("chiller", cycle_luts_dir, small, workers=2)
     np.testing.assert_array_equal(par.values, maps["chiller"].values)
+    made = {p.name.split("-")[0] for p in (tmp_path / "cache").iterdir() if "-itp-" in p.name}
+    assert made == {"chiller", "compressor", "condenser"}

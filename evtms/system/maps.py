@@ -631,20 +631,56 @@ def solve_nodes(luts: dict, topology: str, inputs: Mapping[str, np.ndarray], par
     return {k: np.asarray(res[k]) for k in _RESULT_KEYS}
 
 
-def _solve_in_worker(folder: str, topology: str, inputs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """A worker process' chunk: the LUTs loaded once per process."""
+def _worker_luts(folder: str, topology: str) -> dict:
+    """The LUTs of ``topology`` in ``folder``, loaded once per worker process."""
     from evtms.cycle.api import load_cycle_luts
 
     key = (folder, topology)
     if key not in _WORKER_LUTS:
         _WORKER_LUTS[key] = load_cycle_luts(folder, topology)
-    return solve_nodes(_WORKER_LUTS[key], topology, inputs)
+    return _WORKER_LUTS[key]
 
 
-def _solve_task(task: tuple[int, str, str, dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """A :class:`~evtms.benches.chunked.PoolRunner` job: chunk ``(index, folder, topology, inputs)`` solved."""
+def _solve_in_worker(folder: str, topology: str, inputs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """A worker process' chunk: the LUTs loaded once per process."""
+    return solve_nodes(_worker_luts(folder, topology), topology, inputs)
+
+
+def _tables_in_worker(folder: str, topology: str, component: str) -> None:
+    """The derived tables (:mod:`evtms.luts.cache`) of one component of ``topology``, as its cycle
+    reads them, built where the user cache lacks them: on new LUTs the workers build different
+    components' tables side by side before their first chunk, where each chunk's solve would
+    build them all in one worker while the other waited for its lock (16 s of a 68 s build)."""
+    from evtms.cycle.models import LutModels
+
+    models = LutModels(_worker_luts(folder, topology), (component,))
+    for lut in models.luts.values():
+        lut.no_heat_indicator()
+
+
+def _solve_task(task: tuple) -> dict[str, np.ndarray]:
+    """A :class:`~evtms.benches.chunked.PoolRunner` job: chunk ``(index, folder, topology, inputs)`` solved,
+    or (``inputs`` a component's name) that component's tables built (no result)."""
     _, folder, topology, inputs = task
+    if isinstance(inputs, str):
+        _tables_in_worker(folder, topology, inputs)
+        return {}
     return _solve_in_worker(folder, topology, inputs)
+
+
+def _table_tasks(plans: Sequence[_Plan], folder: Path) -> list[tuple[str, str]]:
+    """``(topology, component)`` for each component with tables the plans' circuits interpolate,
+    once, the largest LUT file first (the evaporator's tables take as long as all the others')."""
+    from evtms.cycle.topology import topology
+    from evtms.luts.store import LutStore
+
+    store, tasks = LutStore(folder), {}
+    for p in plans:
+        name = p.provenance["topology"]
+        for c in topology(name).components:
+            if c != "expansion_valve":  # no table of its own: the valve's flow area is derived on demand
+                tasks.setdefault(c, (name, c))
+    return sorted(tasks.values(), key=lambda t: -store.lut(t[1]).stat().st_size)
 
 
 def map_values(res: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, float]:
@@ -820,9 +856,11 @@ def _build(plans: Sequence[_Plan], folder: Path, progress: Progress | None, work
             finished = False
             try:
                 topology = {p.name: p.provenance["topology"] for p in plans}
-                tasks = [(k, str(folder), topology[p.name], piece(p, nodes)) for k, (p, nodes) in enumerate(chunks)]
+                tasks = [(-1, str(folder), t, c) for t, c in _table_tasks(plans, folder)]
+                tasks += [(k, str(folder), topology[p.name], piece(p, nodes)) for k, (p, nodes) in enumerate(chunks)]
                 for (k, *_), res in runner.run(_solve_task, tasks):
-                    take(*chunks[k], res)
+                    if k >= 0:
+                        take(*chunks[k], res)
                 finished = True
             finally:
                 # Stopped (Ctrl-C, an error): a chunk saves nothing, so its workers end at once.
