@@ -192,9 +192,10 @@ def evtms_command() -> list[str]:
 #: counts the pages of memory-mapped files a process touched (the LUT cache's tables, shared with
 #: every other process and the page cache): every 0.25 s the launcher also reads the anonymous
 #: (private) resident memory of the command's process tree from /proc, the largest process's and
-#: the sum over the tree, and keeps their peaks (NaN where there is no /proc).
+#: the sum over the tree, and keeps their peaks (NaN where there is no /proc), in a thread: the
+#: wall time ends at the exit, not at the next sample.
 LAUNCHER = """
-import json, os, subprocess, sys, time
+import json, os, subprocess, sys, threading, time
 
 def private_kb(root):
     children = {}
@@ -218,27 +219,35 @@ def private_kb(root):
         total, largest = total + kb, max(largest, kb)
     return total, largest
 
+peak = [0, 0, 0]  # the tree's sum, the largest process, samples taken
+done = threading.Event()
+
+def sample(pid):
+    while not done.wait(0.25):
+        total, largest = private_kb(pid)
+        peak[:] = max(peak[0], total), max(peak[1], largest), peak[2] + 1
+
+proc_fs = os.path.isdir("/proc/self")
 t0 = time.perf_counter()
 proc = subprocess.Popen(sys.argv[2:])
-tree = one = 0.0
-proc_fs = os.path.isdir("/proc/self")
-while True:
-    pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
-    if pid:
-        break
-    if proc_fs:
-        total, largest = private_kb(proc.pid)
-        tree, one = max(tree, total), max(one, largest)
-    time.sleep(0.25)
+sampler = threading.Thread(target=sample, args=(proc.pid,), daemon=True)
+if proc_fs:
+    sampler.start()
+_, status, usage = os.wait4(proc.pid, 0)  # blocking: the wall time to the exit, not to the next sample
 wall = time.perf_counter() - t0
+done.set()
+if proc_fs:
+    sampler.join()
+tree, one, samples = peak
+measured = proc_fs and samples > 0  # a run shorter than a sample has no private figure
 nan = float("nan")
 with open(sys.argv[1], "w") as f:
     json.dump(
         {
             "wall_s": wall,
             "rss_mb": usage.ru_maxrss / 1024.0,
-            "private_mb": one / 1024.0 if proc_fs else nan,
-            "private_tree_mb": tree / 1024.0 if proc_fs else nan,
+            "private_mb": one / 1024.0 if measured else nan,
+            "private_tree_mb": tree / 1024.0 if measured else nan,
             "rc": os.waitstatus_to_exitcode(status),
         },
         f,
