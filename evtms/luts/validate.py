@@ -549,8 +549,8 @@ _HEADER_RECORD = 1
 def _known_header(path: Path, name: str, component: str | None, stat: os.stat_result) -> LutMetadata:
     """The file's checked header, from the user cache where this file (the same device, inode,
     size and mtime_ns) was read and checked before (:func:`evtms.luts.cache.cached_arrays`): a
-    command that finds its LUT folder spared opening each file, 0.06 s of a whole
-    ``evtms simulate``. A header that breaks a rule is never cached: it raises every time."""
+    command that finds its LUT folder opens no file (0.03 s of ``evtms cycle run``'s 0.37 s).
+    A header that breaks a rule is never cached: it raises every time."""
     from evtms.luts.cache import cached_arrays, tagged, untagged
 
     def build() -> tuple[dict, dict]:
