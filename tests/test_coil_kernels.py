@@ -119,3 +119,32 @@ def test_a_point_is_the_same_alone_and_in_a_batch(fluids, mode):
         alone = _solve(fluid, mode, {k: v[i : i + 1] for k, v in pts.items()}, True)
         for key in FLOAT_KEYS + MORE_KEYS:
             assert alone[key][0] == batch[key][i] or (np.isnan(alone[key][0]) and np.isnan(batch[key][i])), key
+
+
+@pytest.mark.parametrize("share", [0.0278156, 0.143346, 0.205142, 0.449325, 0.7])
+def test_the_zone_search_closes_where_its_first_secant_hits_the_root(monkeypatch, share):
+    """A dry two-phase zone's heat rate is linear in its coil fraction, so the search's first
+    secant lands on the root: a step just inside that end closes the bracket, and the bisection's
+    replay gives the 40-step bisection's fraction from a handful of heat rates (the midpoint
+    there bisected the whole bracket: some 40)."""
+    from evtms.hx import _coil_kernels as kernels
+
+    dry = np.array([np.inf, 0.002, 400.0, 20.0])  # C_ref [W/K] (boiling), R_tot [K/W], C_air [W/K], dT [K]
+    wet, moist = np.full(5, np.nan), np.full(6, np.nan)  # dry air: no wet model, no moisture
+    sat = (np.array([250.0, 300.0]), np.array([1e4, 1e5]), np.array([1e-3, 2e-2]))  # unused here
+    rate = kernels.zone_rate
+    rate_hi = rate(1.0, dry, wet, moist, *sat)
+    target = share * rate_hi
+    bisected = kernels._bisect_plain(target, 1.0, dry, wet, moist, *sat)  # compiled before the patch below
+    calls = []
+
+    def counted(f, *args):
+        calls.append(f)
+        return rate(f, *args)
+
+    monkeypatch.setattr(kernels, "zone_rate", counted)
+    search = getattr(kernels._bisect, "py_func", kernels._bisect)  # Python, so that it calls the counter
+    fraction = search(target, 1.0, rate_hi, dry, wet, moist, *sat)
+    assert fraction == bisected
+    assert abs(fraction - share) < 1e-9
+    assert len(calls) <= 6

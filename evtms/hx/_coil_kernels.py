@@ -253,7 +253,14 @@ def _bisect(target, hi, rate_hi, dry, wet, moist, sat_T, sat_h, sat_w) -> float:
     that cell, from ``rate(0) = 0`` and ``rate(hi) = rate_hi`` [W]; the bisection then
     replays its steps, a comparison being known without evaluating the rate wherever the
     midpoint lies outside the bracket (the rate rises with the fraction). The same result
-    as the 40 evaluations, from about ten.
+    as the 40 evaluations, from about five.
+
+    A secant that lands on an end of the bracket (the residual there zero or too small to
+    move it: a step that hit the root, as the first step does where the rate is linear in the
+    fraction, a dry two-phase zone) is moved half the final width inside it, which closes
+    the bracket at once where that end is the root. The midpoint there, as Illinois has it,
+    bisected the whole bracket down to its final width: some 40 evaluations, 23 on average
+    over the evaporator's cycle grid.
     """
     a, fa = 0.0, -target  # rate(a) - target < 0
     b, fb = hi, rate_hi - target  # rate(b) - target >= 0 (else the bisection ends at hi)
@@ -265,6 +272,10 @@ def _bisect(target, hi, rate_hi, dry, wet, moist, sat_T, sat_h, sat_w) -> float:
         if b - a <= width:
             break
         c = b - fb * (b - a) / (fb - fa)
+        if c >= b:
+            c = b - 0.5 * width
+        elif c <= a:
+            c = a + 0.5 * width
         if not (a < c < b):
             c = 0.5 * (a + b)
         fc = zone_rate(c, dry, wet, moist, sat_T, sat_h, sat_w) - target
