@@ -362,6 +362,8 @@ def quality(h: np.ndarray, h_l: np.ndarray, h_v: np.ndarray) -> np.ndarray:
 def _haprops(output: str, *args: Any) -> np.ndarray:
     """``HAPropsSI`` over arrays; NaN where CoolProp fails."""
     CP = _cp()
+    # Scalars as floats: CoolProp before 8 takes a number or a sized array, not a 0-d array.
+    args = tuple(float(a) if isinstance(a, np.ndarray) and a.ndim == 0 else a for a in args)
     try:
         return np.asarray(CP.HAPropsSI(output, *args), dtype=float)
     except ValueError:
