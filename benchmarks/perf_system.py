@@ -164,21 +164,23 @@ def maps_build(args, table: Table) -> None:
 
 
 def missing_maps(luts: Path) -> list[str]:
-    """The simulator's cycle maps of ``luts`` that are not cached (so a run would build them)."""
+    """The cycle maps of ``luts`` a simulation with the default parameters reads that are not cached
+    (so a run would build them)."""
     from evtms.cycle.api import cycle_luts_folder
     from evtms.luts.store import KEY_ATTR, LutStore
     from evtms.luts.validate import read_map_lut
-    from evtms.system.maps import MAPS, _plan  # _plan: the cache key load_maps looks for
+    from evtms.system.maps import _plan  # the cache key load_maps looks for
     from evtms.system.params import SystemParams
-    from evtms.system.refrigerant import map_settings
+    from evtms.system.refrigerant import map_names, map_settings
 
     folder = cycle_luts_folder(luts)
+    names = map_names(SystemParams())
     if folder is None:
-        return list(MAPS)
+        return list(names)
     settings = map_settings(SystemParams())
     store = LutStore(folder)
     missing = []
-    for name in MAPS:
+    for name in names:
         key = _plan(name, folder, settings).key
         found = False
         for path in store.map_places(name):

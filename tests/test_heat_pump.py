@@ -249,3 +249,13 @@ def test_a_heat_pump_cycling_at_part_load_comes_back_and_the_ptc_stays_off(refri
     heating = out[:, L.O_Q_HC] > 0
     assert np.sum(out[:, L.O_P_PTCW]) < 0.02 * np.sum(out[heating, L.O_Q_HC])  # the heat pump holds it alone
     assert max(r.ledgers.values()) <= 1e-9
+
+
+def test_only_a_heat_pump_reads_the_heat_pump_map():
+    """The maps a run needs, so that a folder without the heat pump's map (as the demo leaves it)
+    serves every other heating option without building one."""
+    from evtms.system.params import SystemParams, system_params_from_dict
+    from evtms.system.refrigerant import map_names
+
+    assert map_names(SystemParams()) == ("ac", "chiller", "ac+chiller")
+    assert map_names(system_params_from_dict(HP)) == ("ac", "chiller", "ac+chiller", "hp")

@@ -237,6 +237,12 @@ def map_settings(params: SystemParams) -> MapSettings:
     )
 
 
+def map_names(params: SystemParams) -> tuple[str, ...]:
+    """The cycle maps (:data:`evtms.system.maps.MAPS`) a simulation with ``params`` reads: the heat
+    pump's only where the cabin heats with one."""
+    return ("ac", "chiller", "ac+chiller", *(("hp",) if params.hvac.heating == "heat_pump" else ()))
+
+
 def load_refrigerant(
     luts_folder: str | Path,
     params: SystemParams | None = None,
@@ -262,8 +268,7 @@ def load_refrigerant(
     sat = saturation_curve(luts)
     # The LUTs all come from one folder, the one found in luts_folder: its store caches the maps.
     folder = LutStore.containing(next(iter(luts.values())).path).folder
-    names = ("ac", "chiller", "ac+chiller", *(("hp",) if params.hvac.heating == "heat_pump" else ()))
-    maps = load_maps(folder, settings, names, progress=progress)
+    maps = load_maps(folder, settings, map_names(params), progress=progress)
     return Refrigerant(
         maps=maps,
         sat_T=np.ascontiguousarray(sat.T, float),
