@@ -174,10 +174,11 @@ def missing_maps(luts: Path) -> list[str]:
     from evtms.system.refrigerant import map_names, map_settings
 
     folder = cycle_luts_folder(luts)
-    names = map_names(SystemParams())
+    params = SystemParams()
+    names = map_names(params)
     if folder is None:
         return list(names)
-    settings = map_settings(SystemParams())
+    settings = map_settings(params)
     store = LutStore(folder)
     missing = []
     for name in names:
