@@ -9,9 +9,16 @@ import evtms.cycle.solver as solver_module
 from evtms.cycle import CycleSolver, OperatingPoints, load_cycle_luts
 from evtms.cycle._closure_kernel import DONE, FAILED, PHASE, STATE_SIZE, root_begin, root_next
 from evtms.cycle.closure import solve_at
-from evtms.cycle.compiled import compiled_roots
+from evtms.cycle.compiled import compiled_roots, solve_closure
 from evtms.cycle.models import LutModels
-from evtms.cycle.state import SolveContext
+from evtms.cycle.state import (
+    BOTH_HOLD,
+    FIRST_CLOSED,
+    FIRST_FLOATS,
+    SECOND_CLOSED,
+    SECOND_FLOATS,
+    SolveContext,
+)
 from evtms.cycle.topology import topology
 from evtms.fluid import Fluid, SaturationCurve
 
@@ -23,6 +30,14 @@ RANGES = {
     "chiller": {
         "fan": (0.2, 1.0),
         "T_amb": (288.15, 318.15),
+        "mdot_coolant": (0.05, 0.3),
+        "T_coolant_in": (288.15, 313.15),
+    },
+    "cabin+chiller": {
+        "fan": (0.2, 1.0),
+        "blower": (0.2, 1.0),
+        "T_amb": (288.15, 318.15),
+        "T_cabin": (293.15, 313.15),
         "mdot_coolant": (0.05, 0.3),
         "T_coolant_in": (288.15, 313.15),
     },
@@ -57,25 +72,63 @@ def python_path(solver: CycleSolver) -> CycleSolver:
     return CycleSolver(solver.models, solver.sat, solver.circuit, closure="python")
 
 
+def parallel_ops(ops: dict, mode: int) -> dict:
+    """``ops`` of a two-branch circuit in branch mode ``mode`` (:mod:`evtms.cycle.state`): a valve
+    at its maximum opening floats its superheat 0-8 K above the setpoint."""
+    n = ops["speed"].size
+    ops = dict(ops, branch_mode=np.full(n, mode, np.int8), setpoint=ops["superheat"].copy())
+    if mode in (FIRST_FLOATS, SECOND_FLOATS):
+        ops["superheat"] = ops["superheat"] + np.random.default_rng(mode).uniform(0.0, 8.0, n)
+    return ops
+
+
+def assert_kernel_is_python(ctx: SolveContext, ops: dict, served: int) -> None:
+    """The kernel's roots and state are the Python path's to round-off where both solve (at least
+    ``served`` points), and the closure through the kernel ends every point with
+    the Python path's status and reason."""
+    roots = compiled_roots(ctx, ops)
+    res, state = solve_at(ctx, ops)
+    # Most points are served (else the comparison below would prove little).
+    assert roots.solved.mean() > 0.8
+    # A point the Python path solves, the kernel solves too (a root at which a component fails is
+    # the final evaluation's to say, on both paths).
+    assert roots.solved[res["status"] == 0].all()
+    k = roots.solved & (res["status"] == 0)
+    assert k.sum() >= served
+    for key in ("p_A", "p_B"):
+        np.testing.assert_allclose(getattr(roots, key)[k], res[key][k], rtol=1e-12)
+    # The same state at the roots: the drops, the split, and the two closures' slopes a warm start reads.
+    pairs = [(roots.dp, state.dp), (roots.outer_slope, state.outer_slope), (roots.inner_slope, state.slope)]
+    pairs += [(roots.dp_branch[c], state.dp_branch[c]) for c in roots.dp_branch]
+    if roots.split is not None:
+        pairs.append((roots.split, state.split))
+        np.testing.assert_array_equal(roots.clamped[k], state.clamped[k])
+    for mine, theirs in pairs:
+        np.testing.assert_allclose(mine[k], theirs[k], rtol=1e-9, atol=1e-9)
+    fast, _ = solve_closure(ctx, ops)
+    np.testing.assert_array_equal(fast["status"], res["status"])
+    np.testing.assert_array_equal(fast["reason"], res["reason"])
+
+
 @pytest.mark.parametrize("name", list(RANGES))
 def test_compiled_roots_are_the_python_roots(solvers, name):
     solver = solvers[name]
     ctx = SolveContext(solver.models, solver.sat, solver.circuit)
     ops = points(name).subset(np.arange(N))
-    roots = compiled_roots(ctx, ops)
-    res, _ = solve_at(ctx, ops)
-    # Most points are served (else the comparison below would prove little).
-    assert roots.solved.mean() > 0.8
-    k = roots.solved
-    # A point the kernel solves, the Python path solves too: the same roots, to round-off, and the
-    # same state at them (the drop, and the two closures' slopes a warm start reads).
-    assert (res["status"][k] == 0).all()
-    for key in ("p_A", "p_B"):
-        np.testing.assert_allclose(getattr(roots, key)[k], res[key][k], rtol=1e-12)
-    _, state = solve_at(ctx, ops)
-    pairs = ((roots.dp, state.dp), (roots.outer_slope, state.outer_slope), (roots.inner_slope, state.slope))
-    for mine, theirs in pairs:
-        np.testing.assert_allclose(mine[k], theirs[k], rtol=1e-9, atol=1e-9)
+    if ctx.parallel:
+        ops = parallel_ops(ops, BOTH_HOLD)
+    assert_kernel_is_python(ctx, ops, served=int(0.8 * N))
+
+
+@pytest.mark.parametrize("mode", [FIRST_FLOATS, SECOND_FLOATS, FIRST_CLOSED, SECOND_CLOSED])
+def test_compiled_parallel_roots_in_every_branch_mode(solvers, mode):
+    """A valve at its maximum opening (the other branch holds the setpoint, the suction superheat
+    floats) or closed (one branch takes all the flow): the kernel's roots are the Python path's."""
+    solver = solvers["cabin+chiller"]
+    ctx = SolveContext(solver.models, solver.sat, solver.circuit)
+    ops = parallel_ops(points("cabin+chiller", n=60, seed=11).subset(np.arange(60)), mode)
+    # Many floating points fail at the root (a branch at its least flow): the final evaluation's word.
+    assert_kernel_is_python(ctx, ops, served=6 if mode in (FIRST_FLOATS, SECOND_FLOATS) else 48)
 
 
 @pytest.mark.parametrize("name", list(RANGES))
@@ -181,6 +234,7 @@ def test_one_compiled_closure_whatever_the_tables_came_as(cycle_luts_dir, monkey
     as one type, or a user whose tables moved into the cache pays a second compile of seconds."""
     from evtms._jit import numba_enabled
     from evtms.cycle import _closure_kernel as kernel
+    from evtms.cycle import _parallel_kernel as parallel
     from evtms.cycle.api import run_cycle
 
     if not numba_enabled():
@@ -190,4 +244,8 @@ def test_one_compiled_closure_whatever_the_tables_came_as(cycle_luts_dir, monkey
         luts = load_cycle_luts(cycle_luts_dir, "cabin")
         res = run_cycle(points("cabin", 4), luts, circuit="cabin", closure="compiled")
         assert np.isfinite(res["W"]).any()
+        luts = load_cycle_luts(cycle_luts_dir, "cabin+chiller")
+        res = run_cycle(points("cabin+chiller", 4), luts, circuit="cabin+chiller", compiled=True, closure="compiled")
+        assert np.isfinite(res["W"]).any()
     assert len(kernel.solve_points.signatures) == 1, kernel.solve_points.signatures
+    assert len(parallel.solve_parallel.signatures) == 1, parallel.solve_parallel.signatures

@@ -4,11 +4,13 @@
 :func:`evtms.cycle.closure.solve_at`. On LUTs whose interpolation is compiled,
 for a circuit of one condensing component and one evaporating branch
 (``cabin``, ``chiller``, ``hp``), it finds each point's roots in one compiled
-loop (:mod:`evtms.cycle._closure_kernel`), then evaluates the components at
+loop (:mod:`evtms.cycle._closure_kernel`), and with two branches in parallel
+(``cabin+chiller``) the roots, the flow split and both branches' drops in
+another (:mod:`evtms.cycle._parallel_kernel`), then evaluates the components at
 the roots with every output variable as the Python path does
 (:func:`evtms.cycle.closure.final_states`). The points the kernel hands back
 (a model's envelope met on the way, no root in the range, a subcooled
-condenser target) and every other circuit or model go through
+condenser target), every warm start, and every other circuit or model go through
 :func:`~evtms.cycle.closure.solve_at`, which says why a point fails.
 
 The roots agree with the Python path's to within the closures' tolerances
@@ -71,8 +73,9 @@ _WANTED = {
 
 
 def _eligible(ctx: SolveContext) -> bool:
-    """A circuit and models the kernel serves: LUTs, one condensing component, one branch."""
-    return getattr(ctx.models, "name", "") == "lut" and not ctx.parallel and len(ctx.circuit.chain) == 1
+    """A circuit and models the kernels serve: LUTs, one condensing component, one branch or two
+    in parallel."""
+    return getattr(ctx.models, "name", "") == "lut" and len(ctx.circuit.chain) == 1 and len(ctx.names) <= 2
 
 
 def packed(ctx: SolveContext, component: str, inputs: tuple[str, ...], ops: Ops, role: str):
@@ -143,6 +146,11 @@ class CompiledRoots:
         The suction and discharge closures' slopes in saturation temperature [1/K].
     solved : numpy.ndarray
         False where the point is handed back to the Python path.
+    dp_branch : dict of str to numpy.ndarray
+        Two parallel branches: each one's drop [Pa] (empty for one branch).
+    split, clamped : numpy.ndarray or None
+        Two parallel branches: the second one's share of the flow [1] and why the split was
+        clamped (``CLAMP_*``; 0 where it found a root); None for one branch.
     """
 
     p_A: np.ndarray
@@ -151,6 +159,9 @@ class CompiledRoots:
     outer_slope: np.ndarray
     inner_slope: np.ndarray
     solved: np.ndarray
+    dp_branch: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    split: np.ndarray | None = None
+    clamped: np.ndarray | None = None
 
 
 def compiled_roots(
@@ -166,11 +177,13 @@ def compiled_roots(
     parts = _parts(ctx, ops) if _eligible(ctx) else None
     if parts is None:
         return None
-    from evtms.cycle import _closure_kernel as kernel
-
     n, limits = ops["speed"].size, ctx.models.limits()
     state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess)
     guesses = {"t_guess": t_guess, "outer_slope": outer_slope}
+    if ctx.parallel:
+        return _parallel_roots(ctx, ops, limits, state, parts, guesses)
+    from evtms.cycle import _closure_kernel as kernel
+
     rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses, kernel.OPS_ROWS)
     vapour, dh = ctx.models.luts[ctx.names[0]]._vapour_args
     sat = (ctx.sat._log_p, ctx.sat.T, ctx.sat.h_l)
@@ -178,6 +191,32 @@ def compiled_roots(
     tol = _tolerances(state, kernel.TOLERANCES)
     kernel.solve_points(*(p[0] for p in parts), rows, sat, vapour, dh, SUPERHEAT_MIN, tol, out)
     return CompiledRoots(*out[:5], solved=out[5] == 1.0)
+
+
+def _parallel_roots(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, parts: list, guesses: dict):
+    """:func:`compiled_roots` of a circuit with two parallel branches (:mod:`evtms.cycle._parallel_kernel`)."""
+    from evtms.cycle import _parallel_kernel as kernel
+
+    n = ops["speed"].size
+    rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses, kernel.PARALLEL_ROWS)
+    flows = np.array([x for c in ctx.names for x in ctx.models.flow_range(c)], float)
+    vap = [ctx.models.luts[c]._vapour_args for c in ctx.names]
+    sat = (ctx.sat._log_p, ctx.sat.T, ctx.sat.h_l)
+    out = np.empty((len(kernel.RESULTS), n))
+    tol = _tolerances(state, kernel.PARALLEL_TOLERANCES)
+    kernel.solve_parallel(*(p[0] for p in parts), *vap, rows, sat, flows, tol, SUPERHEAT_MIN, out)
+    r = dict(zip(kernel.RESULTS, out, strict=True))
+    return CompiledRoots(
+        r["p_A"],
+        r["p_B"],
+        np.zeros(n),
+        r["outer_slope"],
+        r["inner_slope"],
+        solved=r["solved"] == 1.0,
+        dp_branch={ctx.names[0]: r["dp_first"], ctx.names[1]: r["dp_second"]},
+        split=r["split"],
+        clamped=np.nan_to_num(r["clamped"]).astype(np.int8),
+    )
 
 
 def solve_closure(
@@ -224,6 +263,10 @@ def _served_state(roots: CompiledRoots, k: np.ndarray, limits: dict, ctx: SolveC
     state = SolveState.start(k.size, limits, ctx.names)
     state.p_B[:], state.dp[:] = roots.p_B[k], roots.dp[k]
     state.outer_slope[:], state.slope[:] = roots.outer_slope[k], roots.inner_slope[k]
+    for c, dp in roots.dp_branch.items():
+        state.dp_branch[c][:] = dp[k]
+    if roots.split is not None:
+        state.split[:], state.clamped[:] = roots.split[k], roots.clamped[k]
     return state
 
 
@@ -242,7 +285,7 @@ def _parts(ctx: SolveContext, ops: Ops) -> list | None:
     parts = [
         packed(ctx, "compressor", ("speed",), ops, "compressor"),
         packed(ctx, circuit.condensing.component, circuit.condensing.inputs, ops, "condensing"),
-        packed(ctx, circuit.branches[0].component, circuit.branches[0].inputs, ops, "evaporating"),
+        *(packed(ctx, b.component, b.inputs, ops, "evaporating") for b in circuit.branches),
     ]
     return None if any(p is None for p in parts) else parts
 
@@ -269,6 +312,8 @@ def _kernel_inputs(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState,
         "dp": state.dp,
         "p_dis_lo": state.p_discharge[0],
         "p_dis_hi": state.p_discharge[1],
+        "branch_mode": ops.get("branch_mode", np.zeros(served.size)),
+        "setpoint": ops.get("setpoint", ops["superheat"]),
     }
     return np.stack(np.broadcast_arrays(*(rows[k] for k in names))).astype(float)
 
