@@ -221,17 +221,22 @@ def interpolate_in(pts, policy, outside, floats, ints, values, out, corners, t, 
         for k in range(m - 1, -1, -1):
             half = 1 << k
             tk = t[k]
-            for c in range(half):
-                for col in range(ncols):
-                    c0 = corners[c * ncols + col]
-                    c1 = corners[(c + half) * ncols + col]
-                    r = (c1 - c0) * tk + c0
-                    # A NaN corner of zero weight does not poison the result (r != r: r is NaN).
-                    if tk == 0.0 and r != r:
-                        r = c0
-                    if tk == 1.0 and r != r:
-                        r = c1
-                    corners[c * ncols + col] = r
+            width = half * ncols
+            if tk != 0.0 and tk != 1.0:  # the usual step: one loop the compiler vectorises
+                for e in range(width):
+                    c0 = corners[e]
+                    corners[e] = (corners[e + width] - c0) * tk + c0
+                continue
+            for e in range(width):
+                c0 = corners[e]
+                c1 = corners[e + width]
+                r = (c1 - c0) * tk + c0
+                # A NaN corner of zero weight does not poison the result (r != r: r is NaN).
+                if tk == 0.0 and r != r:
+                    r = c0
+                if tk == 1.0 and r != r:
+                    r = c1
+                corners[e] = r
         for v in range(nv):
             out[v, p] = corners[v]
         if nc == 0:
