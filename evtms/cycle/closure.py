@@ -47,7 +47,7 @@ from evtms.cycle.status import (
     STATUS_EVAPORATOR_NO_ROOT,
     STATUS_EVAPORATOR_WET,
     STATUS_OUTSIDE_ENVELOPE,
-    VALID_CYCLE_FLAGS,
+    valid_status,
 )
 from evtms.hx.counterflow import CAPACITY_RATIO_MAX
 
@@ -634,7 +634,7 @@ def collect(ctx: SolveContext, ops: Ops, p_A, status: np.ndarray, reason: np.nda
     for c in ctx.names:
         no_heat |= no_heat_flow(evap.branches[c]) & (np.asarray(evap.flows[c]) > 0)
     finite = np.logical_and.reduce([np.isfinite(np.asarray(res[k], float)) for k in _MUST_BE_FINITE])
-    broken = np.isin(status, VALID_CYCLE_FLAGS) & (no_heat | ~finite)
+    broken = valid_status(status) & (no_heat | ~finite)
     status[broken] = STATUS_OUTSIDE_ENVELOPE
     reason[broken] = np.where(
         no_heat[broken],
@@ -642,7 +642,7 @@ def collect(ctx: SolveContext, ops: Ops, p_A, status: np.ndarray, reason: np.nda
         "of its secondary stream, or a LUT cell next to such nodes)",
         "a component model gives NaN at the solved state",
     )
-    invalid = ~np.isin(status, VALID_CYCLE_FLAGS)
+    invalid = ~valid_status(status)
     for k, v in res.items():
         v = np.array(v, float)
         v[invalid] = np.nan

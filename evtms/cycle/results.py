@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from evtms.cycle.status import VALID_CYCLE_FLAGS
+from evtms.cycle.status import valid_status
 from evtms.cycle.topology import Topology
 
 #: The result variables, in the order a result lists them (then ``balance_residual``,
@@ -196,7 +196,7 @@ class CycleResult(Mapping):
         for component, b in self.branches.items():
             for f, k in _BRANCH_KEYS[component].items():
                 own.setdefault(k, getattr(b, f))  # the first branch's valve is the result's own
-        valid = np.isin(self.status, VALID_CYCLE_FLAGS)
+        valid = valid_status(self.status)
         out = {}
         for k in RESULT_KEYS:
             if k in own:

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from enum import IntEnum
 
+import numpy as np
+
 
 class CycleStatus(IntEnum):
     """Status of a solved operating point (the ``status`` of a cycle result).
@@ -65,6 +67,15 @@ VALID_CYCLE_FLAGS = (
     STATUS_VALVE_SATURATED_FROST_RISK,
     STATUS_BRANCH_CLOSED,
 )
+_VALID_TABLE = np.isin(np.arange(len(CYCLE_FLAGS)), VALID_CYCLE_FLAGS)
+
+
+def valid_status(status: np.ndarray) -> np.ndarray:
+    """Where ``status`` (codes of :data:`CYCLE_FLAGS`) is a solved point's (:data:`VALID_CYCLE_FLAGS`):
+    ``np.isin`` by a table lookup, which costs a hundredth of it on the few points of a step."""
+    return _VALID_TABLE[np.asarray(status, np.intp)]
+
+
 #: Solved points with the valve at its maximum opening and the superheat floating above its setpoint.
 VALVE_SATURATED_FLAGS = (STATUS_VALVE_SATURATED, STATUS_VALVE_SATURATED_FROST_RISK)
 #: Solved points with an evaporator surface below 0 degC under condensate (frost would build up).
