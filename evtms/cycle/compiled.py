@@ -22,6 +22,7 @@ result does not depend on the other points of its batch.
 from __future__ import annotations
 
 import dataclasses
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,35 +88,53 @@ def packed(ctx: SolveContext, component: str, inputs: tuple[str, ...], ops: Ops,
     or ``("speed",)`` for the compressor.
     """
     lut = ctx.models.luts[component]
-    itp = lut.fast
-    if lut._kernel_for(itp) is None:
+    known = _PACKED.setdefault(lut, {})
+    key = (component, inputs, role)
+    if key not in known:
+        known[key] = _fixed_part(lut, component, inputs, role)
+    part = known[key]
+    if part is None:
         return None
+    table, source, no_heat = part
     n = ops["speed"].size
-    operating = [a for a in MODEL_AXES[component] if a not in CLOSURE_VARIABLES]
-    source = dict(zip(operating, inputs, strict=True))
-    if any(a in CLOSURE_VARIABLES and a not in lut.dims for a in MODEL_AXES[component]):
-        return None
-    src = np.full(len(lut.dims), -1, np.int64)
     base = np.empty((len(lut.dims), n))
     for j, d in enumerate(lut.dims):
-        if d in CLOSURE_VARIABLES:
-            src[j] = CLOSURE_VARIABLES.index(d)
-        elif d == "T_res" and d not in source:  # no effect in steady state; any grid value will do
-            base[j] = lut._lo[j]
-        else:
+        if d in source:
             base[j] = ops[source[d]]
+        elif d == "T_res":  # no effect in steady state; any grid value will do
+            base[j] = lut._lo[j]
     fixed = {a: ops[source[a]] for a in lut._fixed_axes if a in source}
     off = np.zeros(n, bool)
     for mask, _ in lut._fixed_off(fixed, n):
         off |= mask
+    tsec = ops[source[lut.secondary]].copy() if lut.secondary else np.zeros(n)
+    return (*table, base, tsec, *no_heat), off
+
+
+#: What :func:`packed` takes from a LUT whatever the points (:func:`_fixed_part`), per LUT and
+#: (component, inputs, role); an entry goes with its LUT.
+_PACKED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _fixed_part(lut, component: str, inputs: tuple[str, ...], role: str) -> tuple | None:
+    """The part of :func:`packed` that does not depend on the points: the LUT's tables, the closure
+    variable each axis reads (``src``), the rows the kernel reads, the operating input of each
+    other axis and the no-heat table; None where its interpolation is not compiled."""
+    itp = lut.fast
+    if lut._kernel_for(itp) is None:
+        return None
+    operating = [a for a in MODEL_AXES[component] if a not in CLOSURE_VARIABLES]
+    source = dict(zip(operating, inputs, strict=True))
+    if any(a in CLOSURE_VARIABLES and a not in lut.dims for a in MODEL_AXES[component]):
+        return None
+    src = np.array([CLOSURE_VARIABLES.index(d) if d in CLOSURE_VARIABLES else -1 for d in lut.dims], np.int64)
     names = [APPROACH if (v == OUTLET and lut.secondary) else v for v in _WANTED[role]]
     variables = itp.variables
     approach = (variables.index(APPROACH), variables.index("p_out")) if lut.secondary else (-1, -1)
     check = approach[0] if lut.secondary else 0
     rows = np.array([check, *approach, len(variables), *(variables.index(v) for v in names)], np.int64)
-    tsec = ops[source[lut.secondary]].copy() if lut.secondary else np.zeros(n)
-    table = (lut._lo, lut._hi, itp._floats, itp._ints, itp._kernel_values, rows, src, base, tsec)
-    return (*table, *_no_heat(lut)), off
+    table = (lut._lo, lut._hi, itp._floats, itp._ints, itp._kernel_values, rows, src)
+    return table, source, _no_heat(lut)
 
 
 def _no_heat(lut) -> tuple:

@@ -63,7 +63,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from evtms.cycle.branches import branch, converged_drop
-from evtms.cycle.closure import solve_at
+from evtms.cycle.compiled import solve_closure
 from evtms.cycle.results import mark_invalid
 from evtms.cycle.saturation import float_superheat
 from evtms.cycle.state import (
@@ -151,7 +151,7 @@ def parallel_limits(
 def solve_again(ctx: SolveContext, ops: Ops, res: dict, idx: np.ndarray, modes: np.ndarray) -> None:
     """Solve the points ``idx`` again with their branch modes set to ``modes`` (``ops`` and ``res`` in place)."""
     ops["branch_mode"][idx] = modes
-    r, _ = solve_at(ctx, take(ops, idx))
+    r, _ = solve_closure(ctx, take(ops, idx))
     for k, v in r.items():
         res[k][idx] = v
 
