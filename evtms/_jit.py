@@ -105,11 +105,11 @@ def jit(fn):
     if not numba_enabled():
         return fn
     dispatcher = load_numba().njit(cache=True, nogil=True)(fn)
-    _compile_one_at_a_time(dispatcher)
+    compile_one_at_a_time(dispatcher)
     return dispatcher
 
 
-def _compile_one_at_a_time(dispatcher) -> None:
+def compile_one_at_a_time(dispatcher) -> None:
     """Make ``dispatcher`` compile a new signature under its lock file (module docstring).
 
     numba compiles, in one process, under its own compiler lock; it is taken first here, so that

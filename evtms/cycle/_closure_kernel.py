@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from evtms._jit import load_numba
+from evtms._jit import compile_one_at_a_time, load_numba
 from evtms.cycle._component_kernel import evaluate_in
 from evtms.hx._kernels import interp
 from evtms.luts._kernels import NAN_POLICY, interpolate_in, scratch
@@ -497,3 +497,8 @@ def solve_points(comp, cond, evap, ops, sat, vapour, dh, sh_min, tol, out):
         busy += _serve(evap, _EVAP, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, work_e)
         if busy == 0 and nxt >= n:
             break
+
+
+# Processes that start together (a test run's workers) compile it one at a time: the first one
+# compiles and saves, the others load its machine code (evtms._jit; 12-18 s each otherwise).
+compile_one_at_a_time(solve_points)

@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from evtms._jit import load_numba
+from evtms._jit import compile_one_at_a_time, load_numba
 from evtms.cycle._closure_kernel import (
     _CP_SCALE,
     _DP_PASSES,
@@ -462,3 +462,8 @@ def solve_parallel(comp, cond, evap1, evap2, vap1, vap2, ops, sat, flows, tol, s
     so, si = np.empty(_SIZE), np.empty(_SIZE)
     for i in range(ops.shape[1]):
         _solve_point(L, dyn, i, c, kc, so, si, ops, sat, flows, tol, sh_min, out)
+
+
+# Processes that start together (a test run's workers) compile it one at a time: the first one
+# compiles and saves, the others load its machine code (evtms._jit; 12-18 s each otherwise).
+compile_one_at_a_time(solve_parallel)
