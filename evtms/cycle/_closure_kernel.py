@@ -50,6 +50,9 @@ numba = load_numba()
 # error_model="numpy": a division by zero gives inf or NaN, as NumPy's, which the searches read as
 # a failed step (a secant through two equal residuals), not an exception.
 _njit = numba.njit(cache=True, nogil=True, error_model="numpy")
+# The helpers are compiled into the kernel that calls them (numba.extending.register_jitable), not as
+# functions of their own, which cost each its own CPython wrapper and machine code at the first compile.
+_inline = numba.extending.register_jitable
 
 # The root search's state vector (reverse communication: the caller evaluates, the search says
 # where next), indices into a float64 array of _SIZE.
@@ -62,13 +65,13 @@ _GUESS, _SECANT, _END_A, _END_B, _FALSI, DONE, FAILED = range(7)
 _MAXITER = 80
 
 
-@_njit
+@_inline
 def _t_sat(p, log_p, T):
     """Saturation temperature [K] at ``p`` [Pa], linear in ln p; NaN outside the table."""
     return _at_p(p, log_p, T)
 
 
-@_njit
+@_inline
 def _p_sat(t, log_p, T):
     """Saturation pressure [Pa] at ``t`` [K]; NaN outside the table."""
     if not (t >= T[0] and t <= T[-1]):
@@ -76,7 +79,7 @@ def _p_sat(t, log_p, T):
     return math.exp(interp(t, T, log_p))
 
 
-@_njit
+@_inline
 def _at_p(p, log_p, table):
     """A saturation property at ``p`` [Pa], linear in ln p; NaN outside the table."""
     x = math.log(p) if p > 0 else np.nan
@@ -85,7 +88,7 @@ def _at_p(p, log_p, table):
     return interp(x, log_p, table)
 
 
-@_njit
+@_inline
 def _falsi_x(s):
     """The regula falsi trial of the bracket: the secant through its ends, or its midpoint."""
     a, b, fa, fb = s[_A], s[_B], s[_FA], s[_FB]
@@ -95,7 +98,7 @@ def _falsi_x(s):
     return 0.5 * (a + b)
 
 
-@_njit
+@_inline
 def _take(s, t, f):
     """A trial of the bracketing phase: it becomes the end of its sign where it narrows the range."""
     if f > 0 and t > s[_A]:
@@ -104,7 +107,7 @@ def _take(s, t, f):
         s[_B], s[_FB], s[_NEED_B] = t, f, 0.0
 
 
-@_njit
+@_inline
 def _next_end(s):
     """The next range end to evaluate, or the first regula falsi trial once the bracket holds a root."""
     if s[_NEED_A] > 0:
@@ -122,7 +125,7 @@ def _next_end(s):
     return _falsi_x(s)
 
 
-@_njit
+@_inline
 def root_begin(s, t_lo, t_hi, t_guess, slope):
     """Start a search for the root of a residual falling in ``t`` on ``[t_lo, t_hi]`` [K] from
     ``t_guess`` with the estimated ``slope`` [1/K]; returns the first ``t`` to evaluate."""
@@ -137,7 +140,7 @@ def root_begin(s, t_lo, t_hi, t_guess, slope):
     return _next_end(s)
 
 
-@_njit
+@_inline
 def root_next(s, t, f, max_step, overshoot, xtol, ftol):
     """Take the residual ``f`` at ``t``, the trial :func:`root_begin` or this function asked for;
     returns the next ``t`` to evaluate. ``s[PHASE]`` is then :data:`DONE` (``t`` was the root) or
@@ -265,14 +268,14 @@ _COMP, _COND, _EVAP = np.int64(0), np.int64(1), np.int64(2)
 IN_FLIGHT = 32
 
 
-@_njit
+@_inline
 def _ask(dyn, wait, g, what, mdot, p_in, h_in, T_in, pr):
     """Point slot ``g`` waits for ``what`` at the closure's variables (mdot, p_in, h_in, T_in, pr)."""
     dyn[g, 0], dyn[g, 1], dyn[g, 2], dyn[g, 3], dyn[g, 4] = mdot, p_in, h_in, T_in, pr
     wait[g] = what
 
 
-@_njit
+@_inline
 def _discharge_trial(v, dyn, wait, g, t_B, sat):
     """Ask the compressor at discharge saturation ``t_B`` [K] (the discharge search's next trial)."""
     v[g, _TB] = t_B
@@ -282,7 +285,7 @@ def _discharge_trial(v, dyn, wait, g, t_B, sat):
     _ask(dyn, wait, g, _W_COMP, np.nan, p_A, np.nan, v[g, _TSUC], p_B / p_A)
 
 
-@_njit
+@_inline
 def _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol):
     """Start the discharge search at the suction iterate ``v[g, _TA]``."""
     log_p, T = sat[0], sat[1]
@@ -298,7 +301,7 @@ def _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol):
     _discharge_trial(v, dyn, wait, g, t_B, sat)
 
 
-@_njit
+@_inline
 def _begin(v, so, si, dyn, wait, point, g, i, ops, sat, tol, out):
     """Put point ``i`` in slot ``g``; where it is not served (handed back at once) the slot stays free."""
     out[:, i] = np.nan
@@ -312,7 +315,7 @@ def _begin(v, so, si, dyn, wait, point, g, i, ops, sat, tol, out):
     _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol)
 
 
-@_njit
+@_inline
 def _suction_residual(v, so, si, dyn, wait, point, g, f, ops, sat, tol, out):
     """The superheat residual ``f`` at the slot's suction iterate: the next iterate, or the end of
     its point (written to ``out``; the slot is then free, ``point[g]`` -1)."""
@@ -335,7 +338,7 @@ def _suction_residual(v, so, si, dyn, wait, point, g, f, ops, sat, tol, out):
     point[g] = -1
 
 
-@_njit
+@_inline
 def _take_result(r, none, rows, v, so, si, dyn, wait, point, g, ops, sat, tol, out):
     """The LUT's answer ``r`` to what slot ``g`` waited for, ``none`` where its cell says no heat
     flows (the refrigerant on the wrong side of the secondary stream): the slot's next step."""
@@ -374,7 +377,7 @@ def _take_result(r, none, rows, v, so, si, dyn, wait, point, g, ops, sat, tol, o
         _suction_residual(v, so, si, dyn, wait, point, g, f, ops, sat, tol, out)
 
 
-@_njit
+@_inline
 def _serve(c, cid, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, work):
     """Evaluate LUT ``c`` (number ``cid``) for every slot waiting for it, in one call; hand each
     slot its answer. Returns how many were served."""
@@ -433,7 +436,7 @@ def _serve(c, cid, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, to
     return m
 
 
-@_njit
+@_inline
 def _work(c):
     """A LUT's work arrays: its table's (:func:`evtms.luts._kernels.scratch`), then its no-heat
     table's as the fourth."""
