@@ -385,3 +385,14 @@ def test_frost_risk_is_flagged_in_both_modes(cycle_luts, cycle_luts_dir):
     res = runner.invoke(app, ["cycle", "run", "--luts", str(cycle_luts_dir), *common])
     assert res.exit_code == 0, res.output
     assert "frost risk" in res.stdout
+
+
+def test_valid_status_is_isin_of_the_valid_flags_for_any_code():
+    """The table lookup that replaces np.isin on small batches: the same answer for every code,
+    False for codes that are not statuses (negative, or beyond the last)."""
+    from evtms.cycle.status import CYCLE_FLAGS, VALID_CYCLE_FLAGS, valid_status
+
+    codes = np.arange(-3, len(CYCLE_FLAGS) + 3)
+    for dtype in (np.int8, np.int64):
+        np.testing.assert_array_equal(valid_status(codes.astype(dtype)), np.isin(codes, VALID_CYCLE_FLAGS))
+    assert valid_status(np.int8(0)) and not valid_status(np.int8(1))
