@@ -48,6 +48,7 @@ from evtms.cycle._closure_kernel import (
     _INNER_FTOL,
     _INNER_SLOPE,
     _INNER_STEP,
+    _MAXITER,
     _NSLOPE,
     _OUTER_FTOL,
     _OUTER_STEP,
@@ -86,6 +87,7 @@ from evtms.cycle.state import (
     FIRST_FLOATS,
     SECOND_CLOSED,
     SECOND_FLOATS,
+    SPLIT_HALF_WIDTH,
 )
 from evtms.luts._kernels import NAN_POLICY, interpolate_in
 
@@ -113,9 +115,6 @@ _PB, _ISLOPE, _SPLIT, _DP1, _DP2, _CLAMPED, _MDOT, _HA, _HD, _HSET = range(10)
 _NC = 10
 # The last pair of branch evaluations: the split and both inlets it was asked at, the outlets.
 _K_S, _K_IN1, _K_IN2, _K_H1, _K_P1, _K_H2, _K_P2, _K_ON = range(8)
-_MAXITER = 80
-# Half the width of a warm bracket around the previous split [1] (split._bracket_split).
-_SPLIT_HALF = 0.03
 
 
 @_inline
@@ -248,7 +247,7 @@ def _solve_split(E1, E2, dyn, i, c, kc, prev, s_lo, s_hi, in1, in2, mode, flows,
     lo, hi, f_lo, f_hi = s_lo, s_hi, np.nan, np.nan
     warm = math.isfinite(prev)
     if warm:
-        a, b = max(prev - _SPLIT_HALF, lo), min(prev + _SPLIT_HALF, hi)
+        a, b = max(prev - SPLIT_HALF_WIDTH, lo), min(prev + SPLIT_HALF_WIDTH, hi)
         fa = _split_residual(E1, E2, dyn, i, c, kc, a, in1, in2, mode, cp, sh_min)
         fb = _split_residual(E1, E2, dyn, i, c, kc, b, in1, in2, mode, cp, sh_min)
         if math.isfinite(fa) and math.isfinite(fb) and fa > 0 and fb <= 0:

@@ -54,6 +54,7 @@ from evtms.cycle.state import (
     INNER_FTOL,
     SECOND_CLOSED,
     SECOND_FLOATS,
+    SPLIT_HALF_WIDTH,
     WARM_OVERSHOOT,
     XTOL,
     Ops,
@@ -350,8 +351,8 @@ def _bracket_split(sp: _Split, todo: np.ndarray) -> tuple[np.ndarray, ...]:
         warm &= ~done
     if warm.any():
         k = np.nonzero(warm)[0]
-        a = np.maximum(prev[k] - 0.03, lo[k])
-        b = np.minimum(prev[k] + 0.03, hi[k])
+        a = np.maximum(prev[k] - SPLIT_HALF_WIDTH, lo[k])
+        b = np.minimum(prev[k] + SPLIT_HALF_WIDTH, hi[k])
         fa, _ = sp.residual(a, todo[k])
         fb, _ = sp.residual(b, todo[k])
         good = np.isfinite(fa) & np.isfinite(fb) & (fa > 0) & (fb <= 0)

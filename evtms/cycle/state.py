@@ -69,6 +69,9 @@ MIX_TOL = 1.0
 #: A warm-started search's first secant step overshoots the root its slope predicts this many times [1]
 #: (a cold one's, on a typical slope, 1.5 times): the slope was measured near the previous root.
 WARM_OVERSHOOT = 1.2
+#: Half the width [1] of the flow split's bracket around the previous suction iterate's split: the
+#: split moves less than this between late iterates, more between early ones.
+SPLIT_HALF_WIDTH = 0.03
 #: Least distance [K] in saturation temperature between two suction iterates whose secant gives the
 #: closure's local slope (closer ones carry the inner closure's tolerance as noise in their slope).
 SLOPE_SPAN = 2e-3
