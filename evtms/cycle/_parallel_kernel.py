@@ -75,6 +75,7 @@ from evtms.cycle._closure_kernel import (
     _at_p,
     _p_sat,
     _t_sat,
+    _work,
     root_begin,
     root_next,
 )
@@ -420,12 +421,9 @@ def _solve_point(L, dyn, i, c, kc, so, si, ops, sat, flows, tol, sh_min, out):
 @_inline
 def _bundle(c, vapour, dh):
     """A LUT's bundle for :func:`_eval`: its packed table, work arrays and one point's buffers."""
-    d = c[0].size
-    corners, t, bows = np.empty(c[3][1] * c[4].shape[1]), np.empty(d), np.zeros(d)
-    nh = (np.empty(c[10][1] * c[11].shape[1]), np.empty(d), np.zeros(d))
-    work = (corners, t, bows, nh)
-    pts, res = np.empty((d, 1)), np.empty((c[5][3], 1))
-    return (c, work, pts, res, np.empty(1, np.int64), np.empty(1, np.bool_), np.empty(1), np.empty((1, 1)), vapour, dh)
+    pts, res = np.empty((c[0].size, 1)), np.empty((c[5][3], 1))
+    first, outside = np.empty(1, np.int64), np.empty(1, np.bool_)
+    return (c, _work(c), pts, res, first, outside, np.empty(1), np.empty((1, 1)), vapour, dh)
 
 
 @_njit
