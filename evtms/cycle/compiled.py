@@ -228,7 +228,7 @@ def _parallel_roots(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState
     return CompiledRoots(
         r["p_A"],
         r["p_B"],
-        np.zeros(n),
+        state.dp,  # a single branch's drop: the guess, untouched by a parallel solve (as solve_at leaves it)
         r["outer_slope"],
         r["inner_slope"],
         solved=r["solved"] == 1.0,
