@@ -265,3 +265,49 @@ def test_one_compiled_closure_whatever_the_tables_came_as(cycle_luts_dir, monkey
         assert np.isfinite(res["W"]).any()
     assert len(kernel.solve_points.signatures) == 1, kernel.solve_points.signatures
     assert len(parallel.solve_parallel.signatures) == 1, parallel.solve_parallel.signatures
+
+
+@pytest.fixture(scope="module")
+def direct_solver():
+    from evtms.benches.parameters import Parameters
+    from evtms.cycle.models import DirectModels
+
+    fluid = Fluid()
+    return CycleSolver(DirectModels(Parameters(), fluid), SaturationCurve(fluid), topology("cabin"))
+
+
+def test_compiled_roots_on_the_bench_physics_are_the_python_roots(direct_solver, monkeypatch):
+    """The direct-physics kernel: the Python path's roots, state, statuses and reasons; the states
+    beyond its property tables (a discharge search's end near the critical pressure) are the
+    bench's, asked of the caller, and the point goes on."""
+    import evtms.cycle.compiled as compiled
+
+    asked = []
+    real = compiled._bench_answer
+    monkeypatch.setattr(compiled, "_bench_answer", lambda *a: asked.append(a[2]) or real(*a))
+    ctx = SolveContext(direct_solver.models, direct_solver.sat, direct_solver.circuit)
+    ops = points("cabin", n=24, seed=13).subset(np.arange(24))
+    assert_kernel_is_python(ctx, ops, served=20)
+    assert {0, 1} <= set(asked)
+
+
+def test_direct_solver_figures_match_the_python_path(direct_solver):
+    pts = points("cabin", n=12, seed=17)
+    fast = direct_solver.solve(pts)
+    slow = python_path(direct_solver).solve(pts)
+    np.testing.assert_array_equal(fast["status"], slow["status"])
+    np.testing.assert_array_equal(fast["reason"], slow["reason"])
+    ok = np.isfinite(slow["COP"])
+    assert ok.mean() > 0.8
+    for key in ("p_A", "p_B", "mdot", "Q_evap", "Q_cond", "W", "COP", "superheat_actual"):
+        np.testing.assert_allclose(fast[key][ok], slow[key][ok], rtol=1e-12, atol=1e-12, err_msg=key)
+
+
+def test_the_direct_kernel_serves_its_circuits_only(direct_solver):
+    """Another circuit on the bench physics (a chiller branch) stays on the Python path."""
+    from evtms.cycle.compiled import DIRECT_CIRCUITS
+
+    assert DIRECT_CIRCUITS == (("condenser", ("evaporator",)),)
+    circuit = topology("chiller")
+    ctx = SolveContext(direct_solver.models, direct_solver.sat, circuit)
+    assert compiled_roots(ctx, points("chiller", n=2).subset(np.arange(2))) is None

@@ -494,6 +494,37 @@ def _solve_numpy(
     return _outputs(side, march, sign, bad_dp, Re_Lp)
 
 
+def march_arguments(fluid: Fluid, side: AirSide, tubes: TubeSide) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """What the compiled march (:func:`evtms.hx._coil_kernels.march_point`) takes besides the
+    refrigerant inlet: the air columns of its points per point (``POINTS`` after ``mdot``), the
+    ``tube`` array (``TUBE``) and the saturated-air curve ``(T, h, w)`` (zeros for dry air)."""
+    air = side.air
+    columns = (side.T_in, side.C, side.R, air["h"], air["w"], side.m_da, air["cp"])
+    per_point = np.empty((np.size(side.C), len(columns)))
+    for k, column in enumerate(columns):
+        per_point[:, k] = column
+    tube = np.array(
+        [tubes.D_h, tubes.flow_area, tubes.length, tubes.area, tubes.roughness, tubes.nu_laminar, tubes.R_wall]
+        + [fluid.p_triple]
+    )
+    sat_air = side.sat_air if isinstance(side, MoistAirSide) else None
+    curve = (sat_air.T, sat_air.h, sat_air.w) if sat_air is not None else (np.zeros(2), np.zeros(2), np.zeros(2))
+    return per_point, tube, tuple(np.ascontiguousarray(c, float) for c in curve)
+
+
+def march_inputs(
+    fluid: Fluid, coil: CoilParams, env: Environment, air_fraction, T_air, RH_air, mode: str
+) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """:func:`march_arguments` of the coil ``coil`` in ``mode`` at its entering air (fraction of
+    the fan's flow [1], temperature [K] and relative humidity [1] per point), as :func:`solve_coil`
+    computes them."""
+    air_fraction, T_air, RH_air = np.broadcast_arrays(
+        *(np.asarray(a, float).reshape(-1) for a in (air_fraction, T_air, RH_air))
+    )
+    side, tubes, _ = _coil_sides(coil, env, air_fraction, T_air, RH_air, mode == "evaporator")
+    return march_arguments(fluid, side, tubes)
+
+
 def _solve_compiled(
     fluid: Fluid,
     side: AirSide,
@@ -512,25 +543,12 @@ def _solve_compiled(
 
     sign = -1.0 if mode == "condenser" else 1.0
     moist = isinstance(side, MoistAirSide)
-    air = side.air
-    columns = (p_in, h_in, mdot, side.T_in, side.C, side.R, air["h"], air["w"], side.m_da, air["cp"])
-    points = np.empty((p_in.size, len(columns)))
-    for k, column in enumerate(columns):
+    air, tube, curve = march_arguments(fluid, side, tubes)
+    points = np.empty((p_in.size, len(kernels.POINTS)))
+    for k, column in enumerate((p_in, h_in, mdot)):
         points[:, k] = column
-    tube = np.array(
-        [tubes.D_h, tubes.flow_area, tubes.length, tubes.area, tubes.roughness, tubes.nu_laminar, tubes.R_wall]
-        + [fluid.p_triple]
-    )
-    sat_air = side.sat_air if moist else None
-    curve = (sat_air.T, sat_air.h, sat_air.w) if moist else (np.zeros(2), np.zeros(2), np.zeros(2))
-    rows = kernels.march_points(
-        points,
-        tube,
-        mode == "condenser",
-        moist,
-        *tables_for(fluid).arrays,
-        *(np.ascontiguousarray(c, float) for c in curve),
-    )
+    points[:, 3:] = air
+    rows = kernels.march_points(points, tube, mode == "condenser", moist, *tables_for(fluid).arrays, *curve)
     res = {name: rows[:, k] for k, name in enumerate(kernels.COLUMNS)}
     for name in ("bad_direction", "bad_props"):
         res[name] = res[name] > 0

@@ -226,6 +226,14 @@ def _compress_numpy(
     return out
 
 
+def kernel_constants(comp: CompressorParams, fluid: Fluid) -> np.ndarray:
+    """The compressor constants of :func:`evtms.benches._compressor_kernel.compress_point`
+    (its ``CONSTANTS``, in that order)."""
+    from evtms.benches import _compressor_kernel as kernel
+
+    return np.array([getattr(comp, k) for k in kernel.CONSTANTS[:-1]] + [fluid.p_crit])
+
+
 def _compress_compiled(
     comp: CompressorParams,
     speed: np.ndarray,
@@ -240,7 +248,7 @@ def _compress_compiled(
     from evtms.benches import _compressor_kernel as kernel
     from evtms.fluid_tables import tables_for
 
-    constants = np.array([getattr(comp, k) for k in kernel.CONSTANTS[:-1]] + [fluid.p_crit])
+    constants = kernel_constants(comp, fluid)
     speed, pr, p_in, x_in = (np.ascontiguousarray(a, float).reshape(-1) for a in (speed, pr, p_in, x_in))
     rows = kernel.compress_points(speed, pr, p_in, x_in, by_enthalpy, constants, tables_for(fluid).arrays)
     res = {name: rows[:, k] for k, name in enumerate(kernel.COLUMNS)}

@@ -8,9 +8,13 @@ loop (:mod:`evtms.cycle._closure_kernel`), and with two branches in parallel
 (``cabin+chiller``) the roots, the flow split and both branches' drops in
 another (:mod:`evtms.cycle._parallel_kernel`), then evaluates the components at
 the roots with every output variable as the Python path does
-(:func:`evtms.cycle.closure.final_states`). The points the kernel hands back
-(a model's envelope met on the way, no root in the range, a subcooled
-condenser target), every warm start, and every other circuit or model go through
+(:func:`evtms.cycle.closure.final_states`). On the bench physics itself
+(:class:`~evtms.cycle.models.DirectModels`), for the air-cooled circuit
+(``cabin``), a third kernel runs the same closure on the benches' compiled
+twins (:mod:`evtms.cycle._direct_kernel`) and asks the bench for the few states
+beyond their property tables. The points a kernel hands back (a model's
+envelope met on the way, no root in the range, a subcooled condenser target),
+every warm start, and every other circuit or model go through
 :func:`~evtms.cycle.closure.solve_at`, which says why a point fails.
 
 The roots agree with the Python path's to within the closures' tolerances
@@ -29,7 +33,7 @@ import numpy as np
 
 from evtms._jit import kernel_array
 from evtms.cycle.approach import APPROACH, OUTLET, SUPERHEAT_MIN
-from evtms.cycle.branches import secondary_temperature
+from evtms.cycle.branches import branch, no_heat_flow, secondary_temperature
 from evtms.cycle.closure import (
     COLD_OVERSHOOT,
     DISCHARGE_FLOOR_ABOVE,
@@ -40,6 +44,7 @@ from evtms.cycle.closure import (
     OUTER_SLOPE,
     SUCTION_GUESS_BELOW,
     _suction_range,
+    condensing,
     condensing_secondary,
     final_states,
     solve_at,
@@ -193,12 +198,15 @@ def compiled_roots(
 ) -> CompiledRoots | None:
     """The roots of :func:`~evtms.cycle.closure.solve_at` (the same guesses) from the compiled
     kernel; None where the circuit or models are not served (see the module's text)."""
-    parts = _parts(ctx, ops) if _eligible(ctx) else None
+    direct = _direct_eligible(ctx)
+    parts = _direct_parts(ctx, ops) if direct else (_parts(ctx, ops) if _eligible(ctx) else None)
     if parts is None:
         return None
     n, limits = ops["speed"].size, ctx.models.limits()
     state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess)
     guesses = {"t_guess": t_guess, "outer_slope": outer_slope}
+    if direct:
+        return _direct_roots(ctx, ops, limits, state, parts, guesses)
     if ctx.parallel:
         return _parallel_roots(ctx, ops, limits, state, parts, guesses)
     from evtms.cycle import _closure_kernel as kernel
@@ -210,6 +218,82 @@ def compiled_roots(
     tol = _tolerances(state, kernel.TOLERANCES)
     kernel.solve_points(*(p[0] for p in parts), rows, sat, vapour, dh, SUPERHEAT_MIN, tol, out)
     return CompiledRoots(*out[:5], solved=out[5] == 1.0)
+
+
+#: The circuits the direct-physics kernel serves: the condensing component and the branches.
+DIRECT_CIRCUITS = (("condenser", ("evaporator",)),)
+
+
+def _direct_eligible(ctx: SolveContext) -> bool:
+    """The bench physics itself (:class:`~evtms.cycle.models.DirectModels`) with its compiled
+    twins, on a circuit of :data:`DIRECT_CIRCUITS`."""
+    from evtms._jit import numba_enabled
+
+    circuit = ctx.circuit
+    return (
+        getattr(ctx.models, "name", "") == "direct"
+        and len(circuit.chain) == 1
+        and (circuit.condensing.component, tuple(ctx.names)) in DIRECT_CIRCUITS
+        and numba_enabled()
+    )
+
+
+def _direct_parts(ctx: SolveContext, ops: Ops) -> list:
+    """The direct-physics kernel's components as it takes them (:mod:`evtms.cycle._direct_kernel`):
+    the compressor's speed per point and constants, each coil's air per point and its march's
+    constants; each with no point held back (the mask :func:`packed` gives)."""
+    from evtms.benches.coil import march_inputs
+    from evtms.benches.compressor import kernel_constants
+
+    params, fluid = ctx.models.params, ctx.models.fluid
+    n = ops["speed"].size
+    kept = np.zeros(n, bool)
+    speed = np.ascontiguousarray(np.broadcast_to(np.asarray(ops["speed"], float), (n,)))
+    parts = [((speed, kernel_constants(params.compressor, fluid)), kept)]
+    for role in (ctx.circuit.condensing, *ctx.circuit.branches):
+        coil = role.component
+        inputs = (ops[k] for k in role.inputs)
+        air, tube, curve = march_inputs(fluid, getattr(params, coil), params.environment, *inputs, mode=coil)
+        air = np.ascontiguousarray(np.broadcast_to(air, (n, air.shape[1])))
+        parts.append(((air, (tube, coil == "condenser", coil == "evaporator", *curve)), kept))
+    return parts
+
+
+def _direct_roots(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, parts: list, guesses: dict):
+    """:func:`compiled_roots` on the bench physics (:mod:`evtms.cycle._direct_kernel`)."""
+    from evtms.cycle import _closure_kernel, _direct_kernel
+    from evtms.fluid_tables import tables_for
+
+    n = ops["speed"].size
+    rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses, _closure_kernel.OPS_ROWS)
+    (speed, comp), (cond_air, cond), (evap_air, evap) = (p[0] for p in parts)
+    sat = (ctx.sat._log_p, ctx.sat.T, ctx.sat.h_l)
+    out = np.empty((6, n))
+    tol = _tolerances(state, _closure_kernel.TOLERANCES)
+    tables = tables_for(ctx.models.fluid).arrays
+    mem, answer = _direct_kernel.memory(), np.zeros(4)
+    args = (speed, comp, cond_air, cond, evap_air, evap, tables, rows, sat, tol, out, mem, answer)
+    while (ask := _direct_kernel.solve_points(*args)) >= 0:
+        answer[:] = _bench_answer(ctx, take(ops, mem[5][:1]), ask, mem[3][0])
+    return CompiledRoots(*out[:5], solved=out[5] == 1.0)
+
+
+def _bench_answer(ctx: SolveContext, ops: Ops, ask: int, at: np.ndarray) -> list[float]:
+    """What the direct-physics kernel asks of the bench where its tables end: the compressor
+    (``ask`` 0), the condensing side (1) or the branch (2) of one point (``ops``) at the closure's
+    variables ``at`` (``mdot, p_in, h_in, T_in, pr``), as the Python path evaluates them; the
+    three values the kernel reads and 1 where no heat flows."""
+    mdot, p_in, h_in, T_in, pr = (np.array([x]) for x in at)
+    if ask == 0:
+        r = ctx.models.compressor(ops["speed"], T_in, p_in, pr)
+        return [r["mdot"][0], r["h_in"][0], r["h_out"][0], 0.0]
+    if ask == 1:
+        r = condensing(ctx, ops, mdot, p_in, h_in)
+        first = r["capacity_ratio"]
+    else:
+        r = branch(ctx, ctx.names[0], ops, mdot, p_in, h_in)
+        first = r["h_out_continued"]
+    return [first[0], r["p_out"][0], np.nan, float(no_heat_flow(r)[0])]
 
 
 def _parallel_roots(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, parts: list, guesses: dict):

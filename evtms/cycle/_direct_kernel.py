@@ -1,0 +1,182 @@
+"""The cycle's two pressure closures compiled (numba) on the bench physics itself, point by point.
+
+The closure of :mod:`evtms.cycle._closure_kernel` (the suction and discharge
+roots and the branch's drop, the same searches, guesses and tolerances, the
+same steps from one evaluation to the next) for the air-cooled circuit
+(``cabin``: compressor, condenser, evaporator) on the direct models of
+:class:`evtms.cycle.models.DirectModels` instead of the LUTs: each component
+is the bench's compiled per-point twin on the refrigerant tables,
+:func:`evtms.benches._compressor_kernel.compress_point` and
+:func:`evtms.hx._coil_kernels.march_point`. Their air sides (entering air,
+capacity rate, air-side resistance) are fixed per point and computed before,
+as :func:`evtms.benches.coil.solve_coil` computes them.
+
+Each evaluation is read as :class:`~evtms.cycle.models.DirectModels` reads the
+bench's result (:func:`evtms.benches.condenser.coil_bench_outputs`,
+:func:`evtms.benches.base.finish_status`): a point whose refrigerant is on the
+wrong side of the air (the bench's wrong-side status) gives no heat flow; a
+non-finite inlet, a pressure drop past the inlet pressure, a failed property
+or any non-finite output gives NaN. An evaluation at a state the tables do not hold (the bench solves it with
+CoolProp: a discharge search's upper end near the critical pressure, say) is
+asked of the caller, and the closure goes on with its answer. A point whose
+search ends without a root is handed back: the Python path solves it and says
+why it fails. The
+roots equal the Python path's on the same models to round-off.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from evtms._jit import compile_one_at_a_time, load_numba
+from evtms.benches._compressor_kernel import COLUMNS as COMPRESSOR_COLUMNS
+from evtms.benches._compressor_kernel import compress_point
+from evtms.cycle._closure_kernel import _NV, _SIZE, _W_COMP, _W_COND, _begin, _take_result
+from evtms.hx._coil_kernels import COLUMNS as COIL_COLUMNS
+from evtms.hx._coil_kernels import POINTS as COIL_POINTS
+from evtms.hx._coil_kernels import TUBE, march_point
+
+numba = load_numba()
+_njit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inline = numba.extending.register_jitable
+
+# What an evaluation gives the closure: a value, no heat flow, or nothing the kernel can decide.
+_VALUE, _NO_HEAT, _HAND_BACK = 0, 1, 2
+# The compressor's columns read.
+_C_MDOT, _C_HIN, _C_HOUT, _C_CODE, _C_FALLBACK = (
+    COMPRESSOR_COLUMNS.index(k) for k in ("mdot", "h_in", "h_out", "code", "fallback")
+)
+# The coil's columns read; those a valid bench point holds finite (its outputs, the latent heat).
+_COIL_READ = ("capacity_ratio", "h_out_continued", "p_out", "bad_direction", "bad_props", "fallback")
+_M_CR, _M_HOC, _M_POUT, _M_DIR, _M_PROPS, _M_FALLBACK = (COIL_COLUMNS.index(k) for k in _COIL_READ)
+_COIL_FINITE = ("Q", "dp", "h_out", "h_out_continued", "capacity_ratio", "latent", "cond_enthalpy", "p_out", "x_out")
+_M_FINITE = np.array([COIL_COLUMNS.index(k) for k in (*_COIL_FINITE, "T_out")], np.int64)
+_P_TRIPLE = TUBE.index("p_triple")
+# The rows _take_result reads of an answer: the compressor's flow, suction and discharge enthalpy;
+# the condensing coil's capacity ratio and outlet pressure; the evaporator's continued outlet
+# enthalpy and outlet pressure (the first four rows are the LUT kernel's, unused here).
+_ROWS = np.array([0, 0, 0, 3, 0, 1, 2], np.int64)
+
+
+@_inline
+def _compressor(dyn, speed, c, tables, row, r):
+    """The compressor at the slot's suction ``(p_in, T_in)`` and pressure ratio: ``r`` is
+    ``(mdot, h_in, h_out)``, NaN where the bench's point is not valid."""
+    meta, sat, vap, liq = tables
+    compress_point(speed, dyn[4], dyn[1], dyn[3], False, c, meta, sat, vap, liq, row)
+    if row[_C_FALLBACK] > 0:
+        return _HAND_BACK
+    ok = row[_C_CODE] == 0 and math.isfinite(row[0] + row[_C_MDOT] + row[_C_HIN] + row[_C_HOUT] + row[4] + row[5])
+    r[0], r[1], r[2] = (row[_C_MDOT], row[_C_HIN], row[_C_HOUT]) if ok else (np.nan, np.nan, np.nan)
+    return _VALUE
+
+
+@_inline
+def _coil(dyn, air, coil, tables, pt, row, r, first):
+    """A coil at the slot's ``(mdot, p_in, h_in)``: ``r`` is ``(column first, p_out)``, NaN where
+    the bench's point is not valid; no heat flow where its refrigerant is on the wrong side of the
+    air."""
+    tube, condenser, moist, sat_T, sat_h, sat_w = coil
+    meta, sat, vap, liq = tables
+    r[0], r[1] = np.nan, np.nan
+    mdot, p_in, h_in = dyn[0], dyn[1], dyn[2]
+    if not (math.isfinite(mdot) and math.isfinite(p_in) and math.isfinite(h_in)):
+        return _VALUE  # the bench's inlet outside the fluid's range, or a flow the compressor did not give
+    pt[0], pt[1], pt[2] = p_in, h_in, mdot
+    for k in range(air.size):
+        pt[3 + k] = air[k]
+    march_point(pt, tube, condenser, moist, meta, sat, vap, liq, sat_T, sat_h, sat_w, row)
+    if row[_M_FALLBACK] > 0:
+        return _HAND_BACK
+    if row[_M_DIR] > 0:
+        return _NO_HEAT
+    if not (row[_M_POUT] > tube[_P_TRIPLE]) or row[_M_PROPS] > 0:
+        return _VALUE
+    total = 0.0
+    for k in _M_FINITE:
+        total += row[k]
+    if math.isfinite(total):
+        r[0], r[1] = row[first], row[_M_POUT]
+    return _VALUE
+
+
+def memory() -> tuple:
+    """A new :func:`solve_points` memory: the closure's scalars, its two searches, the model's
+    arguments, what the point waits for, the point in progress and ``(next point, waiting)``."""
+    return (
+        np.empty((1, _NV)),
+        np.empty((1, _SIZE)),
+        np.empty((1, _SIZE)),
+        np.empty((1, 5)),
+        np.zeros(1, np.int64),
+        np.full(1, -1, np.int64),
+        np.zeros(2, np.int64),
+    )
+
+
+@_njit
+def solve_points(speed, comp, cond_air, cond, evap_air, evap, tables, ops, sat, tol, out, mem, answer):
+    """The closure at every point on the bench physics: suction and discharge roots and the
+    branch's drop, as :func:`evtms.cycle._closure_kernel.solve_points` on the LUTs.
+
+    An evaluation whose states the tables do not hold is the caller's: the kernel returns the
+    component it waits for (0 the compressor, 1 the condensing coil, 2 the branch), its arguments
+    in ``mem[3][0]`` (``mdot, p_in, h_in, T_in, pr``) and the point in ``mem[5][0]``. The caller
+    evaluates it with the bench and calls again with the same ``mem`` and the answer; the kernel
+    goes on from there. It returns -1 when every point is done.
+
+    Parameters
+    ----------
+    speed : (n,) float64
+        The compressor speed per point [1].
+    comp : (8,) float64
+        The compressor constants (:func:`evtms.benches.compressor.kernel_constants`).
+    cond_air, evap_air : (n, 7) float64
+        The condenser's and the evaporator's air per point (the march's ``POINTS`` after
+        ``mdot``, :func:`evtms.benches.coil.march_inputs`).
+    cond, evap : tuple
+        Each coil's ``(tube, condenser, moist, sat_T, sat_h, sat_w)``: the march's tube array,
+        its mode and the saturated-air curve.
+    tables : tuple
+        The refrigerant tables (:attr:`evtms.fluid_tables.PropertyTables.arrays`).
+    ops, sat, tol, out
+        As :func:`evtms.cycle._closure_kernel.solve_points` takes them.
+    mem : tuple
+        The kernel's memory between calls (:func:`memory`, new for each batch).
+    answer : (4,) float64
+        The caller's evaluation, where the kernel asked for one: the three values it reads (as
+        ``_ROWS`` orders them) and 1 where no heat flows.
+    """
+    v, so, si, dyn, wait, point, at = mem
+    n = ops.shape[1]
+    r = np.empty(3)
+    row_c = np.empty(len(COMPRESSOR_COLUMNS))
+    row_m = np.empty(len(COIL_COLUMNS))
+    pt = np.empty(len(COIL_POINTS))
+    if at[1] > 0:  # the caller's answer to the evaluation asked for
+        at[1] = 0
+        r[0], r[1], r[2] = answer[0], answer[1], answer[2]
+        _take_result(r, answer[3] > 0, _ROWS, v, so, si, dyn, wait, point, 0, ops, sat, tol, out)
+    while True:
+        while point[0] < 0:  # the next point (a point not served leaves the slot free)
+            if at[0] >= n:
+                return -1
+            _begin(v, so, si, dyn, wait, point, 0, at[0], ops, sat, tol, out)
+            at[0] += 1
+        i = point[0]
+        what = wait[0]
+        if what == _W_COMP:
+            got = _compressor(dyn[0], speed[i], comp, tables, row_c, r)
+        elif what == _W_COND:
+            got = _coil(dyn[0], cond_air[i], cond, tables, pt, row_m, r, _M_CR)
+        else:
+            got = _coil(dyn[0], evap_air[i], evap, tables, pt, row_m, r, _M_HOC)
+        if got == _HAND_BACK:
+            at[1] = 1
+            return min(what, 2)
+        _take_result(r, got == _NO_HEAT, _ROWS, v, so, si, dyn, wait, point, 0, ops, sat, tol, out)
+
+
+compile_one_at_a_time(solve_points)
