@@ -209,10 +209,10 @@ def test_a_point_solved_alone_equals_its_batch(solvers):
             assert np.array_equal(alone[key], batch[key][i : i + 1], equal_nan=True), (i, key)
 
 
-def search(fun, t_lo, t_hi, t_guess, slope=-1.0, ftol=1e-10):
+def search(fun, t_lo, t_hi, t_guess, slope=-1.0, ftol=1e-10, warm=0.0):
     """A whole search of the kernel's root finder; (root or NaN, evaluations)."""
     s = np.empty(STATE_SIZE)
-    t = root_begin(s, t_lo, t_hi, t_guess, slope)
+    t = root_begin(s, t_lo, t_hi, t_guess, slope, warm)
     count = 0
     while s[PHASE] < DONE:
         count += 1
@@ -230,6 +230,20 @@ def test_root_finder_solves_falling_residuals():
     assert root == pytest.approx(1.0, abs=1e-9)
 
 
+def test_a_warm_root_finder_stops_at_a_trial_within_the_tolerance():
+    """Warm: a guess within ``ftol`` of the root is the root (one evaluation; a cold search goes on
+    to bracket it); a second trial short on the guess's side takes a third secant step before the
+    range's ends."""
+    root, count = search(lambda t: 3.0 - t, 0.0, 10.0, 3.0 + 1e-12, warm=1.0)
+    assert (root, count) == (3.0 + 1e-12, 1)
+    assert search(lambda t: 3.0 - t, 0.0, 10.0, 3.0 + 1e-12)[1] > 1
+    # A slope ten times too steep: the first step falls short, the third trial brackets the root.
+    seen = []
+    root, count = search(lambda t: seen.append(t) or 3.0 - t, 0.0, 10.0, 5.0, slope=-10.0, ftol=1e-9, warm=1.0)
+    assert root == pytest.approx(3.0, abs=1e-9)
+    assert 0.0 not in seen and 10.0 not in seen  # the range's ends were not needed
+
+
 def test_root_finder_goes_round_nan_ends_and_fails_without_a_root():
     # The model leaves its envelope above 6: the NaN end is bisected towards the root at 4.
     root, _ = search(lambda t: 4.0 - t if t < 6.0 else math.nan, 0.0, 10.0, math.nan)
@@ -239,7 +253,7 @@ def test_root_finder_goes_round_nan_ends_and_fails_without_a_root():
     assert math.isnan(search(lambda t: math.nan, 0.0, 10.0, 5.0)[0])
     assert math.isnan(search(lambda t: 8.0 - t if t < 6.0 else math.nan, 0.0, 10.0, 2.0)[0])
     s = np.empty(STATE_SIZE)
-    root_begin(s, 0.0, 1.0, 0.5, -1.0)
+    root_begin(s, 0.0, 1.0, 0.5, -1.0, 0.0)
     root_next(s, 0.5, math.nan, 10.0, 1.5, 1e-12, 1e-10)
     assert s[PHASE] not in (DONE, FAILED)  # a NaN guess only sends the search to the range's ends
 
@@ -311,3 +325,28 @@ def test_the_direct_kernel_serves_its_circuits_only(direct_solver):
     circuit = topology("chiller")
     ctx = SolveContext(direct_solver.models, direct_solver.sat, circuit)
     assert compiled_roots(ctx, points("chiller", n=2).subset(np.arange(2))) is None
+
+
+@pytest.mark.parametrize("models", ["direct", "lut"])
+def test_warm_solves_through_the_kernel_are_the_python_warm_solves(direct_solver, solvers, models):
+    """A drive's consecutive points, each warm-started from the previous solution (the
+    physics-in-the-loop model's solves): the compiled searches take the Python path's warm steps
+    (trials within the tolerance taken as roots, the extrapolated discharge guess, a third secant
+    step), so they end on its roots, holding the setpoint or floating the superheat."""
+    from test_cycle_warm import _SPEED, _point
+
+    base = direct_solver if models == "direct" else solvers["cabin"]
+    runs = {}
+    for closure in ("python", "compiled"):
+        solver = CycleSolver(base.models, base.sat, "cabin", closure=closure)
+        warm, runs[closure] = None, []
+        for j in range(len(_SPEED)):
+            runs[closure].append(solver.solve(_point(j), warm=warm))
+            warm = solver.warm_start
+    statuses = set()
+    for slow, fast in zip(runs["python"], runs["compiled"], strict=True):
+        assert fast.status.tolist() == slow.status.tolist()
+        statuses.add(int(slow.status[0]))
+        for key in ("p_A", "p_B", "mdot", "superheat_actual", "COP"):
+            np.testing.assert_allclose(fast[key], slow[key], rtol=1e-9, err_msg=key)
+    assert len(statuses) == 2  # holding the setpoint and floating

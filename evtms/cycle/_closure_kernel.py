@@ -9,7 +9,9 @@ branch's pressure drop is the fixed point of its model. The searches are
 those of :mod:`evtms.cycle.roots` (a first guess and one overshot secant step,
 else the range's ends; modified regula falsi in saturation temperature, with
 the Anderson-Bjorck scaling), the guesses and tolerances those of
-:mod:`evtms.cycle.closure`, and each component is interpolated by the
+:mod:`evtms.cycle.closure`, started cold or from a previous solution (a warm
+start: a trial within the tolerance is the root, the discharge guess is
+extrapolated from the last two suction iterates' roots), and each component is interpolated by the
 kernel the Python path calls (:func:`evtms.cycle._component_kernel.evaluate`).
 
 Each point's closure runs one evaluation after another, as the Python path
@@ -56,12 +58,34 @@ _inline = numba.extending.register_jitable
 
 # The root search's state vector (reverse communication: the caller evaluates, the search says
 # where next), indices into a float64 array of _SIZE.
-_A, _B, _FA, _FB, _KEPT, _PHASE, _TG, _FG, _SLOPE, _NEED_A, _NEED_B, _LO_END, _HI_END, _NSLOPE, _IT = range(15)
-_SIZE = 15
+# A warm search (_WARM 1) takes a trial within the tolerance as the root and may take a third trial
+# (_T2, _F2: its second).
+(
+    _A,
+    _B,
+    _FA,
+    _FB,
+    _KEPT,
+    _PHASE,
+    _TG,
+    _FG,
+    _SLOPE,
+    _NEED_A,
+    _NEED_B,
+    _LO_END,
+    _HI_END,
+    _NSLOPE,
+    _IT,
+    _WARM,
+    _T2,
+    _F2,
+) = range(18)
+_SIZE = 18
 #: A search's state: its size, and the entry holding its phase (:data:`DONE`, :data:`FAILED` at the end).
 STATE_SIZE, PHASE = _SIZE, _PHASE
-# Phases: the guess, the secant step from it, the range's ends, regula falsi; then done or failed.
-_GUESS, _SECANT, _END_A, _END_B, _FALSI, DONE, FAILED = range(7)
+# Phases: the guess, the secant step from it, a warm search's third trial, the range's ends, regula
+# falsi; then done or failed.
+_GUESS, _SECANT, _THIRD, _END_A, _END_B, _FALSI, DONE, FAILED = range(8)
 _MAXITER = 80
 
 
@@ -126,11 +150,24 @@ def _next_end(s):
 
 
 @_inline
-def root_begin(s, t_lo, t_hi, t_guess, slope):
+def _secant_step(t, f, slope, overshoot, max_step, lo, hi):
+    """The trial after ``t`` [K] with residual ``f``: a secant step along ``slope`` [1/K] overshot
+    ``overshoot`` times and by 0.01 K, at most ``max_step`` [K], within ``[lo, hi]`` (NaN: no step)."""
+    step = -overshoot * f / slope + math.copysign(0.01, f) if f != 0 else 0.0
+    if math.isnan(step):
+        step = 0.0
+    return min(max(t + min(max(step, -max_step), max_step), lo), hi)
+
+
+@_inline
+def root_begin(s, t_lo, t_hi, t_guess, slope, warm):
     """Start a search for the root of a residual falling in ``t`` on ``[t_lo, t_hi]`` [K] from
-    ``t_guess`` with the estimated ``slope`` [1/K]; returns the first ``t`` to evaluate."""
+    ``t_guess`` with the estimated ``slope`` [1/K]; returns the first ``t`` to evaluate. A ``warm``
+    search (1.0; 0.0 cold) starts from a previous solution, as :func:`evtms.cycle.roots.bracket`
+    with ``ftol``: a guess trial within the tolerance is the root, and a second trial that falls
+    short on the guess's side is followed by a third secant step before the range's ends."""
     s[:] = np.nan
-    s[_A], s[_B], s[_KEPT], s[_IT] = t_lo, t_hi, 0.0, 0.0
+    s[_A], s[_B], s[_KEPT], s[_IT], s[_WARM] = t_lo, t_hi, 0.0, 0.0, warm
     s[_NEED_A] = s[_NEED_B] = 1.0
     s[_SLOPE] = slope
     if t_guess > t_lo and t_guess < t_hi:  # False for NaN
@@ -153,17 +190,36 @@ def root_next(s, t, f, max_step, overshoot, xtol, ftol):
     """
     phase = s[_PHASE]
     finite = math.isfinite(f)
+    hit = s[_WARM] > 0 and finite and abs(f) < ftol  # a warm trial at the root
     if phase == _GUESS:  # one overshot secant step, as evtms.cycle.roots._guess_and_secant (NaN: no step)
         s[_FG] = f
-        step = -overshoot * f / s[_SLOPE] + math.copysign(0.01, f) if f != 0 else 0.0
-        if math.isnan(step):
-            step = 0.0
-        t2 = min(max(t + min(max(step, -max_step), max_step), s[_A]), s[_B])
+        if hit:
+            s[_PHASE] = DONE
+            return t
         s[_PHASE] = _SECANT
-        return t2
+        return _secant_step(t, f, s[_SLOPE], overshoot, max_step, s[_A], s[_B])
     if phase == _SECANT:
         s[_NSLOPE] = (f - s[_FG]) / (t - s[_TG])
+        if hit:
+            s[_PHASE] = DONE
+            return t
+        fg = s[_FG]
+        if s[_WARM] > 0 and finite and math.isfinite(fg) and (f > 0) == (fg > 0) and f != 0 and t != s[_TG]:
+            # A measured slope's step fell short: one more secant step through both trials (overshot
+            # 1.5 times), as evtms.cycle.roots._guess_and_secant.
+            chord = s[_NSLOPE]
+            s[_T2], s[_F2], s[_PHASE] = t, f, _THIRD
+            return _secant_step(t, f, chord if chord < 0 else s[_SLOPE], 1.5, max_step, s[_A], s[_B])
         _take(s, s[_TG], s[_FG])
+        _take(s, t, f)
+        s[_LO_END], s[_HI_END] = s[_NEED_A], s[_NEED_B]
+        return _next_end(s)
+    if phase == _THIRD:
+        if hit:
+            s[_PHASE] = DONE
+            return t
+        _take(s, s[_TG], s[_FG])
+        _take(s, s[_T2], s[_F2])
         _take(s, t, f)
         s[_LO_END], s[_HI_END] = s[_NEED_A], s[_NEED_B]
         return _next_end(s)
@@ -226,6 +282,7 @@ TOLERANCES = (
     "outer_max_step",
     "overshoot",
     "slope_span",
+    "warm",
 )
 (
     _OUTER_FTOL,
@@ -243,19 +300,34 @@ TOLERANCES = (
     _OUTER_STEP,
     _OVERSHOOT,
     _SLOPE_SPAN,
+    _WARM_SOLVE,
 ) = range(len(TOLERANCES))
 #: The rows of the kernel's per-point ``ops`` array, in order (built by these names).
-OPS_ROWS = ("t_lo", "t_hi", "t_guess", "outer_slope", "T_cond_sec", "superheat", "p_B", "dp", "p_dis_lo", "p_dis_hi")
-_R_TLO, _R_THI, _R_TGUESS, _R_OSLOPE, _R_TCOND, _R_SH, _R_PB, _R_DP, _R_PDLO, _R_PDHI = range(len(OPS_ROWS))
+OPS_ROWS = (
+    "t_lo",
+    "t_hi",
+    "t_guess",
+    "outer_slope",
+    "T_cond_sec",
+    "superheat",
+    "p_B",
+    "dp",
+    "p_dis_lo",
+    "p_dis_hi",
+    "inner_slope",
+)
+_R_TLO, _R_THI, _R_TGUESS, _R_OSLOPE, _R_TCOND, _R_SH, _R_PB, _R_DP, _R_PDLO, _R_PDHI, _R_ISLOPE = range(len(OPS_ROWS))
 
 # Each point in flight holds its closure's scalars in a row of these columns: the suction and
 # discharge iterates [K], the suction pressure [Pa] and temperature [K], the compressor's flow and
 # suction enthalpy, the discharge pressure [Pa], the condensing outlet pressure, the valve-outlet
 # enthalpy, the latest finite suction residual and its iterate, the suction closure's slope, the
 # drop's pass, and what it carries from one suction iterate to the next (the discharge pressure,
-# the discharge closure's slope, the branch's drop).
-_TA, _TB, _PA, _TSUC, _MDOT, _HA, _PB_TRIAL, _PC, _HD, _LAT_T, _LAT_F, _OSLOPE, _PASS, _PB, _ISLOPE, _DP = range(16)
-_NV = 16
+# the discharge closure's slope, the branch's drop); a warm solve's two latest discharge roots, as
+# (suction, discharge) saturation temperatures [K] (the latest first).
+(_TA, _TB, _PA, _TSUC, _MDOT, _HA, _PB_TRIAL, _PC, _HD, _LAT_T, _LAT_F, _OSLOPE, _PASS, _PB, _ISLOPE, _DP) = range(16)
+_PAIR_A1, _PAIR_B1, _PAIR_A0, _PAIR_B0 = range(16, 20)
+_NV = 20
 # What a point waits for: the compressor, the condensing component, the branch for its drop, the
 # branch for the superheat; and which LUT each asks.
 _W_COMP, _W_COND, _W_DROP, _W_SH = range(4)
@@ -297,8 +369,22 @@ def _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol):
     known = math.isfinite(v[g, _PB])
     t_guess = _t_sat(v[g, _PB], log_p, T) if known else ops[_R_TCOND, i] + tol[_GUESS_ABOVE]
     slope = v[g, _ISLOPE] if (known and v[g, _ISLOPE] < 0) else tol[_INNER_SLOPE]
-    t_B = root_begin(si[g], _t_sat(lo_B, log_p, T), _t_sat(hi_B, log_p, T), t_guess, slope)
+    if tol[_WARM_SOLVE] > 0:
+        t_guess = _extrapolated_discharge(v[g], _t_sat(p_A, log_p, T), t_guess)
+    t_B = root_begin(si[g], _t_sat(lo_B, log_p, T), _t_sat(hi_B, log_p, T), t_guess, slope, tol[_WARM_SOLVE])
     _discharge_trial(v, dyn, wait, g, t_B, sat)
+
+
+@_inline
+def _extrapolated_discharge(w, t_A, t_guess):
+    """A warm solve's first guess of the discharge saturation temperature [K] at suction saturation
+    ``t_A`` [K], from the slot's row ``w``: linear through its two latest discharge roots, by at
+    most 2 K from the latest; ``t_guess`` where there are not two (closure._extrapolated_discharge)."""
+    a1, b1, a0, b0 = w[_PAIR_A1], w[_PAIR_B1], w[_PAIR_A0], w[_PAIR_B0]
+    shift = (b1 - b0) / (a1 - a0) * (t_A - a1)
+    if not (math.isfinite(shift) and math.isfinite(b1) and abs(a1 - a0) > 1e-9):
+        return t_guess
+    return b1 + min(max(shift, -2.0), 2.0)
 
 
 @_inline
@@ -310,8 +396,9 @@ def _begin(v, so, si, dyn, wait, point, g, i, ops, sat, tol, out):
         return
     point[g] = i
     v[g, :] = np.nan
-    v[g, _PB], v[g, _DP] = ops[_R_PB, i], ops[_R_DP, i]
-    v[g, _TA] = root_begin(so[g], ops[_R_TLO, i], ops[_R_THI, i], ops[_R_TGUESS, i], ops[_R_OSLOPE, i])
+    v[g, _PB], v[g, _DP], v[g, _ISLOPE] = ops[_R_PB, i], ops[_R_DP, i], ops[_R_ISLOPE, i]
+    t_lo, t_hi = ops[_R_TLO, i], ops[_R_THI, i]
+    v[g, _TA] = root_begin(so[g], t_lo, t_hi, ops[_R_TGUESS, i], ops[_R_OSLOPE, i], tol[_WARM_SOLVE])
     _suction_iterate(v, si, dyn, wait, g, i, ops, sat, tol)
 
 
@@ -358,6 +445,9 @@ def _take_result(r, none, rows, v, so, si, dyn, wait, point, g, ops, sat, tol, o
             _discharge_trial(v, dyn, wait, g, t_B, sat)
         elif si[g, _PHASE] == DONE:  # the discharge root: the branch's drop from the last iterate's
             v[g, _PB] = _p_sat(t_B, sat[0], sat[1])
+            # The two latest roots, for a warm solve's next first guess (at T(p), as the Python path).
+            v[g, _PAIR_A0], v[g, _PAIR_B0] = v[g, _PAIR_A1], v[g, _PAIR_B1]
+            v[g, _PAIR_A1], v[g, _PAIR_B1] = _t_sat(v[g, _PA], sat[0], sat[1]), _t_sat(v[g, _PB], sat[0], sat[1])
             v[g, _HD] = _at_p(v[g, _PC], sat[0], sat[2])
             v[g, _PASS] = 0.0
             _ask(dyn, wait, g, _W_DROP, v[g, _MDOT], v[g, _PA] + v[g, _DP], v[g, _HD], np.nan, np.nan)

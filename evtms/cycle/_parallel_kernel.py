@@ -341,7 +341,7 @@ def _discharge(C, K, dyn, i, c, s, p_A, t_suc, ops, sat, tol, sh_min):
     known = math.isfinite(c[_PB])
     t_guess = _t_sat(c[_PB], log_p, T) if known else ops[_R_TCOND, i] + tol[_GUESS_ABOVE]
     slope = c[_ISLOPE] if (known and c[_ISLOPE] < 0) else tol[_INNER_SLOPE]
-    t_B = root_begin(s, _t_sat(lo_B, log_p, T), _t_sat(hi_B, log_p, T), t_guess, slope)
+    t_B = root_begin(s, _t_sat(lo_B, log_p, T), _t_sat(hi_B, log_p, T), t_guess, slope, 0.0)
     while True:
         p_B = _p_sat(t_B, log_p, T)
         dyn[0], dyn[1], dyn[2], dyn[3], dyn[4] = np.nan, p_A, np.nan, t_suc, p_B / p_A
@@ -398,7 +398,7 @@ def _solve_point(L, dyn, i, c, kc, so, si, ops, sat, flows, tol, sh_min, out):
     kc[_K_ON] = 0.0
     lat_t, lat_f, oslope = np.nan, np.nan, np.nan
     log_p, T = sat[0], sat[1]
-    t_A = root_begin(so, ops[_R_TLO, i], ops[_R_THI, i], ops[_R_TGUESS, i], ops[_R_OSLOPE, i])
+    t_A = root_begin(so, ops[_R_TLO, i], ops[_R_THI, i], ops[_R_TGUESS, i], ops[_R_OSLOPE, i], 0.0)
     while True:
         f = _suction_residual(L, dyn, i, c, kc, so, si, t_A, ops, sat, flows, tol, sh_min)
         if math.isfinite(f):  # the local slope, for a warm start from this solution

@@ -495,6 +495,18 @@ def _suction_range(ctx: SolveContext, ops: Ops, limits: dict, T_sec: np.ndarray)
     return lo, lo_axis, hi, hi_axis
 
 
+def suction_guess(
+    t_guess: np.ndarray, outer_slope: np.ndarray | float, warm: WarmStart | None, n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The suction search's first guess [K] and slope [1/K] of ``n`` points: ``warm``'s root and the
+    closure's local slope there where it has them (a previous solve's solution), else the given ones."""
+    slopes = np.broadcast_to(np.asarray(outer_slope, float), (n,))
+    if warm is not None:
+        t_guess = np.where(np.isfinite(warm.t_A), warm.t_A, t_guess)
+        slopes = np.where(warm.outer_slope < 0, warm.outer_slope, slopes)
+    return t_guess, slopes
+
+
 def solve_at(
     ctx: SolveContext,
     ops: Ops,
@@ -550,10 +562,7 @@ def solve_at(
     # circuit's envelope; the superheat falls about 4 K per kelvin above it.
     cold = T_sec - SUCTION_GUESS_BELOW
     t_guess = cold if t_guess is None else np.where(np.isfinite(t_guess), t_guess, cold)
-    slopes = np.broadcast_to(np.asarray(outer_slope, float), (n,))
-    if warm is not None:  # the previous root and the closure's local slope there
-        t_guess = np.where(np.isfinite(warm.t_A), warm.t_A, t_guess)
-        slopes = np.where(warm.outer_slope < 0, warm.outer_slope, slopes)
+    t_guess, slopes = suction_guess(t_guess, outer_slope, warm, n)
     br = bracket(
         ctx.sat,
         residual,

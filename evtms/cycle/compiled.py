@@ -8,13 +8,14 @@ loop (:mod:`evtms.cycle._closure_kernel`), and with two branches in parallel
 (``cabin+chiller``) the roots, the flow split and both branches' drops in
 another (:mod:`evtms.cycle._parallel_kernel`), then evaluates the components at
 the roots with every output variable as the Python path does
-(:func:`evtms.cycle.closure.final_states`). On the bench physics itself
+(:func:`evtms.cycle.closure.final_states`). A warm start of one branch (a
+previous solve's solution) starts the kernel's searches from its roots. On the bench physics itself
 (:class:`~evtms.cycle.models.DirectModels`), for the air-cooled circuit
 (``cabin``), a third kernel runs the same closure on the benches' compiled
 twins (:mod:`evtms.cycle._direct_kernel`) and asks the bench for the few states
 beyond their property tables. The points a kernel hands back (a model's
 envelope met on the way, no root in the range, a subcooled condenser target),
-every warm start, and every other circuit or model go through
+a warm start of two parallel branches, and every other circuit or model go through
 :func:`~evtms.cycle.closure.solve_at`, which says why a point fails.
 
 The roots agree with the Python path's to within the closures' tolerances
@@ -48,6 +49,7 @@ from evtms.cycle.closure import (
     condensing_secondary,
     final_states,
     solve_at,
+    suction_guess,
 )
 from evtms.cycle.models import MODEL_AXES
 from evtms.cycle.state import (
@@ -57,6 +59,7 @@ from evtms.cycle.state import (
     INNER_FTOL,
     OUTER_FTOL,
     SLOPE_SPAN,
+    WARM_OVERSHOOT,
     XTOL,
     Ops,
     SolveContext,
@@ -195,15 +198,23 @@ def compiled_roots(
     p_B_guess: np.ndarray | None = None,
     dp_guess: np.ndarray | None = None,
     outer_slope: np.ndarray | float = OUTER_SLOPE,
+    warm: WarmStart | None = None,
 ) -> CompiledRoots | None:
     """The roots of :func:`~evtms.cycle.closure.solve_at` (the same guesses) from the compiled
-    kernel; None where the circuit or models are not served (see the module's text)."""
+    kernel; None where the circuit or models are not served (see the module's text).
+
+    ``warm``, a previous solve's solution (one branch only), replaces the guesses where it has
+    one, as in :func:`~evtms.cycle.closure.solve_at`: the searches start from its roots, its
+    suction closure's slope and its branch's drop."""
     direct = _direct_eligible(ctx)
     parts = _direct_parts(ctx, ops) if direct else (_parts(ctx, ops) if _eligible(ctx) else None)
-    if parts is None:
+    if parts is None or (warm is not None and ctx.parallel):
         return None
     n, limits = ops["speed"].size, ctx.models.limits()
-    state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess)
+    state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess, warm)
+    if warm is not None:
+        given = np.full(n, np.nan) if t_guess is None else t_guess
+        t_guess, outer_slope = suction_guess(given, outer_slope, warm, n)
     guesses = {"t_guess": t_guess, "outer_slope": outer_slope}
     if direct:
         return _direct_roots(ctx, ops, limits, state, parts, guesses)
@@ -333,9 +344,10 @@ def solve_closure(
 ) -> tuple[dict, SolveState]:
     """:func:`~evtms.cycle.closure.solve_at` (the same arguments, results and state), through the
     compiled kernel where the solve asks for it (``ctx.closure_kernel``) and the circuit and models
-    allow it; the points it hands back, and every point of a warm start, through the Python path."""
+    allow it; the points it hands back, and a warm start of two parallel branches, through the Python
+    path."""
     guesses = {"t_guess": t_guess, "p_B_guess": p_B_guess, "dp_guess": dp_guess, "outer_slope": outer_slope}
-    roots = compiled_roots(ctx, ops, **guesses) if (warm is None and ctx.closure_kernel) else None
+    roots = compiled_roots(ctx, ops, **guesses, warm=warm) if ctx.closure_kernel else None
     if roots is None:
         return solve_at(ctx, ops, warm=warm, **guesses)
     n = ops["speed"].size
@@ -355,7 +367,7 @@ def solve_closure(
             name: v if v is None or np.ndim(v) == 0 else np.broadcast_to(np.asarray(v, float), (n,))[rest]
             for name, v in guesses.items()
         }
-        r, sub = solve_at(ctx, take(ops, rest), **part)
+        r, sub = solve_at(ctx, take(ops, rest), warm=None if warm is None else warm.take(rest), **part)
         res = _scatter(res, n, rest, r)
         _put_state(state, rest, sub)
     return res, state
@@ -415,6 +427,7 @@ def _kernel_inputs(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState,
         "dp": state.dp,
         "p_dis_lo": state.p_discharge[0],
         "p_dis_hi": state.p_discharge[1],
+        "inner_slope": state.slope,
         "branch_mode": ops.get("branch_mode", np.zeros(served.size)),
         "setpoint": ops.get("setpoint", ops["superheat"]),
     }
@@ -437,8 +450,9 @@ def _tolerances(state: SolveState, names) -> np.ndarray:
         "discharge_guess_above": DISCHARGE_GUESS_ABOVE,
         "inner_max_step": INNER_MAX_STEP,
         "outer_max_step": OUTER_MAX_STEP,
-        "overshoot": COLD_OVERSHOOT,
+        "overshoot": WARM_OVERSHOOT if state.warm else COLD_OVERSHOOT,
         "slope_span": SLOPE_SPAN,
+        "warm": float(state.warm),
     }
     return np.array([values[k] for k in names], float)
 
