@@ -290,7 +290,12 @@ def direct_solver():
     return CycleSolver(DirectModels(Parameters(), fluid), SaturationCurve(fluid), topology("cabin"))
 
 
-def test_compiled_roots_on_the_bench_physics_are_the_python_roots(direct_solver, monkeypatch):
+def on_circuit(solver: CycleSolver, name: str) -> CycleSolver:
+    return CycleSolver(solver.models, solver.sat, topology(name))
+
+
+@pytest.mark.parametrize("name", ["cabin", "chiller"])
+def test_compiled_roots_on_the_bench_physics_are_the_python_roots(direct_solver, monkeypatch, name):
     """The direct-physics kernel: the Python path's roots, state, statuses and reasons; the states
     beyond its property tables (a discharge search's end near the critical pressure) are the
     bench's, asked of the caller, and the point goes on."""
@@ -299,16 +304,19 @@ def test_compiled_roots_on_the_bench_physics_are_the_python_roots(direct_solver,
     asked = []
     real = compiled._bench_answer
     monkeypatch.setattr(compiled, "_bench_answer", lambda *a: asked.append(a[2]) or real(*a))
-    ctx = SolveContext(direct_solver.models, direct_solver.sat, direct_solver.circuit)
-    ops = points("cabin", n=24, seed=13).subset(np.arange(24))
+    solver = on_circuit(direct_solver, name)
+    ctx = SolveContext(solver.models, solver.sat, solver.circuit)
+    ops = points(name, n=24, seed=13).subset(np.arange(24))
     assert_kernel_is_python(ctx, ops, served=20)
     assert {0, 1} <= set(asked)
 
 
-def test_direct_solver_figures_match_the_python_path(direct_solver):
-    pts = points("cabin", n=12, seed=17)
-    fast = direct_solver.solve(pts)
-    slow = python_path(direct_solver).solve(pts)
+@pytest.mark.parametrize("name", ["cabin", "chiller"])
+def test_direct_solver_figures_match_the_python_path(direct_solver, name):
+    solver = on_circuit(direct_solver, name)
+    pts = points(name, n=12, seed=17)
+    fast = solver.solve(pts)
+    slow = python_path(solver).solve(pts)
     np.testing.assert_array_equal(fast["status"], slow["status"])
     np.testing.assert_array_equal(fast["reason"], slow["reason"])
     ok = np.isfinite(slow["COP"])
@@ -317,14 +325,11 @@ def test_direct_solver_figures_match_the_python_path(direct_solver):
         np.testing.assert_allclose(fast[key][ok], slow[key][ok], rtol=1e-12, atol=1e-12, err_msg=key)
 
 
-def test_the_direct_kernel_serves_its_circuits_only(direct_solver):
-    """Another circuit on the bench physics (a chiller branch) stays on the Python path."""
-    from evtms.cycle.compiled import DIRECT_CIRCUITS
-
-    assert DIRECT_CIRCUITS == (("condenser", ("evaporator",)),)
-    circuit = topology("chiller")
-    ctx = SolveContext(direct_solver.models, direct_solver.sat, circuit)
-    assert compiled_roots(ctx, points("chiller", n=2).subset(np.arange(2))) is None
+@pytest.mark.parametrize("name", ["hp", "cabin+chiller"])
+def test_the_direct_kernel_serves_its_circuits_only(direct_solver, name):
+    """Other circuits on the bench physics (a WCC, two branches) stay on the Python path."""
+    ctx = SolveContext(direct_solver.models, direct_solver.sat, topology(name))
+    assert compiled_roots(ctx, points(name, n=2).subset(np.arange(2))) is None
 
 
 @pytest.mark.parametrize("models", ["direct", "lut"])

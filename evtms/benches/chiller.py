@@ -473,7 +473,7 @@ def solve_chiller_compiled(
     from evtms.benches import _chiller_kernel as kernel
 
     inputs = (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
-    return solve_plate_points(kernel, _kernel_constants(fluid, hx), solve_chiller, fluid, hx, *inputs)
+    return solve_plate_points(kernel, kernel_constants(fluid, hx), solve_chiller, fluid, hx, *inputs)
 
 
 def solve_plate_points(kernel, constants: tuple, reference, fluid: Fluid, hx: PlateHXParams, *inputs) -> dict:
@@ -498,7 +498,7 @@ def solve_plate_points(kernel, constants: tuple, reference, fluid: Fluid, hx: Pl
     return out
 
 
-def _kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
+def kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
     """The compiled chiller's arguments after the inputs: geometry, coolant tables, limits, property tables."""
     from evtms.fluid_tables import tables_for
 

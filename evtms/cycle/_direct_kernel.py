@@ -3,13 +3,15 @@
 The closure of :mod:`evtms.cycle._closure_kernel` (the suction and discharge
 roots and the branch's drop, the same searches, guesses and tolerances, the
 same steps from one evaluation to the next) for the air-cooled circuit
-(``cabin``: compressor, condenser, evaporator) on the direct models of
+(``cabin`` and ``chiller``: compressor, condenser, evaporator or plate
+chiller) on the direct models of
 :class:`evtms.cycle.models.DirectModels` instead of the LUTs: each component
 is the bench's compiled per-point twin on the refrigerant tables,
-:func:`evtms.benches._compressor_kernel.compress_point` and
-:func:`evtms.hx._coil_kernels.march_point`. Their air sides (entering air,
-capacity rate, air-side resistance) are fixed per point and computed before,
-as :func:`evtms.benches.coil.solve_coil` computes them.
+:func:`evtms.benches._compressor_kernel.compress_point`,
+:func:`evtms.hx._coil_kernels.march_point` and
+:func:`evtms.benches._chiller_kernel.solve_point_chiller`. The coils' air sides
+(entering air, capacity rate, air-side resistance) are fixed per point and
+computed before, as :func:`evtms.benches.coil.solve_coil` computes them.
 
 Each evaluation is read as :class:`~evtms.cycle.models.DirectModels` reads the
 bench's result (:func:`evtms.benches.condenser.coil_bench_outputs`,
@@ -31,6 +33,8 @@ import math
 import numpy as np
 
 from evtms._jit import compile_one_at_a_time, load_numba
+from evtms.benches._chiller_kernel import COLUMNS as PLATE_COLUMNS
+from evtms.benches._chiller_kernel import solve_point_chiller
 from evtms.benches._compressor_kernel import COLUMNS as COMPRESSOR_COLUMNS
 from evtms.benches._compressor_kernel import compress_point
 from evtms.cycle._closure_kernel import _NV, _SIZE, _W_COMP, _W_COND, _begin, _take_result
@@ -54,6 +58,13 @@ _M_CR, _M_HOC, _M_POUT, _M_DIR, _M_PROPS, _M_FALLBACK = (COIL_COLUMNS.index(k) f
 _COIL_FINITE = ("Q", "dp", "h_out", "h_out_continued", "capacity_ratio", "latent", "cond_enthalpy", "p_out", "x_out")
 _M_FINITE = np.array([COIL_COLUMNS.index(k) for k in (*_COIL_FINITE, "T_out")], np.int64)
 _P_TRIPLE = TUBE.index("p_triple")
+# The plate chiller's columns read, and those a valid bench point holds finite (its outputs).
+_K_HOC, _K_POUT = PLATE_COLUMNS.index("h_out_continued"), PLATE_COLUMNS.index("p_out")
+_PLATE_MASKS = ("coolant_outside", "bad_flow", "coolant_freezes", "bad_direction", "bad_dp", "bad_props")
+_K_OUTSIDE, _K_FLOW, _K_FREEZES, _K_DIR, _K_DP, _K_PROPS = (PLATE_COLUMNS.index(k) for k in _PLATE_MASKS)
+_K_TABLES = PLATE_COLUMNS.index("outside_tables")
+_PLATE_FINITE = ("Q", "h_out", "T_out", "p_out", "x_out", "T_coolant_out", "dp", "capacity_ratio", "h_out_continued")
+_K_FINITE = np.array([PLATE_COLUMNS.index(k) for k in _PLATE_FINITE], np.int64)
 # The rows _take_result reads of an answer: the compressor's flow, suction and discharge enthalpy;
 # the condensing coil's capacity ratio and outlet pressure; the evaporator's continued outlet
 # enthalpy and outlet pressure (the first four rows are the LUT kernel's, unused here).
@@ -116,8 +127,64 @@ def memory() -> tuple:
     )
 
 
+@_inline
+def _plate(dyn, coolant, plate, tables, row, r):
+    """The plate chiller at the slot's ``(mdot, p_in, h_in)`` and the point's ``coolant`` (flow
+    [kg/s], inlet temperature [K]): ``r`` is ``(h_out_continued, p_out)``, NaN where the bench's
+    point is not valid (:func:`evtms.benches.chiller.chiller_heat_rate`: an inlet outside the
+    fluid's range or the coolant's tables, no flow, a freezing coolant, a drop past the inlet
+    pressure, a failed property); no heat flow where its refrigerant is not colder than the coolant."""
+    geo, cool, T_freeze, T_max, p_triple, curve_p_min, gauss, p_crit = plate
+    r[0], r[1] = np.nan, np.nan
+    mdot, p_in, h_in = dyn[0], dyn[1], dyn[2]
+    if not (math.isfinite(h_in) and p_in > p_triple and p_in < p_crit):
+        return _VALUE
+    solve_point_chiller(
+        p_in, h_in, mdot, coolant[0], coolant[1], geo, cool, T_freeze, T_max, p_triple, curve_p_min, tables, gauss, row
+    )
+    if row[_K_TABLES] > 0:
+        return _HAND_BACK
+    if row[_K_OUTSIDE] > 0 or row[_K_FLOW] > 0 or row[_K_FREEZES] > 0:
+        return _VALUE
+    if row[_K_DIR] > 0:
+        return _NO_HEAT
+    if row[_K_DP] > 0 or row[_K_PROPS] > 0:
+        return _VALUE
+    total = 0.0
+    for k in _K_FINITE:
+        total += row[k]
+    if math.isfinite(total):
+        r[0], r[1] = row[_K_HOC], row[_K_POUT]
+    return _VALUE
+
+
+#: The length of a coil's constants (``tube, condenser, moist, sat_T, sat_h, sat_w``); a plate
+#: chiller's are ``geo, cool, T_freeze, T_max, p_triple, curve_p_min, gauss, p_crit``.
+_COIL_CONSTANTS = 6
+
+
+def _branch(dyn, inputs, branch, tables, pt, row_m, row_k, r):
+    """The evaporating branch: the coil or the plate chiller, by its constants' tuple (compiled
+    for the one it is; see the overload below)."""
+
+
+@numba.extending.overload(_branch)
+def _branch_for(dyn, inputs, branch, tables, pt, row_m, row_k, r):
+    if len(branch.types) == _COIL_CONSTANTS:
+
+        def coil(dyn, inputs, branch, tables, pt, row_m, row_k, r):
+            return _coil(dyn, inputs, branch, tables, pt, row_m, r, _M_HOC)
+
+        return coil
+
+    def plate(dyn, inputs, branch, tables, pt, row_m, row_k, r):
+        return _plate(dyn, inputs, branch, tables, row_k, r)
+
+    return plate
+
+
 @_njit
-def solve_points(speed, comp, cond_air, cond, evap_air, evap, tables, ops, sat, tol, out, mem, answer):
+def solve_points(speed, comp, cond_air, cond, branch_in, branch, tables, ops, sat, tol, out, mem, answer):
     """The closure at every point on the bench physics: suction and discharge roots and the
     branch's drop, as :func:`evtms.cycle._closure_kernel.solve_points` on the LUTs.
 
@@ -133,12 +200,17 @@ def solve_points(speed, comp, cond_air, cond, evap_air, evap, tables, ops, sat, 
         The compressor speed per point [1].
     comp : (8,) float64
         The compressor constants (:func:`evtms.benches.compressor.kernel_constants`).
-    cond_air, evap_air : (n, 7) float64
-        The condenser's and the evaporator's air per point (the march's ``POINTS`` after
-        ``mdot``, :func:`evtms.benches.coil.march_inputs`).
-    cond, evap : tuple
-        Each coil's ``(tube, condenser, moist, sat_T, sat_h, sat_w)``: the march's tube array,
-        its mode and the saturated-air curve.
+    cond_air : (n, 7) float64
+        The condenser's air per point (the march's ``POINTS`` after ``mdot``,
+        :func:`evtms.benches.coil.march_inputs`).
+    cond : tuple
+        The condenser's ``(tube, condenser, moist, sat_T, sat_h, sat_w)``: the march's tube
+        array, its mode and the saturated-air curve.
+    branch_in, branch
+        The evaporating branch per point and its constants: an evaporator coil's air
+        ``(n, 7)`` and constants as the condenser's; or the plate chiller's coolant flow [kg/s]
+        and inlet temperature [K] ``(n, 2)`` and ``(geo, cool, T_freeze, T_max, p_triple,
+        curve_p_min, gauss, p_crit)`` (:func:`evtms.benches.chiller.kernel_constants`).
     tables : tuple
         The refrigerant tables (:attr:`evtms.fluid_tables.PropertyTables.arrays`).
     ops, sat, tol, out
@@ -154,6 +226,7 @@ def solve_points(speed, comp, cond_air, cond, evap_air, evap, tables, ops, sat, 
     r = np.empty(3)
     row_c = np.empty(len(COMPRESSOR_COLUMNS))
     row_m = np.empty(len(COIL_COLUMNS))
+    row_k = np.empty(len(PLATE_COLUMNS))
     pt = np.empty(len(COIL_POINTS))
     if at[1] > 0:  # the caller's answer to the evaluation asked for
         at[1] = 0
@@ -172,7 +245,7 @@ def solve_points(speed, comp, cond_air, cond, evap_air, evap, tables, ops, sat, 
         elif what == _W_COND:
             got = _coil(dyn[0], cond_air[i], cond, tables, pt, row_m, r, _M_CR)
         else:
-            got = _coil(dyn[0], evap_air[i], evap, tables, pt, row_m, r, _M_HOC)
+            got = _branch(dyn[0], branch_in[i], branch, tables, pt, row_m, row_k, r)
         if got == _HAND_BACK:
             at[1] = 1
             return min(what, 2)

@@ -10,8 +10,8 @@ another (:mod:`evtms.cycle._parallel_kernel`), then evaluates the components at
 the roots with every output variable as the Python path does
 (:func:`evtms.cycle.closure.final_states`). A warm start of one branch (a
 previous solve's solution) starts the kernel's searches from its roots. On the bench physics itself
-(:class:`~evtms.cycle.models.DirectModels`), for the air-cooled circuit
-(``cabin``), a third kernel runs the same closure on the benches' compiled
+(:class:`~evtms.cycle.models.DirectModels`), for the circuits with the air-cooled
+condenser and one branch (``cabin``, ``chiller``), a third kernel runs the same closure on the benches' compiled
 twins (:mod:`evtms.cycle._direct_kernel`) and asks the bench for the few states
 beyond their property tables. The points a kernel hands back (a model's
 envelope met on the way, no root in the range, a subcooled condenser target),
@@ -232,7 +232,7 @@ def compiled_roots(
 
 
 #: The circuits the direct-physics kernel serves: the condensing component and the branches.
-DIRECT_CIRCUITS = (("condenser", ("evaporator",)),)
+DIRECT_CIRCUITS = (("condenser", ("evaporator",)), ("condenser", ("chiller",)))
 
 
 def _direct_eligible(ctx: SolveContext) -> bool:
@@ -252,7 +252,9 @@ def _direct_eligible(ctx: SolveContext) -> bool:
 def _direct_parts(ctx: SolveContext, ops: Ops) -> list:
     """The direct-physics kernel's components as it takes them (:mod:`evtms.cycle._direct_kernel`):
     the compressor's speed per point and constants, each coil's air per point and its march's
-    constants; each with no point held back (the mask :func:`packed` gives)."""
+    constants, or the plate chiller's coolant per point and constants; each with no point held
+    back (the mask :func:`packed` gives)."""
+    from evtms.benches.chiller import kernel_constants as chiller_constants
     from evtms.benches.coil import march_inputs
     from evtms.benches.compressor import kernel_constants
 
@@ -262,8 +264,13 @@ def _direct_parts(ctx: SolveContext, ops: Ops) -> list:
     speed = np.ascontiguousarray(np.broadcast_to(np.asarray(ops["speed"], float), (n,)))
     parts = [((speed, kernel_constants(params.compressor, fluid)), kept)]
     for role in (ctx.circuit.condensing, *ctx.circuit.branches):
+        inputs = [np.broadcast_to(np.asarray(ops[k], float), (n,)) for k in role.inputs]
+        if role.component == "chiller":  # its coolant per point, the plate's constants
+            geo, cool, T_freeze, T_max, p_triple, p_min, _, gauss = chiller_constants(fluid, params.chiller)
+            coolant = np.ascontiguousarray(np.stack(inputs, axis=1))
+            parts.append(((coolant, (geo, cool, T_freeze, T_max, p_triple, p_min, gauss, fluid.p_crit)), kept))
+            continue
         coil = role.component
-        inputs = (ops[k] for k in role.inputs)
         air, tube, curve = march_inputs(fluid, getattr(params, coil), params.environment, *inputs, mode=coil)
         air = np.ascontiguousarray(np.broadcast_to(air, (n, air.shape[1])))
         parts.append(((air, (tube, coil == "condenser", coil == "evaporator", *curve)), kept))
