@@ -294,7 +294,7 @@ def on_circuit(solver: CycleSolver, name: str) -> CycleSolver:
     return CycleSolver(solver.models, solver.sat, topology(name))
 
 
-@pytest.mark.parametrize("name", ["cabin", "chiller"])
+@pytest.mark.parametrize("name", ["cabin", "chiller", "hp"])
 def test_compiled_roots_on_the_bench_physics_are_the_python_roots(direct_solver, monkeypatch, name):
     """The direct-physics kernel: the Python path's roots, state, statuses and reasons; the states
     beyond its property tables (a discharge search's end near the critical pressure) are the
@@ -311,7 +311,7 @@ def test_compiled_roots_on_the_bench_physics_are_the_python_roots(direct_solver,
     assert {0, 1} <= set(asked)
 
 
-@pytest.mark.parametrize("name", ["cabin", "chiller"])
+@pytest.mark.parametrize("name", ["cabin", "chiller", "hp"])
 def test_direct_solver_figures_match_the_python_path(direct_solver, name):
     solver = on_circuit(direct_solver, name)
     pts = points(name, n=12, seed=17)
@@ -325,11 +325,12 @@ def test_direct_solver_figures_match_the_python_path(direct_solver, name):
         np.testing.assert_allclose(fast[key][ok], slow[key][ok], rtol=1e-12, atol=1e-12, err_msg=key)
 
 
-@pytest.mark.parametrize("name", ["hp", "cabin+chiller"])
+@pytest.mark.parametrize("name", ["cabin+wcc", "cabin+chiller"])
 def test_the_direct_kernel_serves_its_circuits_only(direct_solver, name):
-    """Other circuits on the bench physics (a WCC, two branches) stay on the Python path."""
+    """Other circuits on the bench physics (two condensing components, two branches) stay on the
+    Python path."""
     ctx = SolveContext(direct_solver.models, direct_solver.sat, topology(name))
-    assert compiled_roots(ctx, points(name, n=2).subset(np.arange(2))) is None
+    assert compiled_roots(ctx, OperatingPoints(speed=[0.5, 0.6]).subset(np.arange(2))) is None
 
 
 @pytest.mark.parametrize("models", ["direct", "lut"])

@@ -358,10 +358,18 @@ def solve_wcc_compiled(
     CoolProp's within the tables' tolerance. Needs numba.
     """
     from evtms.benches import _wcc_kernel as kernel
+
+    inputs = (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
+    return solve_plate_points(kernel, kernel_constants(fluid, hx), solve_wcc, fluid, hx, *inputs)
+
+
+def kernel_constants(fluid: Fluid, hx: PlateHXParams) -> tuple:
+    """The compiled WCC's arguments after the inputs (:func:`evtms.benches._wcc_kernel.solve_points`):
+    geometry, coolant tables, limits, property tables."""
     from evtms.fluid_tables import tables_for
 
     cool, T_freeze, T_max = kernel_coolant_tables(hx.coolant_mass_fraction)
-    constants = (
+    return (
         kernel_geometry(hx),
         cool,
         _mirrored_coolant_table(hx.coolant_mass_fraction),
@@ -374,8 +382,6 @@ def solve_wcc_compiled(
         tables_for(fluid).arrays,
         KERNEL_GAUSS,
     )
-    inputs = (p_in, h_in, mdot, mdot_coolant, T_coolant_in)
-    return solve_plate_points(kernel, constants, solve_wcc, fluid, hx, *inputs)
 
 
 @functools.lru_cache(maxsize=4)

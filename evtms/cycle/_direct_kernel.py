@@ -3,12 +3,13 @@
 The closure of :mod:`evtms.cycle._closure_kernel` (the suction and discharge
 roots and the branch's drop, the same searches, guesses and tolerances, the
 same steps from one evaluation to the next) for the air-cooled circuit
-(``cabin`` and ``chiller``: compressor, condenser, evaporator or plate
-chiller) on the direct models of
+(``cabin``, ``chiller``, ``hp``: compressor, air-cooled condenser or WCC,
+evaporator or plate chiller) on the direct models of
 :class:`evtms.cycle.models.DirectModels` instead of the LUTs: each component
 is the bench's compiled per-point twin on the refrigerant tables,
 :func:`evtms.benches._compressor_kernel.compress_point`,
-:func:`evtms.hx._coil_kernels.march_point` and
+:func:`evtms.hx._coil_kernels.march_point`,
+:func:`evtms.benches._wcc_kernel.solve_point_wcc` and
 :func:`evtms.benches._chiller_kernel.solve_point_chiller`. The coils' air sides
 (entering air, capacity rate, air-side resistance) are fixed per point and
 computed before, as :func:`evtms.benches.coil.solve_coil` computes them.
@@ -37,6 +38,10 @@ from evtms.benches._chiller_kernel import COLUMNS as PLATE_COLUMNS
 from evtms.benches._chiller_kernel import solve_point_chiller
 from evtms.benches._compressor_kernel import COLUMNS as COMPRESSOR_COLUMNS
 from evtms.benches._compressor_kernel import compress_point
+from evtms.benches._wcc_kernel import COLUMNS as WCC_COLUMNS
+from evtms.benches._wcc_kernel import solve_point_wcc
+from evtms.benches.chiller import OUTPUTS as CHILLER_OUTPUTS
+from evtms.benches.wcc import OUTPUTS as WCC_OUTPUTS
 from evtms.cycle._closure_kernel import _NV, _SIZE, _W_COMP, _W_COND, _begin, _take_result
 from evtms.hx._coil_kernels import COLUMNS as COIL_COLUMNS
 from evtms.hx._coil_kernels import POINTS as COIL_POINTS
@@ -63,8 +68,13 @@ _K_HOC, _K_POUT = PLATE_COLUMNS.index("h_out_continued"), PLATE_COLUMNS.index("p
 _PLATE_MASKS = ("coolant_outside", "bad_flow", "coolant_freezes", "bad_direction", "bad_dp", "bad_props")
 _K_OUTSIDE, _K_FLOW, _K_FREEZES, _K_DIR, _K_DP, _K_PROPS = (PLATE_COLUMNS.index(k) for k in _PLATE_MASKS)
 _K_TABLES = PLATE_COLUMNS.index("outside_tables")
-_PLATE_FINITE = ("Q", "h_out", "T_out", "p_out", "x_out", "T_coolant_out", "dp", "capacity_ratio", "h_out_continued")
-_K_FINITE = np.array([PLATE_COLUMNS.index(k) for k in _PLATE_FINITE], np.int64)
+_K_FINITE = np.array([PLATE_COLUMNS.index(k) for k in CHILLER_OUTPUTS if k not in ("status", "h_in")], np.int64)
+# The WCC's: what its bench reads of them in its statuses' order, its closure's, and its finite outputs.
+_WCC_MASKS = ("bad_flow", "coolant_freezes", "inlet_subcooled", "not_below_inlet", "coolant_outside", "bad_dp")
+_W_FLOW, _W_FREEZES, _W_SUBCOOLED, _W_NOT_BELOW, _W_OUTSIDE, _W_DP = (WCC_COLUMNS.index(k) for k in _WCC_MASKS)
+_W_PROPS, _W_TABLES = WCC_COLUMNS.index("bad_props"), WCC_COLUMNS.index("outside_tables")
+_W_CR, _W_POUT = WCC_COLUMNS.index("capacity_ratio"), WCC_COLUMNS.index("p_out")
+_W_FINITE = np.array([WCC_COLUMNS.index(k) for k in WCC_OUTPUTS if k not in ("status", "h_in")], np.int64)
 # The rows _take_result reads of an answer: the compressor's flow, suction and discharge enthalpy;
 # the condensing coil's capacity ratio and outlet pressure; the evaporator's continued outlet
 # enthalpy and outlet pressure (the first four rows are the LUT kernel's, unused here).
@@ -163,6 +173,59 @@ def _plate(dyn, coolant, plate, tables, row, r):
 _COIL_CONSTANTS = 6
 
 
+@_inline
+def _wcc(dyn, coolant, wcc, tables, row, r):
+    """The water-cooled condenser at the slot's ``(mdot, p_in, h_in)`` and the point's heating-loop
+    ``coolant`` (flow [kg/s], inlet temperature [K]): ``r`` is ``(capacity_ratio, p_out)``, NaN
+    where the bench's point is not valid (:func:`evtms.benches.wcc.wcc_heat_rate`: a supercritical
+    or out-of-range inlet, no flow, a freezing coolant, a subcooled inlet, a coolant outside its
+    tables, a drop past the inlet pressure, a failed property); no heat flow where the coolant is
+    not colder than the refrigerant entering."""
+    geo, cool, mirrored, T_freeze, T_max, p_triple, p_crit, curve_p_min, g_range, gauss = wcc
+    r[0], r[1] = np.nan, np.nan
+    mdot, p_in, h_in = dyn[0], dyn[1], dyn[2]
+    if p_in >= p_crit or not (math.isfinite(h_in) and p_in > p_triple):
+        return _VALUE
+    solve_point_wcc(
+        p_in, h_in, mdot, coolant[0], coolant[1], geo, cool, mirrored, T_freeze, T_max, p_triple, p_crit,
+        curve_p_min, g_range, tables, gauss, row,
+    )  # fmt: skip
+    if row[_W_TABLES] > 0:
+        return _HAND_BACK
+    if row[_W_FLOW] > 0 or row[_W_FREEZES] > 0 or row[_W_SUBCOOLED] > 0:
+        return _VALUE
+    if row[_W_NOT_BELOW] > 0:
+        return _NO_HEAT
+    if row[_W_OUTSIDE] > 0 or row[_W_DP] > 0 or row[_W_PROPS] > 0:
+        return _VALUE
+    total = 0.0
+    for k in _W_FINITE:
+        total += row[k]
+    if math.isfinite(total):
+        r[0], r[1] = row[_W_CR], row[_W_POUT]
+    return _VALUE
+
+
+def _condensing(dyn, inputs, cond, tables, pt, row_m, row_w, r):
+    """The condensing component: the air-cooled condenser or the WCC, by its constants' tuple
+    (compiled for the one it is)."""
+
+
+@numba.extending.overload(_condensing)
+def _condensing_for(dyn, inputs, cond, tables, pt, row_m, row_w, r):
+    if len(cond.types) == _COIL_CONSTANTS:
+
+        def coil(dyn, inputs, cond, tables, pt, row_m, row_w, r):
+            return _coil(dyn, inputs, cond, tables, pt, row_m, r, _M_CR)
+
+        return coil
+
+    def wcc(dyn, inputs, cond, tables, pt, row_m, row_w, r):
+        return _wcc(dyn, inputs, cond, tables, row_w, r)
+
+    return wcc
+
+
 def _branch(dyn, inputs, branch, tables, pt, row_m, row_k, r):
     """The evaporating branch: the coil or the plate chiller, by its constants' tuple (compiled
     for the one it is; see the overload below)."""
@@ -184,7 +247,7 @@ def _branch_for(dyn, inputs, branch, tables, pt, row_m, row_k, r):
 
 
 @_njit
-def solve_points(speed, comp, cond_air, cond, branch_in, branch, tables, ops, sat, tol, out, mem, answer):
+def solve_points(speed, comp, cond_in, cond, branch_in, branch, tables, ops, sat, tol, out, mem, answer):
     """The closure at every point on the bench physics: suction and discharge roots and the
     branch's drop, as :func:`evtms.cycle._closure_kernel.solve_points` on the LUTs.
 
@@ -200,12 +263,13 @@ def solve_points(speed, comp, cond_air, cond, branch_in, branch, tables, ops, sa
         The compressor speed per point [1].
     comp : (8,) float64
         The compressor constants (:func:`evtms.benches.compressor.kernel_constants`).
-    cond_air : (n, 7) float64
-        The condenser's air per point (the march's ``POINTS`` after ``mdot``,
-        :func:`evtms.benches.coil.march_inputs`).
-    cond : tuple
-        The condenser's ``(tube, condenser, moist, sat_T, sat_h, sat_w)``: the march's tube
-        array, its mode and the saturated-air curve.
+    cond_in, cond
+        The condensing component per point and its constants: the air-cooled condenser's air
+        ``(n, 7)`` (the march's ``POINTS`` after ``mdot``, :func:`evtms.benches.coil.march_inputs`)
+        and ``(tube, condenser, moist, sat_T, sat_h, sat_w)`` (the march's tube array, its mode
+        and the saturated-air curve); or the WCC's heating-loop coolant flow [kg/s] and inlet
+        temperature [K] ``(n, 2)`` and its :func:`evtms.benches.wcc.kernel_constants` but the
+        refrigerant tables.
     branch_in, branch
         The evaporating branch per point and its constants: an evaporator coil's air
         ``(n, 7)`` and constants as the condenser's; or the plate chiller's coolant flow [kg/s]
@@ -227,6 +291,7 @@ def solve_points(speed, comp, cond_air, cond, branch_in, branch, tables, ops, sa
     row_c = np.empty(len(COMPRESSOR_COLUMNS))
     row_m = np.empty(len(COIL_COLUMNS))
     row_k = np.empty(len(PLATE_COLUMNS))
+    row_w = np.empty(len(WCC_COLUMNS))
     pt = np.empty(len(COIL_POINTS))
     if at[1] > 0:  # the caller's answer to the evaluation asked for
         at[1] = 0
@@ -243,7 +308,7 @@ def solve_points(speed, comp, cond_air, cond, branch_in, branch, tables, ops, sa
         if what == _W_COMP:
             got = _compressor(dyn[0], speed[i], comp, tables, row_c, r)
         elif what == _W_COND:
-            got = _coil(dyn[0], cond_air[i], cond, tables, pt, row_m, r, _M_CR)
+            got = _condensing(dyn[0], cond_in[i], cond, tables, pt, row_m, row_w, r)
         else:
             got = _branch(dyn[0], branch_in[i], branch, tables, pt, row_m, row_k, r)
         if got == _HAND_BACK:

@@ -9,10 +9,11 @@ loop (:mod:`evtms.cycle._closure_kernel`), and with two branches in parallel
 another (:mod:`evtms.cycle._parallel_kernel`), then evaluates the components at
 the roots with every output variable as the Python path does
 (:func:`evtms.cycle.closure.final_states`). A warm start of one branch (a
-previous solve's solution) starts the kernel's searches from its roots. On the bench physics itself
-(:class:`~evtms.cycle.models.DirectModels`), for the circuits with the air-cooled
-condenser and one branch (``cabin``, ``chiller``), a third kernel runs the same closure on the benches' compiled
-twins (:mod:`evtms.cycle._direct_kernel`) and asks the bench for the few states
+previous solve's solution) starts the kernel's searches from its roots. On the
+bench physics itself (:class:`~evtms.cycle.models.DirectModels`), for a circuit
+of one condensing component and one branch (``cabin``, ``chiller``, ``hp``), a
+third kernel runs the same closure on the benches' compiled twins
+(:mod:`evtms.cycle._direct_kernel`) and asks the bench for the few states
 beyond their property tables. The points a kernel hands back (a model's
 envelope met on the way, no root in the range, a subcooled condenser target),
 a warm start of two parallel branches, and every other circuit or model go through
@@ -232,7 +233,7 @@ def compiled_roots(
 
 
 #: The circuits the direct-physics kernel serves: the condensing component and the branches.
-DIRECT_CIRCUITS = (("condenser", ("evaporator",)), ("condenser", ("chiller",)))
+DIRECT_CIRCUITS = (("condenser", ("evaporator",)), ("condenser", ("chiller",)), ("wcc", ("chiller",)))
 
 
 def _direct_eligible(ctx: SolveContext) -> bool:
@@ -254,7 +255,6 @@ def _direct_parts(ctx: SolveContext, ops: Ops) -> list:
     the compressor's speed per point and constants, each coil's air per point and its march's
     constants, or the plate chiller's coolant per point and constants; each with no point held
     back (the mask :func:`packed` gives)."""
-    from evtms.benches.chiller import kernel_constants as chiller_constants
     from evtms.benches.coil import march_inputs
     from evtms.benches.compressor import kernel_constants
 
@@ -265,16 +265,27 @@ def _direct_parts(ctx: SolveContext, ops: Ops) -> list:
     parts = [((speed, kernel_constants(params.compressor, fluid)), kept)]
     for role in (ctx.circuit.condensing, *ctx.circuit.branches):
         inputs = [np.broadcast_to(np.asarray(ops[k], float), (n,)) for k in role.inputs]
-        if role.component == "chiller":  # its coolant per point, the plate's constants
-            geo, cool, T_freeze, T_max, p_triple, p_min, _, gauss = chiller_constants(fluid, params.chiller)
+        if role.component in ("chiller", "wcc"):  # a plate: its coolant per point, its constants
             coolant = np.ascontiguousarray(np.stack(inputs, axis=1))
-            parts.append(((coolant, (geo, cool, T_freeze, T_max, p_triple, p_min, gauss, fluid.p_crit)), kept))
+            parts.append(((coolant, _plate_constants(role.component, params, fluid)), kept))
             continue
         coil = role.component
         air, tube, curve = march_inputs(fluid, getattr(params, coil), params.environment, *inputs, mode=coil)
         air = np.ascontiguousarray(np.broadcast_to(air, (n, air.shape[1])))
         parts.append(((air, (tube, coil == "condenser", coil == "evaporator", *curve)), kept))
     return parts
+
+
+def _plate_constants(component: str, params, fluid) -> tuple:
+    """A plate exchanger's constants as the direct-physics kernel takes them: the bench kernel's
+    (``kernel_constants``) without the refrigerant tables, the chiller's with the critical pressure."""
+    from evtms.benches import chiller, wcc
+
+    if component == "chiller":
+        geo, cool, T_freeze, T_max, p_triple, p_min, _, gauss = chiller.kernel_constants(fluid, params.chiller)
+        return geo, cool, T_freeze, T_max, p_triple, p_min, gauss, fluid.p_crit
+    *head, _, gauss = wcc.kernel_constants(fluid, params.wcc)
+    return (*head, gauss)
 
 
 def _direct_roots(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, parts: list, guesses: dict):
@@ -284,13 +295,13 @@ def _direct_roots(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, 
 
     n = ops["speed"].size
     rows = _kernel_inputs(ctx, ops, limits, state, parts, guesses, _closure_kernel.OPS_ROWS)
-    (speed, comp), (cond_air, cond), (evap_air, evap) = (p[0] for p in parts)
+    (speed, comp), (cond_in, cond), (branch_in, branch) = (p[0] for p in parts)
     sat = (ctx.sat._log_p, ctx.sat.T, ctx.sat.h_l)
     out = np.empty((6, n))
     tol = _tolerances(state, _closure_kernel.TOLERANCES)
     tables = tables_for(ctx.models.fluid).arrays
     mem, answer = _direct_kernel.memory(), np.zeros(4)
-    args = (speed, comp, cond_air, cond, evap_air, evap, tables, rows, sat, tol, out, mem, answer)
+    args = (speed, comp, cond_in, cond, branch_in, branch, tables, rows, sat, tol, out, mem, answer)
     while (ask := _direct_kernel.solve_points(*args)) >= 0:
         answer[:] = _bench_answer(ctx, take(ops, mem[5][:1]), ask, mem[3][0])
     return CompiledRoots(*out[:5], solved=out[5] == 1.0)
