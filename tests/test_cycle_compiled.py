@@ -356,3 +356,21 @@ def test_warm_solves_through_the_kernel_are_the_python_warm_solves(direct_solver
         for key in ("p_A", "p_B", "mdot", "superheat_actual", "COP"):
             np.testing.assert_allclose(fast[key], slow[key], rtol=1e-9, err_msg=key)
     assert len(statuses) == 2  # holding the setpoint and floating
+
+
+def test_a_search_that_stays_beyond_the_tables_goes_to_the_python_path(direct_solver, monkeypatch):
+    """A condenser that cannot condense below the critical pressure (a fan nearly stopped on a hot
+    day): the kernel asks the bench at most BENCH_ASKS_MAX times, then hands the point back, and
+    the Python path says why it fails."""
+    import evtms.cycle.compiled as compiled
+
+    asked = []
+    real = compiled._bench_answer
+    monkeypatch.setattr(compiled, "_bench_answer", lambda *a: asked.append(a[2]) or real(*a))
+    point = OperatingPoints(speed=1.0, T_amb=323.15, fan=0.05)
+    ctx = SolveContext(direct_solver.models, direct_solver.sat, direct_solver.circuit)
+    roots = compiled_roots(ctx, point.subset(np.arange(1)))
+    assert not roots.solved[0]
+    assert len(asked) == compiled.BENCH_ASKS_MAX
+    fast, slow = direct_solver.solve(point), python_path(direct_solver).solve(point)
+    assert fast["reason"][0] == slow["reason"][0] != ""

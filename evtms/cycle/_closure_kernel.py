@@ -382,7 +382,7 @@ def _extrapolated_discharge(w, t_A, t_guess):
     most 2 K from the latest; ``t_guess`` where there are not two (closure._extrapolated_discharge)."""
     a1, b1, a0, b0 = w[_PAIR_A1], w[_PAIR_B1], w[_PAIR_A0], w[_PAIR_B0]
     shift = (b1 - b0) / (a1 - a0) * (t_A - a1)
-    if not (math.isfinite(shift) and math.isfinite(b1) and abs(a1 - a0) > 1e-9):
+    if math.isnan(shift) or not (math.isfinite(b1) and abs(a1 - a0) > 1e-9):
         return t_guess
     return b1 + min(max(shift, -2.0), 2.0)
 

@@ -23,8 +23,12 @@ or any non-finite output gives NaN. An evaluation at a state the tables do not h
 CoolProp: a discharge search's upper end near the critical pressure, say) is
 asked of the caller, and the closure goes on with its answer. A point whose
 search ends without a root is handed back: the Python path solves it and says
-why it fails. The
-roots equal the Python path's on the same models to round-off.
+why it fails. The roots equal the Python path's on the same models to
+round-off.
+
+numba keys a cache on the function's own file: after editing a kernel this
+module compiles in (:mod:`evtms.cycle._closure_kernel`'s steps, the benches'
+twins), touch this file (or clear ``evtms/cycle/__pycache__/*.nb*``).
 """
 
 from __future__ import annotations
@@ -283,7 +287,7 @@ def solve_points(speed, comp, cond_in, cond, branch_in, branch, tables, ops, sat
         The kernel's memory between calls (:func:`memory`, new for each batch).
     answer : (4,) float64
         The caller's evaluation, where the kernel asked for one: the three values it reads (as
-        ``_ROWS`` orders them) and 1 where no heat flows.
+        ``_ROWS`` orders them) and 1 where no heat flows (-1: the point is handed back).
     """
     v, so, si, dyn, wait, point, at = mem
     n = ops.shape[1]
@@ -295,8 +299,13 @@ def solve_points(speed, comp, cond_in, cond, branch_in, branch, tables, ops, sat
     pt = np.empty(len(COIL_POINTS))
     if at[1] > 0:  # the caller's answer to the evaluation asked for
         at[1] = 0
-        r[0], r[1], r[2] = answer[0], answer[1], answer[2]
-        _take_result(r, answer[3] > 0, _ROWS, v, so, si, dyn, wait, point, 0, ops, sat, tol, out)
+        if answer[3] < 0:  # the caller hands the point back
+            out[:, point[0]] = np.nan
+            out[5, point[0]] = 0.0
+            point[0] = -1
+        else:
+            r[0], r[1], r[2] = answer[0], answer[1], answer[2]
+            _take_result(r, answer[3] > 0, _ROWS, v, so, si, dyn, wait, point, 0, ops, sat, tol, out)
     while True:
         while point[0] < 0:  # the next point (a point not served leaves the slot free)
             if at[0] >= n:
