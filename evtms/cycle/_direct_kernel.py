@@ -38,15 +38,16 @@ import math
 import numpy as np
 
 from evtms._jit import compile_one_at_a_time, load_numba
+from evtms.benches import chiller, condenser, evaporator, wcc
 from evtms.benches._chiller_kernel import COLUMNS as PLATE_COLUMNS
 from evtms.benches._chiller_kernel import solve_point_chiller
 from evtms.benches._compressor_kernel import COLUMNS as COMPRESSOR_COLUMNS
 from evtms.benches._compressor_kernel import compress_point
 from evtms.benches._wcc_kernel import COLUMNS as WCC_COLUMNS
 from evtms.benches._wcc_kernel import solve_point_wcc
-from evtms.benches.chiller import OUTPUTS as CHILLER_OUTPUTS
-from evtms.benches.wcc import OUTPUTS as WCC_OUTPUTS
+from evtms.benches.base import STATUS_OUTSIDE_FLUID_RANGE, STATUS_PROPERTY_FAILED
 from evtms.cycle._closure_kernel import _NV, _SIZE, _W_COMP, _W_COND, _begin, _take_result
+from evtms.cycle.tables import wrong_side_flags
 from evtms.hx._coil_kernels import COLUMNS as COIL_COLUMNS
 from evtms.hx._coil_kernels import POINTS as COIL_POINTS
 from evtms.hx._coil_kernels import TUBE, march_point
@@ -55,8 +56,25 @@ numba = load_numba()
 _njit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _inline = numba.extending.register_jitable
 
-# What an evaluation gives the closure: a value, no heat flow, or nothing the kernel can decide.
-_VALUE, _NO_HEAT, _HAND_BACK = 0, 1, 2
+# An evaluation's answer is its bench's status code (before the valid points' own flags: 0 where
+# valid), or one of these: a state beyond the tables (the bench decides it with CoolProp), or a coil
+# asked at a flow or pressure that is not finite (NaN; the bench's NumPy march names the status).
+ASK, NAN_INPUT = -1, -2
+# The one status the coil, chiller and WCC benches give a refrigerant on the wrong side of their
+# secondary stream (no heat flows the way the circuit needs).
+_WRONG = {c for m in (condenser, evaporator, chiller, wcc) for c in wrong_side_flags(m.FLAGS)}
+assert len(_WRONG) == 1, _WRONG
+WRONG_SIDE = _WRONG.pop()
+_OUTSIDE, _FAILED = STATUS_OUTSIDE_FLUID_RANGE, STATUS_PROPERTY_FAILED
+_DP_CODE, _FLOW_CODE, _FREEZE_CODE = (
+    condenser.STATUS_DP_EXCEEDS_INLET,
+    chiller.STATUS_FLOW_NOT_POSITIVE,
+    chiller.STATUS_COOLANT_FREEZES,
+)
+# The benches share these codes (each names its own); the kernel reads one of each.
+assert {m.STATUS_DP_EXCEEDS_INLET for m in (condenser, evaporator, chiller, wcc)} == {_DP_CODE}
+assert (wcc.STATUS_FLOW_NOT_POSITIVE, wcc.STATUS_COOLANT_FREEZES) == (_FLOW_CODE, _FREEZE_CODE)
+_SUBCOOLED_CODE, _SUPERCRITICAL_CODE = wcc.STATUS_INLET_SUBCOOLED, wcc.STATUS_SUPERCRITICAL
 # The compressor's columns read.
 _C_MDOT, _C_HIN, _C_HOUT, _C_CODE, _C_FALLBACK = (
     COMPRESSOR_COLUMNS.index(k) for k in ("mdot", "h_in", "h_out", "code", "fallback")
@@ -72,13 +90,13 @@ _K_HOC, _K_POUT = PLATE_COLUMNS.index("h_out_continued"), PLATE_COLUMNS.index("p
 _PLATE_MASKS = ("coolant_outside", "bad_flow", "coolant_freezes", "bad_direction", "bad_dp", "bad_props")
 _K_OUTSIDE, _K_FLOW, _K_FREEZES, _K_DIR, _K_DP, _K_PROPS = (PLATE_COLUMNS.index(k) for k in _PLATE_MASKS)
 _K_TABLES = PLATE_COLUMNS.index("outside_tables")
-_K_FINITE = np.array([PLATE_COLUMNS.index(k) for k in CHILLER_OUTPUTS if k not in ("status", "h_in")], np.int64)
+_K_FINITE = np.array([PLATE_COLUMNS.index(k) for k in chiller.OUTPUTS if k not in ("status", "h_in")], np.int64)
 # The WCC's: what its bench reads of them in its statuses' order, its closure's, and its finite outputs.
 _WCC_MASKS = ("bad_flow", "coolant_freezes", "inlet_subcooled", "not_below_inlet", "coolant_outside", "bad_dp")
 _W_FLOW, _W_FREEZES, _W_SUBCOOLED, _W_NOT_BELOW, _W_OUTSIDE, _W_DP = (WCC_COLUMNS.index(k) for k in _WCC_MASKS)
 _W_PROPS, _W_TABLES = WCC_COLUMNS.index("bad_props"), WCC_COLUMNS.index("outside_tables")
 _W_CR, _W_POUT = WCC_COLUMNS.index("capacity_ratio"), WCC_COLUMNS.index("p_out")
-_W_FINITE = np.array([WCC_COLUMNS.index(k) for k in WCC_OUTPUTS if k not in ("status", "h_in")], np.int64)
+_W_FINITE = np.array([WCC_COLUMNS.index(k) for k in wcc.OUTPUTS if k not in ("status", "h_in")], np.int64)
 # The rows _take_result reads of an answer: the compressor's flow, suction and discharge enthalpy;
 # the condensing coil's capacity ratio and outlet pressure; the evaporator's continued outlet
 # enthalpy and outlet pressure (the first four rows are the LUT kernel's, unused here).
@@ -87,44 +105,55 @@ _ROWS = np.array([0, 0, 0, 3, 0, 1, 2], np.int64)
 
 @_inline
 def _compressor(dyn, speed, c, tables, row, r):
-    """The compressor at the slot's suction ``(p_in, T_in)`` and pressure ratio: ``r`` is
-    ``(mdot, h_in, h_out)``, NaN where the bench's point is not valid."""
+    """The compressor at the slot's suction ``(p_in, T_in)`` and pressure ratio: its bench's status
+    (:func:`evtms.benches.compressor.compressor_power`), and ``r`` ``(mdot, h_in, h_out)`` where
+    valid (else NaN); ``row`` holds its kernel's columns."""
     meta, sat, vap, liq = tables
     compress_point(speed, dyn[4], dyn[1], dyn[3], False, c, meta, sat, vap, liq, row)
+    r[0], r[1], r[2] = np.nan, np.nan, np.nan
     if row[_C_FALLBACK] > 0:
-        return _HAND_BACK
-    ok = row[_C_CODE] == 0 and math.isfinite(row[0] + row[_C_MDOT] + row[_C_HIN] + row[_C_HOUT] + row[4] + row[5])
-    r[0], r[1], r[2] = (row[_C_MDOT], row[_C_HIN], row[_C_HOUT]) if ok else (np.nan, np.nan, np.nan)
-    return _VALUE
+        return ASK
+    code = int(row[_C_CODE])
+    if code != 0:
+        return code
+    if not math.isfinite(row[0] + row[_C_MDOT] + row[_C_HIN] + row[_C_HOUT] + row[4] + row[5]):
+        return _FAILED
+    r[0], r[1], r[2] = row[_C_MDOT], row[_C_HIN], row[_C_HOUT]
+    return 0
 
 
 @_inline
 def _coil(dyn, air, coil, tables, pt, row, r, first):
-    """A coil at the slot's ``(mdot, p_in, h_in)``: ``r`` is ``(column first, p_out)``, NaN where
-    the bench's point is not valid; no heat flow where its refrigerant is on the wrong side of the
-    air."""
-    tube, condenser, moist, sat_T, sat_h, sat_w = coil
+    """A coil at the slot's ``(mdot, p_in, h_in)``: its bench's status (:func:`evtms.benches.
+    condenser.coil_bench_outputs`), and ``r`` ``(column first, p_out)`` where valid (else NaN);
+    ``row`` holds the march's columns."""
+    tube, is_condenser, moist, sat_T, sat_h, sat_w = coil
     meta, sat, vap, liq = tables
     r[0], r[1] = np.nan, np.nan
     mdot, p_in, h_in = dyn[0], dyn[1], dyn[2]
-    if not (math.isfinite(mdot) and math.isfinite(p_in) and math.isfinite(h_in)):
-        return _VALUE  # the bench's inlet outside the fluid's range, or a flow the compressor did not give
+    if not (math.isfinite(mdot) and math.isfinite(p_in)):
+        return NAN_INPUT
+    if not math.isfinite(h_in):
+        return _OUTSIDE
     pt[0], pt[1], pt[2] = p_in, h_in, mdot
     for k in range(air.size):
         pt[3 + k] = air[k]
-    march_point(pt, tube, condenser, moist, meta, sat, vap, liq, sat_T, sat_h, sat_w, row)
+    march_point(pt, tube, is_condenser, moist, meta, sat, vap, liq, sat_T, sat_h, sat_w, row)
     if row[_M_FALLBACK] > 0:
-        return _HAND_BACK
+        return ASK
     if row[_M_DIR] > 0:
-        return _NO_HEAT
-    if not (row[_M_POUT] > tube[_P_TRIPLE]) or row[_M_PROPS] > 0:
-        return _VALUE
+        return WRONG_SIDE
+    if not (row[_M_POUT] > tube[_P_TRIPLE]):
+        return _DP_CODE
+    if row[_M_PROPS] > 0:
+        return _FAILED
     total = 0.0
     for k in _M_FINITE:
         total += row[k]
-    if math.isfinite(total):
-        r[0], r[1] = row[first], row[_M_POUT]
-    return _VALUE
+    if not math.isfinite(total):
+        return _FAILED
+    r[0], r[1] = row[first], row[_M_POUT]
+    return 0
 
 
 def memory() -> tuple:
@@ -152,29 +181,31 @@ def _plate(dyn, coolant, plate, tables, row, r):
     r[0], r[1] = np.nan, np.nan
     mdot, p_in, h_in = dyn[0], dyn[1], dyn[2]
     if not (math.isfinite(h_in) and p_in > p_triple and p_in < p_crit):
-        return _VALUE
+        return _OUTSIDE
     solve_point_chiller(
         p_in, h_in, mdot, coolant[0], coolant[1], geo, cool, T_freeze, T_max, p_triple, curve_p_min, tables, gauss, row
     )
     if row[_K_TABLES] > 0:
-        return _HAND_BACK
-    if row[_K_OUTSIDE] > 0 or row[_K_FLOW] > 0 or row[_K_FREEZES] > 0:
-        return _VALUE
+        return ASK
+    if row[_K_OUTSIDE] > 0:
+        return _OUTSIDE
+    if row[_K_FLOW] > 0:
+        return _FLOW_CODE
+    if row[_K_FREEZES] > 0:
+        return _FREEZE_CODE
     if row[_K_DIR] > 0:
-        return _NO_HEAT
-    if row[_K_DP] > 0 or row[_K_PROPS] > 0:
-        return _VALUE
+        return WRONG_SIDE
+    if row[_K_DP] > 0:
+        return _DP_CODE
+    if row[_K_PROPS] > 0:
+        return _FAILED
     total = 0.0
     for k in _K_FINITE:
         total += row[k]
-    if math.isfinite(total):
-        r[0], r[1] = row[_K_HOC], row[_K_POUT]
-    return _VALUE
-
-
-#: The length of a coil's constants (``tube, condenser, moist, sat_T, sat_h, sat_w``); a plate
-#: chiller's are ``geo, cool, T_freeze, T_max, p_triple, curve_p_min, gauss, p_crit``.
-_COIL_CONSTANTS = 6
+    if not math.isfinite(total):
+        return _FAILED
+    r[0], r[1] = row[_K_HOC], row[_K_POUT]
+    return 0
 
 
 @_inline
@@ -188,66 +219,69 @@ def _wcc(dyn, coolant, wcc, tables, row, r):
     geo, cool, mirrored, T_freeze, T_max, p_triple, p_crit, curve_p_min, g_range, gauss = wcc
     r[0], r[1] = np.nan, np.nan
     mdot, p_in, h_in = dyn[0], dyn[1], dyn[2]
-    if p_in >= p_crit or not (math.isfinite(h_in) and p_in > p_triple):
-        return _VALUE
+    if p_in >= p_crit:
+        return _SUPERCRITICAL_CODE
+    if not (math.isfinite(h_in) and p_in > p_triple):
+        return _OUTSIDE
     solve_point_wcc(
         p_in, h_in, mdot, coolant[0], coolant[1], geo, cool, mirrored, T_freeze, T_max, p_triple, p_crit,
         curve_p_min, g_range, tables, gauss, row,
     )  # fmt: skip
     if row[_W_TABLES] > 0:
-        return _HAND_BACK
-    if row[_W_FLOW] > 0 or row[_W_FREEZES] > 0 or row[_W_SUBCOOLED] > 0:
-        return _VALUE
+        return ASK
+    if row[_W_FLOW] > 0:
+        return _FLOW_CODE
+    if row[_W_FREEZES] > 0:
+        return _FREEZE_CODE
+    if row[_W_SUBCOOLED] > 0:
+        return _SUBCOOLED_CODE
     if row[_W_NOT_BELOW] > 0:
-        return _NO_HEAT
-    if row[_W_OUTSIDE] > 0 or row[_W_DP] > 0 or row[_W_PROPS] > 0:
-        return _VALUE
+        return WRONG_SIDE
+    if row[_W_OUTSIDE] > 0:
+        return _OUTSIDE
+    if row[_W_DP] > 0:
+        return _DP_CODE
+    if row[_W_PROPS] > 0:
+        return _FAILED
     total = 0.0
     for k in _W_FINITE:
         total += row[k]
-    if math.isfinite(total):
-        r[0], r[1] = row[_W_CR], row[_W_POUT]
-    return _VALUE
+    if not math.isfinite(total):
+        return _FAILED
+    r[0], r[1] = row[_W_CR], row[_W_POUT]
+    return 0
 
 
-def _condensing(dyn, inputs, cond, tables, pt, row_m, row_w, r):
-    """The condensing component: the air-cooled condenser or the WCC, by its constants' tuple
-    (compiled for the one it is)."""
+#: The length of a coil's constants (``tube, condenser, moist, sat_T, sat_h, sat_w``) and a plate
+#: chiller's (``geo, cool, T_freeze, T_max, p_triple, curve_p_min, gauss, p_crit``); the WCC's are
+#: :func:`evtms.benches.wcc.kernel_constants` but the refrigerant tables.
+_COIL_CONSTANTS, _CHILLER_CONSTANTS = 6, 8
 
 
-@numba.extending.overload(_condensing)
-def _condensing_for(dyn, inputs, cond, tables, pt, row_m, row_w, r):
-    if len(cond.types) == _COIL_CONSTANTS:
+def _exchanger(dyn, inputs, constants, tables, pt, row_m, row_k, row_w, r, first):
+    """A heat exchanger: the coil, the chiller or the WCC, by its constants' tuple (compiled for the
+    one it is); a coil's ``r`` starts with its column ``first``."""
 
-        def coil(dyn, inputs, cond, tables, pt, row_m, row_w, r):
-            return _coil(dyn, inputs, cond, tables, pt, row_m, r, _M_CR)
+
+@numba.extending.overload(_exchanger)
+def _exchanger_for(dyn, inputs, constants, tables, pt, row_m, row_k, row_w, r, first):
+    if len(constants.types) == _COIL_CONSTANTS:
+
+        def coil(dyn, inputs, constants, tables, pt, row_m, row_k, row_w, r, first):
+            return _coil(dyn, inputs, constants, tables, pt, row_m, r, first)
 
         return coil
+    if len(constants.types) == _CHILLER_CONSTANTS:
 
-    def wcc(dyn, inputs, cond, tables, pt, row_m, row_w, r):
-        return _wcc(dyn, inputs, cond, tables, row_w, r)
+        def plate(dyn, inputs, constants, tables, pt, row_m, row_k, row_w, r, first):
+            return _plate(dyn, inputs, constants, tables, row_k, r)
+
+        return plate
+
+    def wcc(dyn, inputs, constants, tables, pt, row_m, row_k, row_w, r, first):
+        return _wcc(dyn, inputs, constants, tables, row_w, r)
 
     return wcc
-
-
-def _branch(dyn, inputs, branch, tables, pt, row_m, row_k, r):
-    """The evaporating branch: the coil or the plate chiller, by its constants' tuple (compiled
-    for the one it is; see the overload below)."""
-
-
-@numba.extending.overload(_branch)
-def _branch_for(dyn, inputs, branch, tables, pt, row_m, row_k, r):
-    if len(branch.types) == _COIL_CONSTANTS:
-
-        def coil(dyn, inputs, branch, tables, pt, row_m, row_k, r):
-            return _coil(dyn, inputs, branch, tables, pt, row_m, r, _M_HOC)
-
-        return coil
-
-    def plate(dyn, inputs, branch, tables, pt, row_m, row_k, r):
-        return _plate(dyn, inputs, branch, tables, row_k, r)
-
-    return plate
 
 
 @_njit
@@ -317,13 +351,64 @@ def solve_points(speed, comp, cond_in, cond, branch_in, branch, tables, ops, sat
         if what == _W_COMP:
             got = _compressor(dyn[0], speed[i], comp, tables, row_c, r)
         elif what == _W_COND:
-            got = _condensing(dyn[0], cond_in[i], cond, tables, pt, row_m, row_w, r)
+            got = _exchanger(dyn[0], cond_in[i], cond, tables, pt, row_m, row_k, row_w, r, _M_CR)
         else:
-            got = _branch(dyn[0], branch_in[i], branch, tables, pt, row_m, row_k, r)
-        if got == _HAND_BACK:
+            got = _exchanger(dyn[0], branch_in[i], branch, tables, pt, row_m, row_k, row_w, r, _M_HOC)
+        if got == ASK:
             at[1] = 1
             return min(what, 2)
-        _take_result(r, got == _NO_HEAT, _ROWS, v, so, si, dyn, wait, point, 0, ops, sat, tol, out)
+        none = what != _W_COMP and got == WRONG_SIDE
+        _take_result(r, none, _ROWS, v, so, si, dyn, wait, point, 0, ops, sat, tol, out)
+
+
+@_njit
+def compressor_rows(speed, T_in, p_in, pr, c, tables):
+    """The compressor bench's compiled twin at each point, as :func:`solve_points` reads it: its
+    kernel's columns (``evtms.benches._compressor_kernel.COLUMNS``) and the bench's status per point
+    (:data:`ASK` where its states leave the tables)."""
+    n = p_in.size
+    rows = np.empty((n, len(COMPRESSOR_COLUMNS)))
+    codes = np.empty(n, np.int64)
+    dyn, r = np.empty(5), np.empty(3)
+    for i in range(n):
+        dyn[1], dyn[3], dyn[4] = p_in[i], T_in[i], pr[i]
+        codes[i] = _compressor(dyn, speed[i], c, tables, rows[i], r)
+    return rows, codes
+
+
+@_njit
+def exchanger_rows(mdot, p_in, h_in, inputs, constants, tables):
+    """A coil, the WCC or the chiller at each point, as :func:`solve_points` reads it: its kernel's
+    columns (the coil march's, the WCC's or the chiller's ``COLUMNS``) and the bench's status per
+    point (:data:`ASK`: states beyond the tables; :data:`NAN_INPUT`: a coil at a flow or pressure
+    that is not finite). ``inputs`` and ``constants`` as :func:`solve_points` takes them."""
+    n = p_in.size
+    width = max(len(COIL_COLUMNS), len(PLATE_COLUMNS), len(WCC_COLUMNS))
+    rows = np.full((n, width), np.nan)
+    codes = np.empty(n, np.int64)
+    dyn, r, pt = np.empty(5), np.empty(3), np.empty(len(COIL_POINTS))
+    row_m, row_k, row_w = np.empty(len(COIL_COLUMNS)), np.empty(len(PLATE_COLUMNS)), np.empty(len(WCC_COLUMNS))
+    for i in range(n):
+        dyn[0], dyn[1], dyn[2] = mdot[i], p_in[i], h_in[i]
+        row_m[:], row_k[:], row_w[:] = np.nan, np.nan, np.nan
+        codes[i] = _exchanger(dyn, inputs[i], constants, tables, pt, row_m, row_k, row_w, r, _M_CR)
+        _keep(rows[i], row_m, row_k, row_w, len(constants))
+    return rows, codes
+
+
+@_inline
+def _keep(out, row_m, row_k, row_w, n_constants):
+    """The row of the exchanger the constants name (a coil's six, the chiller's eight, the WCC's ten)."""
+    src = row_m if n_constants == _COIL_CONSTANTS else (row_k if n_constants == _CHILLER_CONSTANTS else row_w)
+    for k in range(src.size):
+        out[k] = src[k]
+
+
+def twin_columns(component: str) -> tuple[str, ...]:
+    """The columns of ``component``'s rows in :func:`compressor_rows` and :func:`exchanger_rows`."""
+    return {"compressor": COMPRESSOR_COLUMNS, "chiller": PLATE_COLUMNS, "wcc": WCC_COLUMNS}.get(component, COIL_COLUMNS)
 
 
 compile_one_at_a_time(solve_points)
+compile_one_at_a_time(compressor_rows)
+compile_one_at_a_time(exchanger_rows)

@@ -538,6 +538,7 @@ def solve_at(
     lo, lo_axis, hi, hi_axis = _suction_range(ctx, ops, limits, T_sec)
     state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess, warm)
     ctx.models.subcooled_targets(bool(np.any(ops["subcooling"] > 0)))
+    ctx.models.detailed(False)  # the iterations' variables; final_states asks for every one
     # The status each failure reason came with (the discharge side's own: a condenser that
     # cannot reach its outlet at any discharge pressure is not the end of a model's envelope).
     failure_status: dict[str, int] = {}

@@ -252,40 +252,19 @@ def _direct_eligible(ctx: SolveContext) -> bool:
 
 def _direct_parts(ctx: SolveContext, ops: Ops) -> list:
     """The direct-physics kernel's components as it takes them (:mod:`evtms.cycle._direct_kernel`):
-    the compressor's speed per point and constants, each coil's air per point and its march's
-    constants, or the plate chiller's coolant per point and constants; each with no point held
-    back (the mask :func:`packed` gives)."""
-    from evtms.benches.coil import march_inputs
-    from evtms.benches.compressor import kernel_constants
-
-    params, fluid = ctx.models.params, ctx.models.fluid
+    the compressor's speed per point and constants, then the condensing component's and the
+    branch's per-point inputs and constants (:meth:`~evtms.cycle.models.DirectModels.twin_inputs`,
+    :meth:`~evtms.cycle.models.DirectModels.twin_constants`); each with no point held back (the
+    mask :func:`packed` gives)."""
+    models = ctx.models
     n = ops["speed"].size
     kept = np.zeros(n, bool)
     speed = np.ascontiguousarray(np.broadcast_to(np.asarray(ops["speed"], float), (n,)))
-    parts = [((speed, kernel_constants(params.compressor, fluid)), kept)]
+    parts = [((speed, models.twin_constants("compressor")), kept)]
     for role in (ctx.circuit.condensing, *ctx.circuit.branches):
-        inputs = [np.broadcast_to(np.asarray(ops[k], float), (n,)) for k in role.inputs]
-        if role.component in ("chiller", "wcc"):  # a plate: its coolant per point, its constants
-            coolant = np.ascontiguousarray(np.stack(inputs, axis=1))
-            parts.append(((coolant, _plate_constants(role.component, params, fluid)), kept))
-            continue
-        coil = role.component
-        air, tube, curve = march_inputs(fluid, getattr(params, coil), params.environment, *inputs, mode=coil)
-        air = np.ascontiguousarray(np.broadcast_to(air, (n, air.shape[1])))
-        parts.append(((air, (tube, coil == "condenser", coil == "evaporator", *curve)), kept))
+        per_point = models.twin_inputs(role.component, *(ops[k] for k in role.inputs), n=n)
+        parts.append(((per_point, models.twin_constants(role.component)), kept))
     return parts
-
-
-def _plate_constants(component: str, params, fluid) -> tuple:
-    """A plate exchanger's constants as the direct-physics kernel takes them: the bench kernel's
-    (``kernel_constants``) without the refrigerant tables, the chiller's with the critical pressure."""
-    from evtms.benches import chiller, wcc
-
-    if component == "chiller":
-        geo, cool, T_freeze, T_max, p_triple, p_min, _, gauss = chiller.kernel_constants(fluid, params.chiller)
-        return geo, cool, T_freeze, T_max, p_triple, p_min, gauss, fluid.p_crit
-    *head, _, gauss = wcc.kernel_constants(fluid, params.wcc)
-    return (*head, gauss)
 
 
 def _direct_roots(ctx: SolveContext, ops: Ops, limits: dict, state: SolveState, parts: list, guesses: dict):

@@ -17,8 +17,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from evtms._jit import numba_enabled
 from evtms.benches.base import in_codes
 from evtms.benches.condenser import SUPERHEATED_INLETS
+from evtms.benches.evaporator import FREEZING_POINT
 from evtms.benches.expansion_valve import ExpansionValveParams, nominal_opening
 from evtms.benches.parameters import Parameters
 from evtms.cycle.approach import APPROACH, OUTLET, SECONDARY_INLET, SUPERHEAT_MIN, outlet_enthalpy
@@ -137,6 +139,41 @@ def _column(value, n: int) -> np.ndarray:
 _VALVE_AREAS: dict[tuple[ExpansionValveParams, str, str], float] = {}
 
 
+#: The inputs of each exchanger's secondary stream in its bench call, as its compiled twin takes them.
+_TWIN_INPUTS = {
+    "condenser": ("fan", "T_air_in", "RH_air_in"),
+    "evaporator": ("blower", "T_air_in", "RH_air_in"),
+    "chiller": ("mdot_coolant", "T_coolant_in"),
+    "wcc": ("mdot_coolant", "T_coolant_in"),
+}
+#: One-point air sides a :class:`DirectModels` keeps (a solve meets one air state per coil).
+_AIR_KEPT = 64
+
+
+def _twin_outputs(component: str) -> tuple[str, ...]:
+    """The outputs the compiled twins give a closure's iterations: :data:`COMPONENT_OUTPUTS` but
+    the evaporator's ``Q_latent`` (the bench's alone)."""
+    return tuple(k for k in COMPONENT_OUTPUTS[component] if k != "Q_latent")
+
+
+def _twin_constants(component: str, params: Parameters, fluid: Fluid) -> tuple | np.ndarray:
+    """:meth:`DirectModels.twin_constants`, computed."""
+    from evtms.benches import chiller, compressor, wcc
+    from evtms.benches.coil import march_inputs
+
+    if component == "compressor":
+        return compressor.kernel_constants(params.compressor, fluid)
+    if component == "chiller":
+        geo, cool, T_freeze, T_max, p_triple, p_min, _, gauss = chiller.kernel_constants(fluid, params.chiller)
+        return geo, cool, T_freeze, T_max, p_triple, p_min, gauss, fluid.p_crit
+    if component == "wcc":
+        *head, _, gauss = wcc.kernel_constants(fluid, params.wcc)
+        return (*head, gauss)
+    env = params.environment  # the tube array and the saturated-air curve do not depend on the air state
+    _, tube, curve = march_inputs(fluid, getattr(params, component), env, 1.0, env.T, env.RH, component)
+    return (tube, component == "condenser", component == "evaporator", *curve)
+
+
 class DirectModels:
     """The bench physics, called directly (no LUTs).
 
@@ -157,11 +194,20 @@ class DirectModels:
         self.fluid = fluid or Fluid(params.fluid, params.backend)
         self._benches = BENCHES
         self._flag_codes: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {}
+        self._iterating = False
+        self._constants: dict[str, tuple] = {}
+        self._air: dict[tuple, np.ndarray] = {}
 
     def _run(self, component: str, inputs: dict[str, np.ndarray]) -> Result:
-        bench = self._benches[component]
         n = len(next(iter(inputs.values())))
         inputs = {k: _column(v, n) for k, v in inputs.items()}
+        if self._iterating and numba_enabled():
+            return self._run_twins(component, inputs, n)
+        return self._run_bench(component, inputs, n)
+
+    def _run_bench(self, component: str, inputs: dict[str, np.ndarray], n: int) -> Result:
+        """The bench function itself: every variable."""
+        bench = self._benches[component]
         with per_point_searches():  # a cycle solver's calls hold a few points each
             out = bench.evaluate(inputs, self.params, self.fluid)
         status = out["status"]
@@ -177,6 +223,72 @@ class DirectModels:
             result["frost_risk"] = in_codes(status, frost).astype(float)
         result["reason"] = reasons
         return result
+
+    def _run_twins(self, component: str, inputs: dict[str, np.ndarray], n: int) -> Result:
+        """The closure's iterations: the benches' compiled twins as the direct-physics kernel reads
+        them (:mod:`evtms.cycle._direct_kernel`: the same values and statuses as the bench
+        functions, every variable of :data:`COMPONENT_OUTPUTS` but the evaporator's ``Q_latent``,
+        whose correction for fog at the outlet the twins leave to the bench). Points the twins
+        leave to the bench (states beyond the property tables, a coil at a flow or pressure that
+        is not finite) go through it."""
+        from evtms.cycle import _direct_kernel as kernel
+        from evtms.fluid_tables import tables_for
+
+        tables = tables_for(self.fluid).arrays
+        if component == "compressor":
+            args = (inputs[k] for k in ("speed", "T_in", "p_in", "pr"))
+            rows, codes = kernel.compressor_rows(*args, self.twin_constants(component), tables)
+        else:
+            secondary = (inputs[k] for k in _TWIN_INPUTS[component])
+            per_point = self.twin_inputs(component, *secondary, n=n)
+            args = (inputs[k] for k in ("mdot", "p_in", "h_in"))
+            rows, codes = kernel.exchanger_rows(*args, per_point, self.twin_constants(component), tables)
+        columns = kernel.twin_columns(component)
+        valid = codes == 0
+        result = {k: np.where(valid, rows[:, columns.index(k)], np.nan) for k in _twin_outputs(component)}
+        result["no_heat_flow"] = (codes == kernel.WRONG_SIDE) if component != "compressor" else np.zeros(n, bool)
+        if component == "evaporator":
+            result["frost_risk"] = (valid & (rows[:, columns.index("T_surface_min")] < FREEZING_POINT)).astype(float)
+        flags = self._benches[component].flags
+        result["reason"] = np.array([f"{component}: {flags[c]}" if c > 0 else "" for c in codes.tolist()], object)
+        rest = np.nonzero(codes < 0)[0]
+        if rest.size:  # the bench decides these (CoolProp beyond the tables)
+            sub = self._run_bench(component, {k: v[rest] for k, v in inputs.items()}, rest.size)
+            for key, value in result.items():
+                value[rest] = sub[key]
+        return result
+
+    def twin_constants(self, component: str) -> tuple | np.ndarray:
+        """What the compiled twin of ``component`` takes besides its points
+        (:mod:`evtms.cycle._direct_kernel`): the compressor's constants, a coil's tube array, mode and
+        saturated-air curve, the plate chiller's or the WCC's constants (without the refrigerant
+        tables); kept per component."""
+        if component not in self._constants:
+            self._constants[component] = _twin_constants(component, self.params, self.fluid)
+        return self._constants[component]
+
+    def twin_inputs(self, component: str, *secondary, n: int) -> np.ndarray:
+        """The compiled twin's per-point inputs of ``component`` at its secondary stream
+        ``secondary`` (a coil's air fraction [1], temperature [K] and relative humidity [1]: its air
+        side per point, :func:`evtms.benches.coil.march_inputs`, kept for one-point calls; a
+        plate's coolant flow [kg/s] and inlet temperature [K]) for ``n`` points."""
+        columns = [np.broadcast_to(np.asarray(v, float), (n,)) for v in secondary]
+        if component not in ("condenser", "evaporator"):
+            return np.ascontiguousarray(np.stack(columns, axis=1))
+        from evtms.benches.coil import march_inputs
+
+        key = (component, *(float(c[0]) for c in columns)) if n == 1 else None
+        if key is not None and key in self._air:
+            return self._air[key]
+        air, _, _ = march_inputs(
+            self.fluid, getattr(self.params, component), self.params.environment, *columns, component
+        )
+        air = np.ascontiguousarray(np.broadcast_to(air, (n, air.shape[1])))
+        if key is not None:
+            if len(self._air) >= _AIR_KEPT:
+                self._air.clear()
+            self._air[key] = air
+        return air
 
     def _codes(self, component: str) -> tuple[tuple[int, ...], tuple[int, ...]]:
         """The bench's :func:`wrong_side_flags` and :func:`frost_risk_flags` (found once per component)."""
@@ -238,7 +350,9 @@ class DirectModels:
         return _reasons(len(next(iter(ops.values()))))
 
     def detailed(self, on: bool) -> None:
-        """The bench functions always return every variable."""
+        """Every variable, from the bench functions (the final states), or the closure's
+        iterations on the benches' compiled twins (:meth:`_run_twins`)."""
+        self._iterating = not on
 
     def subcooled_targets(self, on: bool) -> None:
         """The bench functions always return every variable."""
