@@ -2,10 +2,10 @@
 
 The closure of :mod:`evtms.cycle._closure_kernel` (the suction and discharge
 roots and the branch's drop, the same searches, guesses and tolerances, the
-same steps from one evaluation to the next) for the air-cooled circuit
-(``cabin``, ``chiller``, ``hp``: compressor, air-cooled condenser or WCC,
-evaporator or plate chiller) on the direct models of
-:class:`evtms.cycle.models.DirectModels` instead of the LUTs: each component
+same steps from one evaluation to the next) for a circuit of one condensing
+component and one branch (``cabin``, ``chiller``, ``hp``: compressor,
+air-cooled condenser or WCC, evaporator or plate chiller) on the direct models
+of :class:`evtms.cycle.models.DirectModels` instead of the LUTs: each component
 is the bench's compiled per-point twin on the refrigerant tables,
 :func:`evtms.benches._compressor_kernel.compress_point`,
 :func:`evtms.hx._coil_kernels.march_point`,
@@ -14,17 +14,19 @@ is the bench's compiled per-point twin on the refrigerant tables,
 (entering air, capacity rate, air-side resistance) are fixed per point and
 computed before, as :func:`evtms.benches.coil.solve_coil` computes them.
 
-Each evaluation is read as :class:`~evtms.cycle.models.DirectModels` reads the
-bench's result (:func:`evtms.benches.condenser.coil_bench_outputs`,
-:func:`evtms.benches.base.finish_status`): a point whose refrigerant is on the
-wrong side of the air (the bench's wrong-side status) gives no heat flow; a
-non-finite inlet, a pressure drop past the inlet pressure, a failed property
-or any non-finite output gives NaN. An evaluation at a state the tables do not hold (the bench solves it with
-CoolProp: a discharge search's upper end near the critical pressure, say) is
-asked of the caller, and the closure goes on with its answer. A point whose
-search ends without a root is handed back: the Python path solves it and says
-why it fails. The roots equal the Python path's on the same models to
-round-off.
+Each evaluation gives its bench's status (:func:`evtms.benches.condenser.
+coil_bench_outputs` and the other benches' functions, before
+:func:`evtms.benches.base.finish_status` names the valid points' flags): a
+refrigerant on the wrong side of its secondary stream (:data:`WRONG_SIDE`)
+gives no heat flow; a non-finite inlet, a pressure drop past the inlet
+pressure, a failed property or any non-finite output gives NaN. An evaluation
+at a state the tables do not hold (the bench solves it with CoolProp: a
+discharge search's upper end near the critical pressure, say) is asked of the
+caller, and the closure goes on with its answer. A point whose search ends
+without a root is handed back: the Python path solves it and says why it
+fails. The roots equal the Python path's on the same models to round-off.
+:func:`compressor_rows` and :func:`exchanger_rows` give the same evaluations
+to the Python path's iterations (``DirectModels`` with ``detailed(False)``).
 
 numba keys a cache on the function's own file: after editing a kernel this
 module compiles in (:mod:`evtms.cycle._closure_kernel`'s steps, the benches'
