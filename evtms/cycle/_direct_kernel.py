@@ -77,32 +77,76 @@ _DP_CODE, _FLOW_CODE, _FREEZE_CODE = (
 assert {m.STATUS_DP_EXCEEDS_INLET for m in (condenser, evaporator, chiller, wcc)} == {_DP_CODE}
 assert (wcc.STATUS_FLOW_NOT_POSITIVE, wcc.STATUS_COOLANT_FREEZES) == (_FLOW_CODE, _FREEZE_CODE)
 _SUBCOOLED_CODE, _SUPERCRITICAL_CODE = wcc.STATUS_INLET_SUBCOOLED, wcc.STATUS_SUPERCRITICAL
-# The compressor's columns read.
+# The compressor's columns read, and those a valid bench point holds finite (its outputs).
 _C_MDOT, _C_HIN, _C_HOUT, _C_CODE, _C_FALLBACK = (
     COMPRESSOR_COLUMNS.index(k) for k in ("mdot", "h_in", "h_out", "code", "fallback")
 )
+_C_FINITE = np.array([COMPRESSOR_COLUMNS.index(k) for k in ("W", "mdot", "h_in", "h_out", "T_out", "eta_vol")])
 # The coil's columns read; those a valid bench point holds finite (its outputs, the latent heat).
 _COIL_READ = ("capacity_ratio", "h_out_continued", "p_out", "bad_direction", "bad_props", "fallback")
 _M_CR, _M_HOC, _M_POUT, _M_DIR, _M_PROPS, _M_FALLBACK = (COIL_COLUMNS.index(k) for k in _COIL_READ)
 _COIL_FINITE = ("Q", "dp", "h_out", "h_out_continued", "capacity_ratio", "latent", "cond_enthalpy", "p_out", "x_out")
 _M_FINITE = np.array([COIL_COLUMNS.index(k) for k in (*_COIL_FINITE, "T_out")], np.int64)
 _P_TRIPLE = TUBE.index("p_triple")
-# The plate chiller's columns read, and those a valid bench point holds finite (its outputs).
+# The plates' columns read, and those a valid bench point holds finite (its outputs).
 _K_HOC, _K_POUT = PLATE_COLUMNS.index("h_out_continued"), PLATE_COLUMNS.index("p_out")
-_PLATE_MASKS = ("coolant_outside", "bad_flow", "coolant_freezes", "bad_direction", "bad_dp", "bad_props")
-_K_OUTSIDE, _K_FLOW, _K_FREEZES, _K_DIR, _K_DP, _K_PROPS = (PLATE_COLUMNS.index(k) for k in _PLATE_MASKS)
-_K_TABLES = PLATE_COLUMNS.index("outside_tables")
 _K_FINITE = np.array([PLATE_COLUMNS.index(k) for k in chiller.OUTPUTS if k not in ("status", "h_in")], np.int64)
-# The WCC's: what its bench reads of them in its statuses' order, its closure's, and its finite outputs.
-_WCC_MASKS = ("bad_flow", "coolant_freezes", "inlet_subcooled", "not_below_inlet", "coolant_outside", "bad_dp")
-_W_FLOW, _W_FREEZES, _W_SUBCOOLED, _W_NOT_BELOW, _W_OUTSIDE, _W_DP = (WCC_COLUMNS.index(k) for k in _WCC_MASKS)
-_W_PROPS, _W_TABLES = WCC_COLUMNS.index("bad_props"), WCC_COLUMNS.index("outside_tables")
 _W_CR, _W_POUT = WCC_COLUMNS.index("capacity_ratio"), WCC_COLUMNS.index("p_out")
 _W_FINITE = np.array([WCC_COLUMNS.index(k) for k in wcc.OUTPUTS if k not in ("status", "h_in")], np.int64)
+
+
+def _order(columns: tuple[str, ...], masks: tuple[tuple[str, int], ...]) -> np.ndarray:
+    """A plate's statuses in its bench's order (its ``first_code`` list), after the states beyond the
+    tables: rows ``(mask column, code)``."""
+    return np.array([(columns.index(k), code) for k, code in (("outside_tables", ASK), *masks)], np.int64)
+
+
+_K_ORDER = _order(
+    PLATE_COLUMNS,
+    (
+        ("coolant_outside", _OUTSIDE),
+        ("bad_flow", _FLOW_CODE),
+        ("coolant_freezes", _FREEZE_CODE),
+        ("bad_direction", WRONG_SIDE),
+        ("bad_dp", _DP_CODE),
+        ("bad_props", _FAILED),
+    ),
+)
+_W_ORDER = _order(
+    WCC_COLUMNS,
+    (
+        ("bad_flow", _FLOW_CODE),
+        ("coolant_freezes", _FREEZE_CODE),
+        ("inlet_subcooled", _SUBCOOLED_CODE),
+        ("not_below_inlet", WRONG_SIDE),
+        ("coolant_outside", _OUTSIDE),
+        ("bad_dp", _DP_CODE),
+        ("bad_props", _FAILED),
+    ),
+)
 # The rows _take_result reads of an answer: the compressor's flow, suction and discharge enthalpy;
 # the condensing coil's capacity ratio and outlet pressure; the evaporator's continued outlet
 # enthalpy and outlet pressure (the first four rows are the LUT kernel's, unused here).
 _ROWS = np.array([0, 0, 0, 3, 0, 1, 2], np.int64)
+
+
+@_inline
+def _finite(row, columns):
+    """Whether every column ``columns`` of ``row`` is finite."""
+    total = 0.0
+    for k in columns:
+        total += row[k]
+    return math.isfinite(total)
+
+
+@_inline
+def _plate_status(row, order, finite):
+    """A plate's bench status from its kernel's ``row``: the code of the first mask of ``order`` set,
+    else :data:`STATUS_PROPERTY_FAILED` where an output of ``finite`` is not finite, else 0."""
+    for j in range(order.shape[0]):
+        if row[order[j, 0]] > 0:
+            return order[j, 1]
+    return 0 if _finite(row, finite) else _FAILED
 
 
 @_inline
@@ -118,7 +162,7 @@ def _compressor(dyn, speed, c, tables, row, r):
     code = int(row[_C_CODE])
     if code != 0:
         return code
-    if not math.isfinite(row[0] + row[_C_MDOT] + row[_C_HIN] + row[_C_HOUT] + row[4] + row[5]):
+    if not _finite(row, _C_FINITE):
         return _FAILED
     r[0], r[1], r[2] = row[_C_MDOT], row[_C_HIN], row[_C_HOUT]
     return 0
@@ -147,12 +191,7 @@ def _coil(dyn, air, coil, tables, pt, row, r, first):
         return WRONG_SIDE
     if not (row[_M_POUT] > tube[_P_TRIPLE]):
         return _DP_CODE
-    if row[_M_PROPS] > 0:
-        return _FAILED
-    total = 0.0
-    for k in _M_FINITE:
-        total += row[k]
-    if not math.isfinite(total):
+    if row[_M_PROPS] > 0 or not _finite(row, _M_FINITE):
         return _FAILED
     r[0], r[1] = row[first], row[_M_POUT]
     return 0
@@ -187,27 +226,10 @@ def _plate(dyn, coolant, plate, tables, row, r):
     solve_point_chiller(
         p_in, h_in, mdot, coolant[0], coolant[1], geo, cool, T_freeze, T_max, p_triple, curve_p_min, tables, gauss, row
     )
-    if row[_K_TABLES] > 0:
-        return ASK
-    if row[_K_OUTSIDE] > 0:
-        return _OUTSIDE
-    if row[_K_FLOW] > 0:
-        return _FLOW_CODE
-    if row[_K_FREEZES] > 0:
-        return _FREEZE_CODE
-    if row[_K_DIR] > 0:
-        return WRONG_SIDE
-    if row[_K_DP] > 0:
-        return _DP_CODE
-    if row[_K_PROPS] > 0:
-        return _FAILED
-    total = 0.0
-    for k in _K_FINITE:
-        total += row[k]
-    if not math.isfinite(total):
-        return _FAILED
-    r[0], r[1] = row[_K_HOC], row[_K_POUT]
-    return 0
+    code = _plate_status(row, _K_ORDER, _K_FINITE)
+    if code == 0:
+        r[0], r[1] = row[_K_HOC], row[_K_POUT]
+    return code
 
 
 @_inline
@@ -229,29 +251,10 @@ def _wcc(dyn, coolant, wcc, tables, row, r):
         p_in, h_in, mdot, coolant[0], coolant[1], geo, cool, mirrored, T_freeze, T_max, p_triple, p_crit,
         curve_p_min, g_range, tables, gauss, row,
     )  # fmt: skip
-    if row[_W_TABLES] > 0:
-        return ASK
-    if row[_W_FLOW] > 0:
-        return _FLOW_CODE
-    if row[_W_FREEZES] > 0:
-        return _FREEZE_CODE
-    if row[_W_SUBCOOLED] > 0:
-        return _SUBCOOLED_CODE
-    if row[_W_NOT_BELOW] > 0:
-        return WRONG_SIDE
-    if row[_W_OUTSIDE] > 0:
-        return _OUTSIDE
-    if row[_W_DP] > 0:
-        return _DP_CODE
-    if row[_W_PROPS] > 0:
-        return _FAILED
-    total = 0.0
-    for k in _W_FINITE:
-        total += row[k]
-    if not math.isfinite(total):
-        return _FAILED
-    r[0], r[1] = row[_W_CR], row[_W_POUT]
-    return 0
+    code = _plate_status(row, _W_ORDER, _W_FINITE)
+    if code == 0:
+        r[0], r[1] = row[_W_CR], row[_W_POUT]
+    return code
 
 
 #: The length of a coil's constants (``tube, condenser, moist, sat_T, sat_h, sat_w``) and a plate

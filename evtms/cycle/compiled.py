@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from evtms._jit import kernel_array
+from evtms._jit import kernel_array, numba_enabled
 from evtms.cycle.approach import APPROACH, OUTLET, SUPERHEAT_MIN
 from evtms.cycle.branches import branch, no_heat_flow, secondary_temperature
 from evtms.cycle.closure import (
@@ -239,8 +239,6 @@ DIRECT_CIRCUITS = (("condenser", ("evaporator",)), ("condenser", ("chiller",)), 
 def _direct_eligible(ctx: SolveContext) -> bool:
     """The bench physics itself (:class:`~evtms.cycle.models.DirectModels`) with its compiled
     twins, on a circuit of :data:`DIRECT_CIRCUITS`."""
-    from evtms._jit import numba_enabled
-
     circuit = ctx.circuit
     return (
         getattr(ctx.models, "name", "") == "direct"
