@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from evtms._jit import load_numba
+from evtms._jit import load_numba, uncounted
 from evtms.cycle.approach import compiled_outlet_kernel
 from evtms.luts._kernels import NAN_POLICY, interpolate_in, scratch
 
@@ -55,7 +55,7 @@ def evaluate(
     )
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy", **uncounted())  # allocates nothing
 def evaluate_in(
     pts,
     lo,

@@ -123,5 +123,5 @@ def compiled_outlet_kernel():
     and so the cycle, does not load numba); the one compiled copy, which
     :mod:`evtms.cycle._component_kernel` calls as well."""
     if not _COMPILED:
-        _COMPILED.append(jit(_outlet_enthalpy_points))
+        _COMPILED.append(jit(_outlet_enthalpy_points, counted=False))
     return _COMPILED[0]

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from evtms._jit import load_numba
+from evtms._jit import load_numba, uncounted
 
 numba = load_numba()  # lean in the command line's process (evtms._jit.lean_numba)
 
@@ -116,7 +116,9 @@ def scratch(ints, values, d):
     return np.empty(ints[1] * values.shape[1]), np.empty(d), np.zeros(d)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+# Allocates nothing: compiled without reference counting (evtms._jit.uncounted), as the callers
+# that pass it their tables point by point need.
+@numba.njit(cache=True, nogil=True, error_model="numpy", **uncounted())
 def interpolate_in(pts, policy, outside, floats, ints, values, out, corners, t, bows):
     """Multilinear interpolation with the optional curvature correction, all points in one loop.
 
