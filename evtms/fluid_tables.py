@@ -158,7 +158,7 @@ def tables_for(fluid: Fluid) -> PropertyTables:
 # --- scalar kernels (numba) ------------------------------------------------------------------
 
 
-@jit
+@jit(counted=False)
 def _stencil(x: float, n: int) -> tuple[int, float, float, float, float]:
     """First node and the four Lagrange weights at ``x`` (in node units, 0..n-1) on equal steps."""
     i = int(math.floor(x)) - 1
@@ -171,7 +171,7 @@ def _stencil(x: float, n: int) -> tuple[int, float, float, float, float]:
     return i, w0, w1, w2, w3
 
 
-@jit
+@jit(counted=False)
 def pressure_stencil(meta: np.ndarray, p: float) -> tuple[int, float, float, float, float]:
     """:func:`_stencil` of pressure ``p`` [Pa]; first node -1 outside the table (also NaN)."""
     x = (math.log(p) - meta[_U0]) / meta[_DU] if p > 0.0 else -1.0
@@ -181,7 +181,7 @@ def pressure_stencil(meta: np.ndarray, p: float) -> tuple[int, float, float, flo
     return _stencil(x, n)
 
 
-@jit
+@jit(counted=False)
 def sat_column(sat: np.ndarray, st: tuple[int, float, float, float, float], c: int) -> float:
     """Saturation column ``c`` (:data:`SAT_COLUMNS`) at a :func:`pressure_stencil` (NaN outside)."""
     i, w0, w1, w2, w3 = st
@@ -190,7 +190,7 @@ def sat_column(sat: np.ndarray, st: tuple[int, float, float, float, float], c: i
     return w0 * sat[i, c] + w1 * sat[i + 1, c] + w2 * sat[i + 2, c] + w3 * sat[i + 3, c]
 
 
-@jit
+@jit(counted=False)
 def saturation(meta: np.ndarray, sat: np.ndarray, p: float, out: np.ndarray) -> bool:
     """All :data:`SAT_COLUMNS` at ``p`` [Pa] into ``out``; False (``out`` NaN) outside the table."""
     st = pressure_stencil(meta, p)
@@ -199,13 +199,13 @@ def saturation(meta: np.ndarray, sat: np.ndarray, p: float, out: np.ndarray) -> 
     return st[0] >= 0
 
 
-@jit
+@jit(counted=False)
 def _column_at(tab: np.ndarray, st: tuple[int, float, float, float, float], j: int, c: int) -> float:
     i, w0, w1, w2, w3 = st
     return w0 * tab[i, j, c] + w1 * tab[i + 1, j, c] + w2 * tab[i + 2, j, c] + w3 * tab[i + 3, j, c]
 
 
-@jit
+@jit(counted=False)
 def _phase_at(meta: np.ndarray, tab: np.ndarray, st, t: float, out: np.ndarray) -> None:
     """Single-phase columns at depth ``t`` (see the module notes) into ``out``."""
     n = int(meta[_NT])
@@ -219,7 +219,7 @@ def _phase_at(meta: np.ndarray, tab: np.ndarray, st, t: float, out: np.ndarray) 
         )
 
 
-@jit
+@jit(counted=False)
 def pt_state(meta, sat, vapour, liquid, p: float, T: float, out: np.ndarray) -> bool:
     """``h, rho, cp, mu, k`` (:data:`PHASE_COLUMNS`) at ``(p, T)`` into ``out``: vapour at or above
     the saturation temperature, liquid below. False (``out`` NaN) outside the tables."""
@@ -245,14 +245,14 @@ def pt_enthalpy(meta, sat, vapour, liquid, p: float, T: float) -> float:
     return out[0]
 
 
-@jit
+@jit(counted=False)
 def _invert_depth(meta, tab, st, h: float) -> float:
     """The depth ``t`` in [0, 1] where the column's interpolated enthalpy is ``h``; NaN beyond the
     table. The enthalpy is monotonic in ``t`` (rising for vapour, falling for liquid)."""
     return _invert_column(meta, tab, st, h, _COL_H)
 
 
-@jit
+@jit(counted=False)
 def _invert_column(meta, tab, st, h: float, c: int) -> float:
     """The depth ``t`` in [0, 1] where single-phase column ``c`` interpolates to ``h``; NaN beyond
     the table. Column ``c`` must be monotonic in ``t`` (enthalpy and entropy are: both rise with
@@ -304,7 +304,7 @@ def _invert_column(meta, tab, st, h: float, c: int) -> float:
     return (i + r) / (n - 1)
 
 
-@jit
+@jit(counted=False)
 def ph_temperature(meta, sat, vapour, liquid, p: float, h: float) -> float:
     """Temperature [K] at ``(p, h)``: the saturation temperature inside the dome, else the exact
     inverse of :func:`pt_state`'s enthalpy; NaN outside the tables."""
@@ -323,7 +323,7 @@ def ph_temperature(meta, sat, vapour, liquid, p: float, h: float) -> float:
     return T_sat - t * t * (T_sat - meta[_TBOT])
 
 
-@jit
+@jit(counted=False)
 def _depth_column(meta, tab, st, t: float, c: int) -> float:
     """Single-phase column ``c`` at depth ``t`` (one column of :func:`_phase_at`)."""
     n = int(meta[_NT])
@@ -336,7 +336,7 @@ def _depth_column(meta, tab, st, t: float, c: int) -> float:
     )
 
 
-@jit
+@jit(counted=False)
 def ps_enthalpy(meta, sat, vapour, liquid, p: float, s: float) -> float:
     """Enthalpy [J/kg] at ``(p [Pa], s [J/(kg K)])``: in a single phase the exact inverse of
     :func:`pt_state`'s entropy carried to its enthalpy; inside the dome the mixture's,
@@ -357,7 +357,7 @@ def ps_enthalpy(meta, sat, vapour, liquid, p: float, s: float) -> float:
     return _depth_column(meta, tab, st, t, _COL_H)
 
 
-@jit
+@jit(counted=False)
 def _ps_many(meta, sat, vapour, liquid, p, s, out):
     for n in range(p.size):
         out[n] = ps_enthalpy(meta, sat, vapour, liquid, p[n], s[n])
@@ -371,7 +371,7 @@ def _pt_many(meta, sat, vapour, liquid, p, T, out):
         out[n, :] = row
 
 
-@jit
+@jit(counted=False)
 def _ph_many(meta, sat, vapour, liquid, p, h, out):
     for n in range(p.size):
         out[n] = ph_temperature(meta, sat, vapour, liquid, p[n], h[n])

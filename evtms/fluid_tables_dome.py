@@ -62,7 +62,7 @@ def ph_density(meta, sat, vapour, liquid, p: float, h: float) -> float:
     return out[_RHO]
 
 
-@jit
+@jit(counted=False)
 def _ph_density_many(meta, sat, vapour, liquid, p, h, out):
     for n in range(p.size):
         out[n] = ph_density(meta, sat, vapour, liquid, p[n], h[n])

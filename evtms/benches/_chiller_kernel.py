@@ -101,7 +101,7 @@ _T, _HL, _HV, _RHO_L, _RHO_V, _CP_L, _CP_V, _MU_L, _MU_V, _K_L, _K_V = range(len
 _A, _DH, _FLOW_REF, _FLOW_C, _PORT, _R_WALL, _FOUL_REF, _FOUL_C, _LENGTH, _ANGLE, _HEADS, _FLUX = range(len(GEOMETRY))
 
 
-@jit
+@jit(counted=False)
 def _martin_htc(G, D_h, rho, cp, mu, k, angle):
     """Single-phase coefficient [W/(m2 K)] and Reynolds number [1] of a plate channel (Martin 1996),
     as :func:`evtms.benches.chiller.martin_htc`."""
@@ -110,11 +110,11 @@ def _martin_htc(G, D_h, rho, cp, mu, k, angle):
     return martin_nusselt(Re, Pr, angle) * k / D_h, Re
 
 
-@jit
-def _phase_props(meta, sat, vap, liq, p, T, s, vapour):
+@jit(counted=False)
+def _phase_props(meta, sat, vap, liq, p, T, s, vapour, row):
     """Density, heat capacity, viscosity and conductivity at ``(p, T)``, each falling back to the
-    saturated phase's (``s``) where the tables give none (:func:`evtms.benches.chiller.refrigerant_props`)."""
-    row = np.empty(5)
+    saturated phase's (``s``) where the tables give none (:func:`evtms.benches.chiller.refrigerant_props`);
+    ``row``: work (the single phase's state)."""
     pt_state(meta, sat, vap, liq, p, T, row)
     fall = (s[_RHO_V], s[_CP_V], s[_MU_V], s[_K_V]) if vapour else (s[_RHO_L], s[_CP_L], s[_MU_L], s[_K_L])
     rho = row[1] if math.isfinite(row[1]) else fall[0]
@@ -124,7 +124,7 @@ def _phase_props(meta, sat, vap, liq, p, T, s, vapour):
     return rho, cp, mu, k
 
 
-@jit
+@jit(counted=False)
 def _yan_lin_factor(G, D_h, s, nodes, weights):
     """Yan and Lin's coefficient averaged over quality 0..1 (Gauss-Legendre) per ``q^0.3``
     [W/(m2 K) (W/m2)^-0.3], and Re_eq at x = 1/2, as :func:`evtms.benches.chiller._yan_lin_mean`.
@@ -145,7 +145,7 @@ def _yan_lin_factor(G, D_h, s, nodes, weights):
     return factor, Re_eq
 
 
-@jit
+@jit(counted=False)
 def _two_phase_gradient(G, D_h, s, x0, x1, nodes, weights):
     """Mean two-phase frictional gradient [Pa/m] over quality x0..x1 (Yan and Lin 1999),
     as :func:`evtms.benches.chiller._two_phase_gradient`."""
@@ -159,13 +159,13 @@ def _two_phase_gradient(G, D_h, s, x0, x1, nodes, weights):
     return grad
 
 
-@jit
+@jit(counted=False)
 def _clip01(x: float) -> float:
     """``np.clip(x, 0, 1)`` (NaN stays NaN)."""
     return nan_min(nan_max(x, 0.0), 1.0)
 
 
-@jit
+@jit(counted=False)
 def _resistances(T_c_mean, ref, geo, cool, s, gauss):
     """One pass of :func:`evtms.benches.chiller.solve_chiller`'s coolant loop up to the solve: the
     coolant side at ``T_c_mean`` [K], the mean two-phase coefficient at the fixed-point heat flux
@@ -193,7 +193,7 @@ def _resistances(T_c_mean, ref, geo, cool, s, gauss):
     return R_c, Re_c, Re_eq, R0, R1, R2
 
 
-@jit
+@jit(counted=False)
 def plate_outlet_point(tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple):
     """One point of :func:`evtms.benches.chiller.plate_outlet`: the ports' loss (1.4 velocity heads each
     at the inlet's and the outlet's density, Shah and Focke 1988) added to the channels' drop, and the
@@ -226,13 +226,28 @@ def plate_outlet_point(tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_
 def solve_point_chiller(
     p_in, h_in, mdot, m_c, T_c_in, geo, cool, T_freeze, T_max_c, p_triple, curve_p_min, tables, gauss, out
 ):
+    """One point of :func:`evtms.benches.chiller.solve_chiller` into ``out`` (:data:`COLUMNS`):
+    :func:`chiller_in` with its work arrays made here."""
+    work = (np.empty(len(SAT_COLUMNS)), np.empty(5))
+    chiller_in(
+        p_in, h_in, mdot, m_c, T_c_in, geo, cool, T_freeze, T_max_c, p_triple, curve_p_min, tables, gauss, out, work
+    )
+
+
+# The point allocates nothing (its work arrays come from its caller), so it runs without reference
+# counting (evtms._jit.uncounted).
+@jit(counted=False)
+def chiller_in(
+    p_in, h_in, mdot, m_c, T_c_in, geo, cool, T_freeze, T_max_c, p_triple, curve_p_min, tables, gauss, out, work
+):
     """One point of :func:`evtms.benches.chiller.solve_chiller` into ``out`` (:data:`COLUMNS`).
 
     ``geo``: :data:`GEOMETRY`; ``cool``: the coolant's tables (:data:`COOLANT_TABLES`);
     ``T_freeze``, ``T_max_c``: the coolant's freezing point and table top [K]; ``p_triple``
     [Pa]; ``curve_p_min``: the lowest pressure of the CoolProp path's saturation curve [Pa]
     (below it that path has no outlet state either); ``tables``: ``(meta, sat, vapour,
-    liquid)`` of :mod:`evtms.fluid_tables`; ``gauss``: Gauss-Legendre nodes and weights on [0, 1].
+    liquid)`` of :mod:`evtms.fluid_tables`; ``gauss``: Gauss-Legendre nodes and weights on [0, 1];
+    ``work``: the saturation state's and a single phase's rows (written).
     """
     meta, sat, vap, liq = tables
     nodes, weights = gauss
@@ -246,12 +261,11 @@ def solve_point_chiller(
         T_c_in = math.nan
 
     # --- refrigerant states ---------------------------------------------------------
-    s = np.empty(len(SAT_COLUMNS))
+    s, row = work
     saturation(meta, sat, p_in, s)
     T_sat, h_l, h_v = s[_T], s[_HL], s[_HV]
     T_in = ph_temperature(meta, sat, vap, liq, p_in, h_in)
     rho_in = ph_density(meta, sat, vap, liq, p_in, h_in)
-    row = np.empty(5)
     pt_state(meta, sat, vap, liq, p_in, T_c_in, row)
     h_at_c = row[0]
     G = mdot / geo[_FLOW_REF]
@@ -261,11 +275,11 @@ def solve_point_chiller(
     reachable = T_c_in > T_sat
     T_end_l = T_sat if reachable else T_c_in
     rho_lq, cp_lq, mu_lq, k_lq = _phase_props(
-        meta, sat, vap, liq, p_in, 0.5 * (nan_min(T_in, T_sat) + T_end_l), s, False
+        meta, sat, vap, liq, p_in, 0.5 * (nan_min(T_in, T_sat) + T_end_l), s, False, row
     )
     h_liq, Re_liq = _martin_htc(G, D_h, rho_lq, cp_lq, mu_lq, k_lq, angle)
     T0_v = T_in if h_in >= h_v else T_sat
-    rho_vp, cp_vp, mu_vp, k_vp = _phase_props(meta, sat, vap, liq, p_in, 0.5 * (T0_v + T_c_in), s, True)
+    rho_vp, cp_vp, mu_vp, k_vp = _phase_props(meta, sat, vap, liq, p_in, 0.5 * (T0_v + T_c_in), s, True, row)
     h_vap, Re_vap = _martin_htc(G, D_h, rho_vp, cp_vp, mu_vp, k_vp, angle)
     R_fixed = geo[_R_WALL] + geo[_FOUL_REF] / A
     h_c_in = table_interp(T_c_in, cool[0])
@@ -343,8 +357,9 @@ def solve_point_chiller(
 def solve_points(p_in, h_in, mdot, m_c, T_c_in, geo, cool, T_freeze, T_max_c, p_triple, curve_p_min, tables, gauss):
     """:func:`solve_point_chiller` over arrays of points: an ``(n, len(COLUMNS))`` array."""
     out = np.empty((p_in.size, len(COLUMNS)))
+    work = (np.empty(len(SAT_COLUMNS)), np.empty(5))
     for i in range(p_in.size):
-        solve_point_chiller(
+        chiller_in(
             p_in[i],
             h_in[i],
             mdot[i],
@@ -359,5 +374,6 @@ def solve_points(p_in, h_in, mdot, m_c, T_c_in, geo, cool, T_freeze, T_max_c, p_
             tables,
             gauss,
             out[i],
+            work,
         )
     return out

@@ -91,7 +91,7 @@ COLUMNS = (
 )
 
 
-@jit
+@jit(counted=False)
 def _condensing_zone(G, D_h, s, x_hi, x_lo, angle, nodes, weights):
     """Mean condensing coefficient [W/(m2 K)] and frictional gradient [Pa/m] over quality
     ``x_lo..x_hi``, as :func:`evtms.benches.wcc._condensing_zone` (Yan, Lio and Lin 1999;
@@ -110,7 +110,7 @@ def _condensing_zone(G, D_h, s, x_hi, x_lo, angle, nodes, weights):
     return h_sum, grad_sum
 
 
-@jit
+@jit(counted=False)
 def _clip(x, lo, hi):
     """``np.clip(x, lo, hi)`` (NaN stays NaN)."""
     return nan_min(nan_max(x, lo), hi)
@@ -118,6 +118,22 @@ def _clip(x, lo, hi):
 
 @jit
 def solve_point_wcc(
+    p_in, h_in, mdot, m_c, T_c_in, geo, cool, mirrored, T_freeze, T_max_c, p_triple, p_crit, curve_p_min, g_range,
+    tables, gauss, out,
+):  # fmt: skip
+    """One point of :func:`evtms.benches.wcc.solve_wcc` into ``out`` (:data:`COLUMNS`): :func:`wcc_in`
+    with its work arrays made here."""
+    work = (np.empty(len(SAT_COLUMNS)), np.empty(5))
+    wcc_in(
+        p_in, h_in, mdot, m_c, T_c_in, geo, cool, mirrored, T_freeze, T_max_c, p_triple, p_crit, curve_p_min, g_range,
+        tables, gauss, out, work,
+    )  # fmt: skip
+
+
+# The point allocates nothing (its work arrays come from its caller), so it runs without reference
+# counting (evtms._jit.uncounted).
+@jit(counted=False)
+def wcc_in(
     p_in,
     h_in,
     mdot,
@@ -135,6 +151,7 @@ def solve_point_wcc(
     tables,
     gauss,
     out,
+    work,
 ):
     """One point of :func:`evtms.benches.wcc.solve_wcc` into ``out`` (:data:`COLUMNS`).
 
@@ -145,7 +162,7 @@ def solve_point_wcc(
     [Pa]; ``curve_p_min``: the lowest pressure of the CoolProp path's saturation curve [Pa];
     ``g_range``: Yan, Lio and Lin's mass-flux range [kg/(m2 s)]; ``tables``: ``(meta, sat,
     vapour, liquid)`` of :mod:`evtms.fluid_tables`; ``gauss``: Gauss-Legendre nodes and weights
-    on [0, 1].
+    on [0, 1]; ``work``: the saturation state's and a single phase's rows (written).
     """
     meta, sat, vap, liq = tables
     nodes, weights = gauss
@@ -160,7 +177,7 @@ def solve_point_wcc(
 
     # --- refrigerant states ---------------------------------------------------------
     supercritical = p_in >= p_crit
-    s = np.empty(len(SAT_COLUMNS))
+    s, row = work
     saturation(meta, sat, p_in, s)
     T_sat, h_l, h_v = s[_T], s[_HL], s[_HV]
     inlet_subcooled = h_in < h_l
@@ -169,7 +186,6 @@ def solve_point_wcc(
     rho_in = ph_density(meta, sat, vap, liq, p_in, h_in_ok)
     not_below_inlet = (not (T_c_in < T_in)) and math.isfinite(T_c_in + T_in)
     T_c_ok = math.nan if not_below_inlet else T_c_in
-    row = np.empty(5)
     pt_state(meta, sat, vap, liq, p_in, T_c_ok, row)
     h_at_c = row[0]
     if T_c_ok >= T_sat and not (h_at_c > h_v):  # vapour at the coolant's temperature, h_v as it tends to T_sat
@@ -182,10 +198,10 @@ def solve_point_wcc(
     # ends at the saturation or the coolant's inlet temperature, whichever is warmer.
     superheated = h_in_ok > h_v
     T_vap = 0.5 * (T_in + (T_c_ok if T_c_ok > T_sat else T_sat)) if superheated else math.nan
-    rho_vp, cp_vp, mu_vp, k_vp = _phase_props(meta, sat, vap, liq, p_in, T_vap, s, True)
+    rho_vp, cp_vp, mu_vp, k_vp = _phase_props(meta, sat, vap, liq, p_in, T_vap, s, True, row)
     h_vap, Re_vap = _martin_htc(G, D_h, rho_vp, cp_vp, mu_vp, k_vp, angle)
     T_liq = 0.5 * (T_sat + (T_c_ok if T_c_ok < T_sat else T_sat))
-    rho_lq, cp_lq, mu_lq, k_lq = _phase_props(meta, sat, vap, liq, p_in, T_liq, s, False)
+    rho_lq, cp_lq, mu_lq, k_lq = _phase_props(meta, sat, vap, liq, p_in, T_liq, s, False, row)
     h_liq, Re_liq = _martin_htc(G, D_h, rho_lq, cp_lq, mu_lq, k_lq, angle)
     R_fixed = geo[_R_WALL] + geo[_FOUL_REF] / A
     h_lv = h_v - h_l
@@ -296,9 +312,10 @@ def solve_points(
 ):  # fmt: skip
     """:func:`solve_point_wcc` over arrays of points: an ``(n, len(COLUMNS))`` array."""
     out = np.empty((p_in.size, len(COLUMNS)))
+    work = (np.empty(len(SAT_COLUMNS)), np.empty(5))
     for i in range(p_in.size):
-        solve_point_wcc(
+        wcc_in(
             p_in[i], h_in[i], mdot[i], m_c[i], T_c_in[i], geo, cool, mirrored, T_freeze, T_max_c, p_triple, p_crit,
-            curve_p_min, g_range, tables, gauss, out[i],
+            curve_p_min, g_range, tables, gauss, out[i], work,
         )  # fmt: skip
     return out

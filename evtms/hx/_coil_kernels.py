@@ -64,17 +64,17 @@ _T, _HL, _HV, _RHOL, _RHOV, _CPL, _CPV, _MUL, _MUV, _KL, _KV = range(11)
 # --- the correlations of evtms.hx.tube, one point ----------------------------------------------
 
 
-@jit
+@jit(counted=False)
 def _clip(x: float, lo: float, hi: float) -> float:
     return nan_min(nan_max(x, lo), hi)
 
 
-@jit
+@jit(counted=False)
 def _turbulent_weight(Re: float) -> float:
     return _clip((Re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR), 0.0, 1.0)
 
 
-@jit
+@jit(counted=False)
 def haaland_friction_factor(Re: float, rr: float) -> float:
     """:func:`evtms.hx.tube.haaland_friction_factor` (Haaland 1983, laminar 64/Re, linear blend)."""
     Re = nan_max(Re, 1e-12)
@@ -85,7 +85,7 @@ def haaland_friction_factor(Re: float, rr: float) -> float:
     return (1.0 - w) * laminar + w * turbulent
 
 
-@jit
+@jit(counted=False)
 def single_phase_htc(G, D, rr, nu_lam, mu, cp, k) -> float:
     """:meth:`evtms.hx.crossflow.TubeSide.single_phase_htc` (Gnielinski 1976, laminar floor)."""
     Re = G * D / mu
@@ -98,19 +98,19 @@ def single_phase_htc(G, D, rr, nu_lam, mu, cp, k) -> float:
     return ((1.0 - w) * nu_lam + w * turbulent) * k / D
 
 
-@jit
+@jit(counted=False)
 def _gauss_sum(v: np.ndarray) -> float:
     # NumPy's pairwise order for eight terms (np.sum), so the mean rounds as gauss_mean's does.
     return ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]))
 
 
-@jit
-def condensation_shear(G, D, nu_lam, sat) -> float:
+@jit(counted=False)
+def condensation_shear(G, D, nu_lam, sat, v) -> float:
     """The shear-driven part of :meth:`evtms.hx.crossflow.TubeSide.condensation_htc` [W/(m2 K)]:
-    Cavallini and Zecchin (1974) averaged over quality (it does not depend on the heat flux)."""
+    Cavallini and Zecchin (1974) averaged over quality (it does not depend on the heat flux);
+    ``v`` holds the eight Gauss terms (work, written)."""
     mu_l, mu_v, rho_l, rho_v, k_l = sat[_MUL], sat[_MUV], sat[_RHOL], sat[_RHOV], sat[_KL]
     Pr_l = sat[_CPL] * mu_l / k_l
-    v = np.empty(8)
     for n in range(8):
         x = _GN[n]
         Re_eq = (G * x * D / mu_v) * (mu_v / mu_l) * math.sqrt(rho_l / rho_v) + G * (1.0 - x) * D / mu_l
@@ -118,7 +118,7 @@ def condensation_shear(G, D, nu_lam, sat) -> float:
     return _gauss_sum(v) * k_l / D
 
 
-@jit
+@jit(counted=False)
 def condensation_htc(shear, D, sat, q) -> float:
     """:meth:`evtms.hx.crossflow.TubeSide.condensation_htc`: the larger of the shear-driven
     coefficient (:func:`condensation_shear`) and Chato's (1962) film coefficient at heat flux ``q``."""
@@ -131,7 +131,7 @@ def condensation_htc(shear, D, sat, q) -> float:
     return nan_max(shear, film)
 
 
-@jit
+@jit(counted=False)
 def boiling_terms(G, D, nu_lam, sat, h_l, quality_term) -> None:
     """The heat-flux-free parts of Gungor and Winterton's (1987) coefficient at the quality nodes:
     the liquid-only coefficient ``h_l`` and ``1.12 (x/(1-x))^0.75 (rho_l/rho_v)^0.41``."""
@@ -144,30 +144,29 @@ def boiling_terms(G, D, nu_lam, sat, h_l, quality_term) -> None:
         quality_term[n] = 1.12 * (x / (1.0 - x)) ** 0.75 * (rho_l / rho_v) ** 0.41
 
 
-@jit
-def boiling_htc(G, sat, q, h_l, quality_term) -> float:
+@jit(counted=False)
+def boiling_htc(G, sat, q, h_l, quality_term, v) -> float:
     """:meth:`evtms.hx.crossflow.TubeSide.boiling_htc` (Gungor and Winterton 1987) at heat flux
-    ``q``, averaged over quality, from :func:`boiling_terms`."""
+    ``q``, averaged over quality, from :func:`boiling_terms` (``v``: the Gauss terms, work)."""
     Bo = nan_max(q, 0.0) / (G * (sat[_HV] - sat[_HL]))
     nucleate = 3000.0 * Bo**0.86
-    v = np.empty(8)
     for n in range(8):
         v[n] = (1.0 + nucleate + quality_term[n]) * h_l[n] * _GW[n]
     return _gauss_sum(v)
 
 
-@jit
+@jit(counted=False)
 def single_phase_gradient(G, D, rr, mu, rho) -> float:
     """:func:`evtms.hx.tube.single_phase_gradient` (Darcy-Weisbach)."""
     return haaland_friction_factor(G * D / mu, rr) * G**2 / (2.0 * rho * D)
 
 
-@jit
-def two_phase_gradient(G, D, rr, sat, x0, x1) -> float:
-    """:meth:`evtms.hx.crossflow.TubeSide.two_phase_gradient` (Mueller-Steinhagen and Heck 1986)."""
+@jit(counted=False)
+def two_phase_gradient(G, D, rr, sat, x0, x1, v) -> float:
+    """:meth:`evtms.hx.crossflow.TubeSide.two_phase_gradient` (Mueller-Steinhagen and Heck 1986);
+    ``v``: the Gauss terms (work)."""
     A = single_phase_gradient(G, D, rr, sat[_MUL], sat[_RHOL])
     B = single_phase_gradient(G, D, rr, sat[_MUV], sat[_RHOV])
-    v = np.empty(8)
     for n in range(8):
         x = _clip(x0 + (x1 - x0) * _GN[n], 0.0, 1.0)
         lam = A + 2.0 * (B - A) * x
@@ -178,7 +177,7 @@ def two_phase_gradient(G, D, rr, sat, x0, x1) -> float:
 # --- the zone models of evtms.hx.sides, one point ----------------------------------------------
 
 
-@jit
+@jit(counted=False)
 def _dew_point(w, sat_T, sat_w) -> float:
     """:meth:`evtms.fluid.SaturatedAir.dew_point`: -inf below the table, NaN above."""
     if w < sat_w[0]:
@@ -186,7 +185,7 @@ def _dew_point(w, sat_T, sat_w) -> float:
     return interp(w, sat_w, sat_T)
 
 
-@jit
+@jit(counted=False)
 def moist_zone(pt, C_ref, R_ref, Tr0, dry, wet, moist, sat_T, sat_h, sat_w) -> None:
     """:meth:`evtms.hx.sides.MoistAirSide.zone_model` for one point (Braun et al. 1989; the partly
     wet coil of Elmahdy and Mitalas 1977 and Braun 1988): fills ``wet`` and ``moist`` as
@@ -228,7 +227,7 @@ def moist_zone(pt, C_ref, R_ref, Tr0, dry, wet, moist, sat_T, sat_h, sat_w) -> N
     moist[5] = 1.0 if wets else 0.0
 
 
-@jit
+@jit(counted=False)
 def _condensate(f, q_air, moist, sat_T, sat_h, sat_w) -> tuple[float, float, float]:
     """:meth:`evtms.hx.sides.Moisture.condensate`: condensate [kg/s], effective surface
     temperature [K] and the condensate's enthalpy flow [W] (Braun et al. 1989, eqs. 25-28)."""
@@ -243,7 +242,7 @@ def _condensate(f, q_air, moist, sat_T, sat_h, sat_w) -> tuple[float, float, flo
     return m_w, T_s_eff, H_w
 
 
-@jit
+@jit(counted=False)
 def _bisect(target, hi, rate_hi, dry, wet, moist, sat_T, sat_h, sat_w) -> float:
     """:func:`evtms.hx.crossflow.bisect` on the zone's rate for one point, from its root.
 
@@ -305,7 +304,7 @@ def _bisect(target, hi, rate_hi, dry, wet, moist, sat_T, sat_h, sat_w) -> float:
     return 0.5 * (lo + up)
 
 
-@jit
+@jit(counted=False)
 def _bisect_plain(target, hi, dry, wet, moist, sat_T, sat_h, sat_w) -> float:
     """:func:`evtms.hx.crossflow.bisect` on the zone's rate, one point, step by step."""
     lo, up = 0.0, hi
@@ -318,7 +317,7 @@ def _bisect_plain(target, hi, dry, wet, moist, sat_T, sat_h, sat_w) -> float:
     return 0.5 * (lo + up)
 
 
-@jit
+@jit(counted=False)
 def _fraction_needed(Q_needed, two_phase, dry, wet, moist, sat_T, sat_h, sat_w) -> float:
     """:meth:`evtms.hx.crossflow.ZoneHeatRate.fraction_needed`, one point."""
     if not math.isfinite(Q_needed):
@@ -336,18 +335,32 @@ def _fraction_needed(Q_needed, two_phase, dry, wet, moist, sat_T, sat_h, sat_w) 
 
 
 @jit
+def march_work():
+    """The work arrays of :func:`march_in`: the saturation state, the air's state, the boiling
+    terms at the quality nodes, the zone models' states and the Gauss terms."""
+    return (np.empty(11), np.empty(5), np.empty(8), np.empty(8), np.empty(4), np.empty(5), np.empty(6), np.empty(8))
+
+
+@jit
 def march_point(pt, tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_h, sat_w, out) -> None:
     """One point of :func:`march_points` into the row ``out`` (:data:`COLUMNS`)."""
+    march_in(pt, tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_h, sat_w, out, march_work())
+
+
+# The march allocates nothing (its work arrays come from march_work), so it runs without reference
+# counting (evtms._jit.uncounted), which otherwise took about a third of a point's time.
+@jit(counted=False)
+def march_in(pt, tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_h, sat_w, out, work) -> None:
+    """:func:`march_point` with its work arrays (:func:`march_work`)."""
+    s, props, h_liq, quality_term, dry, wet, moist, v8 = work
     p_in, h_in, mdot, T_air, C_air, R_air = pt[0], pt[1], pt[2], pt[3], pt[4], pt[5]
     D_h, flow_area, length, area, rr, nu_lam, R_wall = tube[0], tube[1], tube[2], tube[3], tube[4], tube[5], tube[6]
     for c in range(out.size):
         out[c] = 0.0
     sign = -1.0 if condenser else 1.0
-    s = np.empty(11)
     saturation(meta, sat, p_in, s)
     T_sat, h_l, h_v = s[_T], s[_HL], s[_HV]
     T_in = ph_temperature(meta, sat, vap, liq, p_in, h_in)
-    props = np.empty(5)
     pt_state(meta, sat, vap, liq, p_in, T_air, props)
     h_air_T = props[0]
     G = mdot / flow_area
@@ -364,13 +377,11 @@ def march_point(pt, tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_
 
     q = 1000.0
     h_tp = math.nan
-    shear = condensation_shear(G, D_h, nu_lam, s) if condenser else 0.0
-    h_liq = np.empty(8)
-    quality_term = np.empty(8)
+    shear = condensation_shear(G, D_h, nu_lam, s, v8) if condenser else 0.0
     if not condenser:
         boiling_terms(G, D_h, nu_lam, s, h_liq, quality_term)
     for _ in range(5):
-        h_tp = condensation_htc(shear, D_h, s, q) if condenser else boiling_htc(G, s, q, h_liq, quality_term)
+        h_tp = condensation_htc(shear, D_h, s, q) if condenser else boiling_htc(G, s, q, h_liq, quality_term, v8)
         UA = 1.0 / (R_air + R_wall + 1.0 / (h_tp * area))
         q = nan_max(C_air * -math.expm1(-UA / C_air) * abs(T_air - T_sat) / area, 1.0)
 
@@ -385,9 +396,8 @@ def march_point(pt, tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_
     latent = 0.0
     f_needed = 0.0
     last_zone_slope = math.nan
-    dry = np.empty(4)
-    wet = np.full(5, math.nan)
-    moist = np.full(6, math.nan)
+    wet[:] = math.nan
+    moist[:] = math.nan
     for pos in range(3):
         zone = 2 - pos if condenser else pos
         is_last = pos == 2
@@ -464,7 +474,7 @@ def march_point(pt, tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_
             h_z_end = hr0 + sign * Q_z / mdot
             x0 = (hr0 - h_l) / (h_v - h_l)
             x1 = (h_z_end - h_l) / (h_v - h_l)
-            grad = two_phase_gradient(G, D_h, rr, s, x0, x1)
+            grad = two_phase_gradient(G, D_h, rr, s, x0, x1, v8)
         else:
             grad = single_phase_gradient(G, D_h, rr, mu, rho)
         dp += grad * L
@@ -516,7 +526,8 @@ def march_points(points, tube, condenser, moist_air, meta, sat, vap, liq, sat_T,
     n = points.shape[0]
     out = np.empty((n, len(COLUMNS)))
     row = np.empty(len(COLUMNS))
+    work = march_work()
     for i in range(n):
-        march_point(points[i], tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_h, sat_w, row)
+        march_in(points[i], tube, condenser, moist_air, meta, sat, vap, liq, sat_T, sat_h, sat_w, row, work)
         out[i, :] = row
     return out

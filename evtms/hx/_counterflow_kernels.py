@@ -43,7 +43,7 @@ def bucket_table(xp: np.ndarray, fp: np.ndarray) -> tuple:
     return xp, fp, start, float(xp[0]), float(scale)
 
 
-@jit
+@jit(counted=False)
 def table_interp(x, table):
     """``np.interp(x, xp, fp, left=nan, right=nan)`` for one ``x`` on a :func:`bucket_table`.
 
@@ -69,7 +69,7 @@ def table_interp(x, table):
     return y
 
 
-@jit
+@jit(counted=False)
 def _refrigerant_temperature(h, h_in, T_in, T_sat, h_l, h_v, slope_l, h0_v, T0_v, slope_v):
     """:func:`evtms.hx._kernels.counterflow_refrigerant_temperature` with the point's slopes given."""
     if h < h_l:
@@ -81,7 +81,7 @@ def _refrigerant_temperature(h, h_in, T_in, T_sat, h_l, h_v, slope_l, h0_v, T0_v
     return T
 
 
-@jit
+@jit(counted=False)
 def _log_mean(a, b):
     """:func:`evtms.hx._kernels.log_mean` (positive ``a`` and ``b``), with one return."""
     r = b / a
@@ -93,7 +93,7 @@ def _log_mean(a, b):
     return lm
 
 
-@jit
+@jit(counted=False)
 def _zone(Q_z, R, dT_a, dT_b):
     """A zone's fraction [1] from its heat load, resistance and end differences (inf: infeasible)."""
     f = 0.0
@@ -102,7 +102,7 @@ def _zone(Q_z, R, dT_a, dT_b):
     return f
 
 
-@jit
+@jit(counted=False)
 def prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R):
     """A point's constants for :func:`fractions_of`: the inputs, each zone's resistance with the
     secondary's, the refrigerant's secant slopes (``counterflow._refrigerant_temperature``) and the
@@ -112,7 +112,7 @@ def prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_i
     return (mdot, h_in, T_in, T_sat, h_l, h_v, R0s, R1s, R2s, s_mdot, s_T_in, s_h_in, slope_l, h0_v, T0_v, slope_v)
 
 
-@jit
+@jit(counted=False)
 def fractions_of(Q, point, table):
     """The three zone fractions [1] of :func:`evtms.hx.counterflow._fractions` at trial heat rate
     ``Q`` [W] (liquid, two-phase, vapour; inf where infeasible) of a :func:`prepare`-d point, with
@@ -149,14 +149,14 @@ def fractions_of(Q, point, table):
     return f0, f1, f2
 
 
-@jit
+@jit(counted=False)
 def fractions(Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table):
     """:func:`fractions_of` of one point given by its inputs (see the module notes)."""
     point = prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R)
     return fractions_of(Q, point, table)
 
 
-@jit
+@jit(counted=False)
 def _total(Q, point, table):
     f0, f1, f2 = fractions_of(Q, point, table)
     return f0 + f1 + f2
@@ -169,7 +169,7 @@ _BRACKET_STEPS = 16
 _WARM_STEP = 0.03
 
 
-@jit
+@jit(counted=False)
 def heat_rate(hi, point, table, guess):
     """The largest heat rate [W] in ``[0, hi]`` whose zones fit the exchanger: exactly the
     :data:`~evtms.hx.counterflow.BISECTION_STEPS`-step bisection of
@@ -251,14 +251,14 @@ def heat_rate(hi, point, table, guess):
     return lo
 
 
-@jit
+@jit(counted=False)
 def _growth(f: float, g: float) -> float:
     """A zone's growth towards a pinch, as :func:`evtms.hx.counterflow._fill_pinch` counts it."""
     d = f - g
     return max(d, 0.0) if math.isfinite(d) else 0.0
 
 
-@jit
+@jit(counted=False)
 def _bracket(mdot, h_in, T_in, h_at_s, R0, R1, R2, s_T_in, s_h_in, s_R):
     """``(bad_direction, ok, hi)`` of :func:`evtms.hx.counterflow.solve_counterflow_evaporator`:
     a secondary inlet not warmer, finite inputs, and the heat rate [W] that brings the
@@ -270,7 +270,7 @@ def _bracket(mdot, h_in, T_in, h_at_s, R0, R1, R2, s_T_in, s_h_in, s_R):
     return bad_direction, ok, hi if ok else 0.0
 
 
-@jit
+@jit(counted=False)
 def heat_rate_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table):
     """The heat rate [W] of :func:`solve_point` and ``T_secondary_out`` [K] alone (the search, no more)."""
     point = prepare(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R)
@@ -279,7 +279,7 @@ def heat_rate_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdo
     return Q, table_interp(s_h_in - Q / s_mdot, table)
 
 
-@jit
+@jit(counted=False)
 def solve_point(mdot, h_in, T_in, T_sat, h_l, h_v, h_at_s, R0, R1, R2, s_mdot, s_T_in, s_h_in, s_R, table, guess):
     """One point of :func:`evtms.hx.counterflow.solve_counterflow_evaporator` (``guess``: see
     :func:`heat_rate`).

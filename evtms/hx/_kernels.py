@@ -28,7 +28,7 @@ _WATER_CP = 4186.0
 _WATER_T0 = 273.16
 
 
-@jit
+@jit(counted=False)
 def divide(a: float, b: float) -> float:
     """``a / b`` as NumPy divides floats: inf or NaN for ``b == 0``."""
     if b != 0.0:
@@ -38,7 +38,7 @@ def divide(a: float, b: float) -> float:
     return math.copysign(math.inf, a) * math.copysign(1.0, b)
 
 
-@jit
+@jit(counted=False)
 def nan_max(a: float, b: float) -> float:
     """``np.maximum(a, b)``: NaN if either is."""
     if a != a or b != b:
@@ -46,7 +46,7 @@ def nan_max(a: float, b: float) -> float:
     return a if a >= b else b
 
 
-@jit
+@jit(counted=False)
 def nan_min(a: float, b: float) -> float:
     """``np.minimum(a, b)``: NaN if either is."""
     if a != a or b != b:
@@ -54,7 +54,7 @@ def nan_min(a: float, b: float) -> float:
     return a if a <= b else b
 
 
-@jit
+@jit(counted=False)
 def interp(x: float, xp: np.ndarray, fp: np.ndarray) -> float:
     """``np.interp(x, xp, fp, left=nan, right=nan)`` for one ``x``, with NumPy's arithmetic."""
     n = xp.size
@@ -80,7 +80,7 @@ def interp(x: float, xp: np.ndarray, fp: np.ndarray) -> float:
     return y
 
 
-@jit
+@jit(counted=False)
 def log_mean(a: float, b: float) -> float:
     """One point of :func:`evtms.hx.counterflow._log_mean` (positive ``a`` and ``b``)."""
     r = b / a
@@ -95,7 +95,7 @@ def columns(n: int, *arrays: np.ndarray) -> np.ndarray:
     return np.column_stack([np.broadcast_to(np.asarray(a, float), (n,)) for a in arrays])
 
 
-@jit
+@jit(counted=False)
 def crossflow_effectiveness(ntu: float, cr: float) -> float:
     """One point of :func:`evtms.hx.effectiveness.crossflow_effectiveness`."""
     ntu = nan_max(ntu, 0.0)
@@ -105,7 +105,7 @@ def crossflow_effectiveness(ntu: float, cr: float) -> float:
     return 1.0 - math.exp(ntu**0.22 / cr * math.expm1(-cr * ntu**0.78))
 
 
-@jit
+@jit(counted=False)
 def dry_rate(f: float, C_ref: float, R_tot: float, C_air: float, dT: float) -> float:
     """One point of :meth:`evtms.hx.crossflow.ZoneHeatRate.dry`: a zone's heat rate [W] at coil fraction ``f``."""
     C_af = f * C_air
@@ -116,7 +116,7 @@ def dry_rate(f: float, C_ref: float, R_tot: float, C_air: float, dT: float) -> f
     return crossflow_effectiveness(ntu, cr) * C_min * dT
 
 
-@jit
+@jit(counted=False)
 def condensate_enthalpy(f, q_air, air_h, air_w, m_air, decay, wet_h, wets, sat_T, sat_h, sat_w):
     """One point of :meth:`evtms.hx.sides.Moisture.condensate`'s third result: the enthalpy
     flow [W] of the condensate a zone of fraction ``f`` drains, its air losing ``q_air`` [W]."""
@@ -129,7 +129,7 @@ def condensate_enthalpy(f, q_air, air_h, air_w, m_air, decay, wet_h, wets, sat_T
     return m_w * (_WATER_CP * (T_s_eff - _WATER_T0)) if m_w > 0 else 0.0
 
 
-@jit
+@jit(counted=False)
 def air_rate(f, dry, wet) -> float:
     """One point of :meth:`evtms.hx.crossflow.ZoneHeatRate.air_rate` (``dry``, ``wet``: as :func:`zone_rate`'s)."""
     q = dry_rate(f, dry[0], dry[1], dry[2], dry[3])
@@ -143,7 +143,7 @@ def air_rate(f, dry, wet) -> float:
     return q
 
 
-@jit
+@jit(counted=False)
 def zone_rate(f, dry, wet, moist, sat_T, sat_h, sat_w):
     """One point of :meth:`evtms.hx.crossflow.ZoneHeatRate.rate`.
 
@@ -179,7 +179,7 @@ def bisect_zone_fraction(target, hi, dry, wet, moist, sat_T, sat_h, sat_w, steps
     return out
 
 
-@jit
+@jit(counted=False)
 def counterflow_secants(h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
     """The secant lines of :func:`evtms.hx.counterflow._refrigerant_temperature` for one point:
     ``(slope_l, h0_v, T0_v, slope_v)``, the liquid zone's slope [K kg/J] and the vapour zone's
@@ -195,7 +195,7 @@ def counterflow_secants(h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
     return slope_l, h0_v, T0_v, slope_v
 
 
-@jit
+@jit(counted=False)
 def counterflow_refrigerant_temperature(h, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in):
     """One point of :func:`evtms.hx.counterflow._refrigerant_temperature` at enthalpy ``h``."""
     slope_l, h0_v, T0_v, slope_v = counterflow_secants(h_in, T_in, T_sat, h_l, h_v, h_at_secondary, T_sec_in)
@@ -206,7 +206,7 @@ def counterflow_refrigerant_temperature(h, h_in, T_in, T_sat, h_l, h_v, h_at_sec
     return T0_v + (h - h0_v) * slope_v
 
 
-@jit
+@jit(counted=False)
 def counterflow_fraction_total(
     Q, mdot, h_in, T_in, T_sat, h_l, h_v, h_at_secondary, R, s_mdot, s_T_in, s_h_in, s_R, tab_h, tab_T
 ):

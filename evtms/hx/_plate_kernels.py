@@ -22,7 +22,7 @@ _ANGLE_LO, _ANGLE_HI = MARTIN_ANGLE_RANGE
 _RE_EQ_LO, _RE_EQ_HI = YAN_LIN_RE_EQ_RANGE
 
 
-@jit
+@jit(counted=False)
 def martin_friction_factor(Re: float, chevron_angle: float) -> float:
     """One point of :func:`evtms.hx.plate.martin_friction_factor`: Darcy factor [1] at ``Re`` [1], angle [deg]."""
     Re = nan_max(Re, 1e-12)
@@ -38,7 +38,7 @@ def martin_friction_factor(Re: float, chevron_angle: float) -> float:
     return inv**-2
 
 
-@jit
+@jit(counted=False)
 def martin_nusselt(Re: float, Pr: float, chevron_angle: float) -> float:
     """One point of :func:`evtms.hx.plate.martin_nusselt` (viscosity ratio 1): Nusselt number [1]."""
     xi = martin_friction_factor(Re, chevron_angle)
@@ -46,20 +46,20 @@ def martin_nusselt(Re: float, Pr: float, chevron_angle: float) -> float:
     return 0.122 * Pr ** (1.0 / 3.0) * drive**0.374
 
 
-@jit
+@jit(counted=False)
 def martin_outside_range(Re: float, chevron_angle: float) -> bool:
     """One point of :func:`evtms.hx.plate.martin_outside_range` (NaN counts as inside, as NumPy's compares)."""
     angle_out = not (_ANGLE_LO <= chevron_angle <= _ANGLE_HI)
     return Re < _RE_LO or Re > _RE_HI or angle_out
 
 
-@jit
+@jit(counted=False)
 def equivalent_mass_flux(G: float, x: float, rho_l: float, rho_v: float) -> float:
     """One point of :func:`evtms.hx.plate.equivalent_mass_flux` [kg/(m2 s)] (Akers et al. 1959)."""
     return G * (1.0 - x + x * math.sqrt(rho_l / rho_v))
 
 
-@jit
+@jit(counted=False)
 def yan_lin_boiling_htc(
     x: float,
     G: float,
@@ -80,7 +80,7 @@ def yan_lin_boiling_htc(
     return 1.926 * (k_l / D_h) * Re_eq * Pr_l ** (1.0 / 3.0) * Bo_eq**0.3 * Re**-0.5
 
 
-@jit
+@jit(counted=False)
 def yan_lin_friction_factor(Re_eq: float, Re: float) -> float:
     """One point of :func:`evtms.hx.plate.yan_lin_friction_factor`: two-phase friction factor [1]."""
     Re_eq = nan_max(Re_eq, 1e-12)
@@ -93,7 +93,7 @@ def yan_lin_friction_factor(Re_eq: float, Re: float) -> float:
     return f
 
 
-@jit
+@jit(counted=False)
 def yan_lin_outside_range(Re_eq: float) -> bool:
     """One point of :func:`evtms.hx.plate.yan_lin_outside_range`."""
     return Re_eq < _RE_EQ_LO or Re_eq > _RE_EQ_HI
