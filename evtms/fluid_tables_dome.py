@@ -48,7 +48,13 @@ _RHO = PHASE_COLUMNS.index("rho")
 def ph_density(meta, sat, vapour, liquid, p: float, h: float) -> float:
     """Density [kg/m3] at ``(p [Pa], h [J/kg])``: the homogeneous mixture's inside the dome
     (``h_l <= h <= h_v``), else the single phase's at :func:`~evtms.fluid_tables.ph_temperature`;
-    NaN outside the tables."""
+    NaN outside the tables (:func:`ph_density_in` with its work array made here)."""
+    return ph_density_in(meta, sat, vapour, liquid, p, h, np.empty(len(PHASE_COLUMNS)))
+
+
+@jit(counted=False)
+def ph_density_in(meta, sat, vapour, liquid, p: float, h: float, row) -> float:
+    """:func:`ph_density`; ``row`` (at least two long) holds the single phase's state (work)."""
     st = pressure_stencil(meta, p)
     if st[0] < 0 or h != h:
         return math.nan
@@ -57,15 +63,15 @@ def ph_density(meta, sat, vapour, liquid, p: float, h: float) -> float:
     if h_l <= h <= h_v:
         x = (h - h_l) / (h_v - h_l)
         return 1.0 / (x / sat_column(sat, st, _RHO_V) + (1.0 - x) / sat_column(sat, st, _RHO_L))
-    out = np.empty(len(PHASE_COLUMNS))
-    pt_state(meta, sat, vapour, liquid, p, ph_temperature(meta, sat, vapour, liquid, p, h), out)
-    return out[_RHO]
+    pt_state(meta, sat, vapour, liquid, p, ph_temperature(meta, sat, vapour, liquid, p, h), row)
+    return row[_RHO]
 
 
-@jit(counted=False)
+@jit
 def _ph_density_many(meta, sat, vapour, liquid, p, h, out):
+    row = np.empty(len(PHASE_COLUMNS))
     for n in range(p.size):
-        out[n] = ph_density(meta, sat, vapour, liquid, p[n], h[n])
+        out[n] = ph_density_in(meta, sat, vapour, liquid, p[n], h[n], row)
 
 
 class DomeTabulatedFluid(TabulatedFluid):

@@ -38,7 +38,7 @@ import numpy as np
 
 from evtms._jit import jit
 from evtms.fluid_tables import SAT_COLUMNS, ph_temperature, pt_state, saturation
-from evtms.fluid_tables_dome import ph_density
+from evtms.fluid_tables_dome import ph_density_in
 from evtms.hx._counterflow_kernels import heat_rate_point, solve_point, table_interp
 from evtms.hx._kernels import nan_max, nan_min
 from evtms.hx._plate_kernels import (
@@ -194,10 +194,10 @@ def _resistances(T_c_mean, ref, geo, cool, s, gauss):
 
 
 @jit(counted=False)
-def plate_outlet_point(tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple):
+def plate_outlet_point(tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple, row):
     """One point of :func:`evtms.benches.chiller.plate_outlet`: the ports' loss (1.4 velocity heads each
     at the inlet's and the outlet's density, Shah and Focke 1988) added to the channels' drop, and the
-    outlet state at the outlet pressure (``s`` is overwritten with its saturation row).
+    outlet state at the outlet pressure (``s`` is overwritten with its saturation row; ``row`` is work).
 
     Returns ``dp`` [Pa], ``p_out`` [Pa], ``bad_dp``, ``x_out`` [1], ``T_out`` [K] and the outlet's
     density at the inlet pressure [kg/m3] (NaN where the outlet is not a state)."""
@@ -206,7 +206,7 @@ def plate_outlet_point(tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_
     if x_hx >= 0.0 and x_hx <= 1.0:
         rho_out = 1.0 / (x_hx / s[_RHO_V] + (1.0 - x_hx) / s[_RHO_L])
     elif math.isfinite(h_out):
-        rho_out = ph_density(meta, sat, vap, liq, p_in, h_out)
+        rho_out = ph_density_in(meta, sat, vap, liq, p_in, h_out, row)
     else:
         rho_out = math.nan
     G_port = mdot / geo[_PORT]
@@ -265,7 +265,7 @@ def chiller_in(
     saturation(meta, sat, p_in, s)
     T_sat, h_l, h_v = s[_T], s[_HL], s[_HV]
     T_in = ph_temperature(meta, sat, vap, liq, p_in, h_in)
-    rho_in = ph_density(meta, sat, vap, liq, p_in, h_in)
+    rho_in = ph_density_in(meta, sat, vap, liq, p_in, h_in, row)
     pt_state(meta, sat, vap, liq, p_in, T_c_in, row)
     h_at_c = row[0]
     G = mdot / geo[_FLOW_REF]
@@ -305,7 +305,7 @@ def chiller_in(
     grad_tp = _two_phase_gradient(G, D_h, s, x0, x1, nodes, weights)
     dp_channels = grad_l * (f0 * L) + grad_tp * (f1 * L) + grad_v * (f2 * L)
     dp, p_out, bad_dp, x_out, T_out, rho_out = plate_outlet_point(
-        tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple
+        tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple, row
     )
     p_ok = math.nan if bad_dp else p_out
     coolant_freezes = coolant_freezes or T_c_out < T_freeze

@@ -55,7 +55,7 @@ from evtms.benches._chiller_kernel import (
 )
 from evtms.benches.wcc import _COOLANT_TOP_MARGIN, _PASSES
 from evtms.fluid_tables import SAT_COLUMNS, ph_temperature, pt_state, saturation
-from evtms.fluid_tables_dome import ph_density
+from evtms.fluid_tables_dome import ph_density_in
 from evtms.hx._counterflow_kernels import solve_point, table_interp
 from evtms.hx._kernels import nan_max, nan_min
 from evtms.hx._plate_kernels import equivalent_mass_flux, martin_friction_factor, martin_outside_range
@@ -183,7 +183,7 @@ def wcc_in(
     inlet_subcooled = h_in < h_l
     h_in_ok = math.nan if inlet_subcooled else h_in
     T_in = ph_temperature(meta, sat, vap, liq, p_in, h_in_ok)
-    rho_in = ph_density(meta, sat, vap, liq, p_in, h_in_ok)
+    rho_in = ph_density_in(meta, sat, vap, liq, p_in, h_in_ok, row)
     not_below_inlet = (not (T_c_in < T_in)) and math.isfinite(T_c_in + T_in)
     T_c_ok = math.nan if not_below_inlet else T_c_in
     pt_state(meta, sat, vap, liq, p_in, T_c_ok, row)
@@ -254,7 +254,7 @@ def wcc_in(
     grad_v = martin_friction_factor(Re_vap, angle) * G**2 / (2.0 * rho_vp * D_h)
     dp_channels = grad_l * (f0 * L) + grad_tp * (f1 * L) + grad_v * (f2 * L)
     dp, p_out, bad_dp, x_out, T_out, rho_out = plate_outlet_point(
-        tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple
+        tables, s, geo, p_in, h_out, h_l, h_lv, mdot, rho_in, dp_channels, p_triple, row
     )
     p_ok = math.nan if bad_dp else p_out
     coolant_outside = coolant_outside or (math.isfinite(T_c_ok) and not (T_c_out < T_max_c - _COOLANT_TOP_MARGIN))
