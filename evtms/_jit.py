@@ -126,9 +126,10 @@ def uncounted() -> dict[str, bool]:
     LUTs, spends most of its time there: 75 % of a two-branch closure point
     (650 against 165 us a point). A function compiled with these options
     keeps no count: it must allocate no array (numba refuses to compile one
-    that does) and keep none beyond its call, the arrays staying alive in its
-    caller; it computes the same numbers. Empty where numba lacks the option
-    (the same code, counted).
+    that does), call nothing that does (numba compiles its callees with its
+    options; ``tests/test_uncounted_kernels.py`` reads the calls) and return
+    none, the arrays staying alive in its caller; it computes the same
+    numbers. Empty where numba lacks the option (the same code, counted).
     """
     load_numba()
     try:

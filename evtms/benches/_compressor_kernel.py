@@ -71,8 +71,15 @@ _OUTSIDE, _LIQUID_SUCTION, _NO_FLOW = 1, 3, 4
 def compress_point(speed, pr, p_in, x_in, by_enthalpy, c, meta, sat, vap, liq, out) -> None:
     """One point into ``out`` (:data:`COLUMNS`): suction ``(p_in, T_in)`` or, with
     ``by_enthalpy``, ``(p_in, h_in)`` with ``x_in`` the temperature [K] or enthalpy [J/kg];
-    ``c`` the :data:`CONSTANTS`."""
-    row = np.empty(len(PHASE_COLUMNS))
+    ``c`` the :data:`CONSTANTS` (:func:`compress_in` with its work row made here)."""
+    compress_in(speed, pr, p_in, x_in, by_enthalpy, c, meta, sat, vap, liq, out, np.empty(len(PHASE_COLUMNS)))
+
+
+# Allocates nothing (its work row comes from its caller), so it runs without reference counting
+# (evtms._jit.uncounted).
+@jit(counted=False)
+def compress_in(speed, pr, p_in, x_in, by_enthalpy, c, meta, sat, vap, liq, out, row) -> None:
+    """:func:`compress_point`; ``row`` holds the suction's single-phase state (work)."""
     if by_enthalpy:
         h_in = x_in
         pt_state(meta, sat, vap, liq, p_in, ph_temperature(meta, sat, vap, liq, p_in, h_in), row)
@@ -121,7 +128,8 @@ def compress_points(speed, pr, p_in, x_in, by_enthalpy, c, tables):
     meta, sat, vap, liq = tables
     out = np.empty((p_in.size, len(COLUMNS)))
     row = np.empty(len(COLUMNS))
+    state = np.empty(len(PHASE_COLUMNS))
     for k in range(p_in.size):
-        compress_point(speed[k], pr[k], p_in[k], x_in[k], by_enthalpy, c, meta, sat, vap, liq, row)
+        compress_in(speed[k], pr[k], p_in[k], x_in[k], by_enthalpy, c, meta, sat, vap, liq, row, state)
         out[k, :] = row
     return out
