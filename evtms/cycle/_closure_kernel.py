@@ -470,7 +470,7 @@ def _take_result(r, none, rows, v, so, si, dyn, wait, point, g, ops, sat, tol, o
 @_inline
 def _serve(c, cid, v, so, si, dyn, wait, point, ops, sat, vapour, dh, sh_min, tol, out, work):
     """Evaluate LUT ``c`` (number ``cid``) for every slot waiting for it, in one call; hand each
-    slot its answer. Returns how many were served. ``work``: the LUT's work arrays (:func:`_work`)."""
+    slot its answer. Returns how many were served. ``work``: the LUT's work arrays (:func:`_serve_work`)."""
     lo, hi, floats, ints, values, rows, src, base, tsec, nh_floats, nh_ints, nh_values, nh_on = c
     slots, pts_flat, ts_all, res_flat, first_all, outside_all, share, one = work[4:]
     G = point.size
