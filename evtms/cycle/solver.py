@@ -168,9 +168,10 @@ __all__ = [
 #: The closure's two paths (:class:`CycleSolver`'s ``closure``).
 CLOSURES = ("auto", "compiled", "python")
 #: ``auto`` finds the roots in the compiled kernel for batches up to this size: it solves a point
-#: in about 0.1 ms where the Python path's per-call work takes 10 ms, but in large batches each
-#: point's evaluations one after another cost about what the Python path's vectorised ones do
-#: (cabin maps 83 against 84 us a node, hp maps 103 against 74).
+#: in about 0.1 ms where the Python path's per-call work takes 10 ms. In large batches the kernel
+#: wins where few points are handed back (cabin map 65 against 71 us a node, random cabin points
+#: 71 against 96) and loses where many are, each solved again on the Python path (hp map 139
+#: against 80), so ``auto`` leaves large batches to the Python path (the maps name theirs).
 KERNEL_BATCH_MAX = 1000
 
 #: Largest difference [J/kg] between the suction state and the branches' mixture at a solved
