@@ -116,6 +116,18 @@ def scratch(ints, values, d):
     return np.empty(ints[1] * values.shape[1]), np.empty(d), np.zeros(d)
 
 
+@numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _on_edge(c0, c1, tk):
+    """``(c1 - c0) tk + c0`` on a cell's edge (``tk`` 0 or 1), where a NaN corner of zero weight does
+    not poison the result (``r != r``: ``r`` is NaN)."""
+    r = (c1 - c0) * tk + c0
+    if tk == 0.0 and r != r:
+        r = c0
+    if tk == 1.0 and r != r:
+        r = c1
+    return r
+
+
 # Allocates nothing: compiled without reference counting (evtms._jit.uncounted), as the callers
 # that pass it their tables point by point need.
 @numba.njit(cache=True, nogil=True, error_model="numpy", **uncounted())
@@ -231,13 +243,7 @@ def interpolate_in(pts, policy, outside, floats, ints, values, out, corners, t, 
                 for col in range(ncols):
                     c0 = values[row0, col]
                     c1 = values[row1, col]
-                    r = (c1 - c0) * tk + c0
-                    if not plain:  # a NaN corner of zero weight does not poison the result
-                        if tk == 0.0 and r != r:
-                            r = c0
-                        if tk == 1.0 and r != r:
-                            r = c1
-                    corners[c * ncols + col] = r
+                    corners[c * ncols + col] = (c1 - c0) * tk + c0 if plain else _on_edge(c0, c1, tk)
         for k in range(m - 2, -1, -1):
             half = 1 << k
             tk = t[k]
@@ -248,15 +254,7 @@ def interpolate_in(pts, policy, outside, floats, ints, values, out, corners, t, 
                     corners[e] = (corners[e + width] - c0) * tk + c0
                 continue
             for e in range(width):
-                c0 = corners[e]
-                c1 = corners[e + width]
-                r = (c1 - c0) * tk + c0
-                # A NaN corner of zero weight does not poison the result (r != r: r is NaN).
-                if tk == 0.0 and r != r:
-                    r = c0
-                if tk == 1.0 and r != r:
-                    r = c1
-                corners[e] = r
+                corners[e] = _on_edge(corners[e], corners[e + width], tk)
         for v in range(nv):
             out[v, p] = corners[v]
         if nc == 0:
