@@ -207,9 +207,11 @@ def compiled_roots(
     ``warm``, a previous solve's solution (one branch only), replaces the guesses where it has
     one, as in :func:`~evtms.cycle.closure.solve_at`: the searches start from its roots, its
     suction closure's slope and its branch's drop."""
+    if warm is not None and ctx.parallel:
+        return None
     direct = _direct_eligible(ctx)
     parts = _direct_parts(ctx, ops) if direct else (_parts(ctx, ops) if _eligible(ctx) else None)
-    if parts is None or (warm is not None and ctx.parallel):
+    if parts is None:
         return None
     n, limits = ops["speed"].size, ctx.models.limits()
     state = SolveState.start(n, limits, ctx.names, p_B_guess, dp_guess, warm)
