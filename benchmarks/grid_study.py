@@ -1,10 +1,15 @@
-"""Can the evaporator's cycle grid shrink? Each axis coarsened in turn, against the direct physics.
+"""Can the evaporator's cycle grid shrink? Axes coarsened, against the direct physics.
 
-Run:  python benchmarks/grid_study.py LUT_FOLDER [--points 100] [--workers 2] [--variants mdot,blower,...]
+Run:  python benchmarks/grid_study.py LUT_FOLDER [--points 100] [--workers 2]
+      [--variants mdot,blower,...,curvature:0.7,...]
 
 For each variant the evaporator LUT is written again on the ``cycle`` preset
-with one axis thinned (every other interior node dropped, the ends kept),
-into a scratch folder beside hard links to the folder's other LUTs; the
+with one axis thinned (every other interior node dropped, the ends kept), or
+(``curvature:TAU[:TAU_FLOW]``) with the nodes of every axis that the
+interpolant needs least dropped while dropping one misses the outlet by
+less than ``TAU`` kelvin, and the flow that meets the setpoint by less than
+``TAU_FLOW`` per cent, where the cycle's roots lie (``grid_curvature.py``), into a scratch
+folder beside hard links to the folder's other LUTs; the
 LUT cycle then solves the accuracy benchmark's random points
 (``accuracy_cycle.envelope``) in the ``cabin`` and ``cabin+chiller``
 circuits and is compared with the direct physics at the same points
@@ -27,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 from accuracy_cycle import envelope, relative_error
+from grid_curvature import curvature_nodes
 
 from evtms.benches import BENCHES
 from evtms.cycle import load_cycle_luts, run_cycle
@@ -45,22 +51,31 @@ def thinned(values: np.ndarray) -> np.ndarray:
     return values[keep]
 
 
-def build(folder: Path, source: Path, axis: str | None, workers: int) -> tuple[float, float, int]:
-    """The evaporator LUT into ``folder`` (``axis`` thinned, or the preset), the other LUTs linked
-    from ``source``; returns (seconds, MB, points)."""
+def variant_axes(variant: str | None, source: Path) -> dict[str, np.ndarray]:
+    """The axes a variant changes: ``None`` the preset (none), an axis name that axis thinned,
+    ``curvature:TAU`` the nodes :func:`grid_curvature.curvature_nodes` keeps."""
+    if variant is None:
+        return {}
+    if variant.startswith("curvature:"):
+        return curvature_nodes(source, *(float(t) for t in variant.split(":")[1:]))
+    return {variant: thinned(np.asarray(BENCHES["evaporator"].presets["cycle"][variant], float))}
+
+
+def build(folder: Path, source: Path, axes: dict[str, np.ndarray], workers: int) -> tuple[float, float, int]:
+    """The evaporator LUT into ``folder`` (the preset with ``axes`` in place of its own), the other
+    LUTs linked from ``source``; returns (seconds, MB, points)."""
     for f in source.glob("*.nc"):
         if f.name != "evaporator.nc":
             os.link(f, folder / f.name)
     preset = BENCHES["evaporator"].presets["cycle"]
     cmd = [sys.executable, "-m", "evtms", "bench", "evaporator", "--grid", "cycle", "-q", "-o"]
     cmd += [str(folder / "evaporator.nc"), "--workers", str(workers)]
-    if axis is not None:
-        values = thinned(np.asarray(preset[axis], float))
-        cmd += ["--axis", f"{axis}=" + ",".join(f"{v:.10g}" for v in values)]
+    for axis, values in axes.items():
+        cmd += ["--axis", f"{axis}=" + ",".join(f"{v:.17g}" for v in values)]
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True)
     seconds = time.perf_counter() - t0
-    sizes = [len(preset[a]) if a != axis else thinned(np.asarray(preset[a])).size for a in preset]
+    sizes = [len(axes.get(a, preset[a])) for a in preset]
     return seconds, (folder / "evaporator.nc").stat().st_size / 1e6, int(np.prod(sizes))
 
 
@@ -87,12 +102,15 @@ def main(argv: list[str] | None = None) -> None:
     points = envelope(args.points)
     direct = {c: run_cycle(points, circuit=c) for c in FIGURES}
     rows = []
-    for axis in (None, *args.variants.split(",")):
+    for variant in (None, *args.variants.split(",")):
+        axes = variant_axes(variant, args.luts)
         with tempfile.TemporaryDirectory(prefix="evtms-grid-") as tmp:
-            seconds, mb, n = build(Path(tmp), args.luts, axis, args.workers)
+            seconds, mb, n = build(Path(tmp), args.luts, axes, args.workers)
             errors = {c: worst(load_cycle_luts(tmp, c), points, direct[c], c) for c in FIGURES}
             shutil.rmtree(tmp, ignore_errors=True)
-        rows.append((axis or "cycle", n, mb, seconds, errors))
+        rows.append((variant or "cycle", n, mb, seconds, errors))
+        for axis, values in axes.items():
+            print(f"    {axis}: {len(values)} nodes, {', '.join(f'{v:.4g}' for v in values)}", file=sys.stderr)
         print(f"  {rows[-1][0]}: {n:,} points, {mb:.0f} MB, {seconds:.0f} s, {errors}", file=sys.stderr, flush=True)
     base = rows[0][4]
     head = [f"{c} {k}" for c in FIGURES for k in base[c] if k != "equal"]
