@@ -83,7 +83,7 @@ import perf_peers
 import perf_system
 import performance_page
 from accuracy_cycle import compare, envelope
-from perf_common import TARGETS, Table, child_fields, child_row, evtms_command, run_child
+from perf_common import TARGETS, Table, child_fields, child_row, compile_bytecode, evtms_command, run_child
 
 import evtms
 from evtms.cycle import CycleSolver, OperatingPoints, load_cycle_luts
@@ -413,6 +413,7 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
 
 def measure(args, table: Table) -> CycleSolver:
     """Every row the options ask for, quick ones first; the peers beside them."""
+    compile_bytecode()
     solver = lut_cycle(args, table)
     direct_point(args, table)
     cli_calls(args, table)
