@@ -48,6 +48,7 @@ from evtms.cycle.state import CP_SCALE
 from evtms.cycle.tables import vapour_table
 from evtms.fluid import Fluid
 from evtms.luts import open_lut
+from evtms.luts.interp import second_difference
 
 #: The secondary inlet of the evaporator's approach transform.
 _SECONDARY = "T_air_in"
@@ -95,14 +96,14 @@ def curvature_nodes(
     for j, d in enumerate(dims):
         if axes[d].size >= 3:
             f, weights = np.moveaxis(log_psi, j, 0), (np.moveaxis(per_kelvin, j, 0), np.moveaxis(per_flow, j, 0))
-            nodes, misses = thinned(f, weights, axes[d], (tau, tau_flow))
+            nodes, misses = thin_axis(f, weights, axes[d], (tau, tau_flow))
             kept[d] = axes[d][nodes]
             if dropped is not None:
                 dropped.extend(Dropped(d, float(axes[d][i]), *m) for i, m in misses)
     return kept
 
 
-def thinned(
+def thin_axis(
     f: np.ndarray, weights: tuple[np.ndarray, np.ndarray], x: np.ndarray, taus: tuple[float, float]
 ) -> tuple[list[int], list[tuple[int, tuple[float, float]]]]:
     """The nodes of axis ``x`` kept, the one of least cost dropped at a time while its cost is below
@@ -127,7 +128,7 @@ def drop_misses(f: np.ndarray, weights: tuple[np.ndarray, np.ndarray], x: np.nda
     cells on either side as well as the new one: the misses are taken at every grid node inside
     those three cells (the nodes dropped before included)."""
     rest = nodes[:p] + nodes[p + 1 :]
-    d2 = {q: _second_difference(f, x, rest, q) for q in range(max(p - 3, 0), min(p + 3, len(rest)))}
+    d2 = {q: _second_difference(f, x, rest, q) for q in range(max(p - 2, 0), min(p + 2, len(rest)))}
     misses = []
     for q in range(max(p - 2, 0), min(p + 1, len(rest) - 1)):  # the cells rest[q]..rest[q + 1]
         a, b = rest[q], rest[q + 1]
@@ -148,9 +149,9 @@ def drop_misses(f: np.ndarray, weights: tuple[np.ndarray, np.ndarray], x: np.nda
 
 
 def _second_difference(f: np.ndarray, x: np.ndarray, nodes: list[int], p: int) -> np.ndarray:
-    """The interpolator's second difference at ``nodes[p]`` on the axis of ``nodes`` (an end node takes
-    its neighbour's, as :func:`evtms.luts.interp.second_difference`)."""
+    """The interpolator's second difference at ``nodes[p]`` on the axis of ``nodes``: its own
+    (:func:`evtms.luts.interp.second_difference`) on the node's three, an end node taking its
+    neighbour's."""
     q = min(max(p, 1), len(nodes) - 2)
-    k0, k1, k2 = nodes[q - 1], nodes[q], nodes[q + 1]
-    h0, h1 = x[k1] - x[k0], x[k2] - x[k1]
-    return 2.0 * ((f[k2] - f[k1]) / h1 - (f[k1] - f[k0]) / h0) / (h0 + h1)
+    three = nodes[q - 1 : q + 2]
+    return second_difference(f[three], x[three], 0, 1, 2)[0]

@@ -54,7 +54,7 @@ def test_every_miss_a_thinned_axis_leaves_stays_within_the_threshold(curvature, 
     y = np.linspace(0.0, 1.0, 3)
     f = np.sin(x / 3)[:, None] * (1 + y)[None, :]
     tau = 1e-3
-    kept, dropped = curvature.thinned(f, _unit(f.shape), x, (tau, np.inf))
+    kept, dropped = curvature.thin_axis(f, _unit(f.shape), x, (tau, np.inf))
     assert dropped and len(kept) + len(dropped) == x.size
     assert _interpolator_miss(x, y, f, kept) <= tau
 
@@ -63,16 +63,16 @@ def test_a_quadratic_costs_nothing_a_cubic_does(curvature):
     # The quadratic correction is exact for a quadratic: nodes go down to the three it needs.
     x = np.linspace(0.0, 1.0, 9)
     quad = (3 * x**2 - x)[:, None] * np.ones((1, 2))
-    assert len(curvature.thinned(quad, _unit(quad.shape), x, (1e-9, np.inf))[0]) == 3
+    assert len(curvature.thin_axis(quad, _unit(quad.shape), x, (1e-9, np.inf))[0]) == 3
     cubic = (x**3)[:, None] * np.ones((1, 2))
-    assert 3 < len(curvature.thinned(cubic, _unit(cubic.shape), x, (1e-4, np.inf))[0]) < x.size
+    assert 3 < len(curvature.thin_axis(cubic, _unit(cubic.shape), x, (1e-4, np.inf))[0]) < x.size
 
 
 def test_nodes_stay_where_the_function_bends(curvature):
     # A knee at 0.5 (a smoothed kink): the nodes left cluster around it.
     x = np.linspace(0.0, 1.0, 41)
     f = np.logaddexp(0.0, (x - 0.5) * 40)[:, None] / 40 * np.ones((1, 2))
-    kept = x[curvature.thinned(f, _unit(f.shape), x, (2e-4, np.inf))[0]]
+    kept = x[curvature.thin_axis(f, _unit(f.shape), x, (2e-4, np.inf))[0]]
     near = np.abs(kept - 0.5) <= 0.15
     assert near.sum() > (~near).sum()
 
@@ -84,9 +84,9 @@ def test_the_flow_measure_takes_the_99th_percentile_and_binds_when_tighter(curva
     spiked = ones.copy()
     spiked[:, 0] = 1e9  # one column in 400 where the flow hardly responds: above the 99th percentile
     spiked[:, 1] = np.inf
-    loose = curvature.thinned(f, (ones, ones), x, (1.0, 1.0))[0]
-    assert curvature.thinned(f, (ones, spiked), x, (1.0, 1.0))[0] == loose
-    assert len(curvature.thinned(f, (ones, ones), x, (1.0, 1e-5))[0]) > len(loose)
+    loose = curvature.thin_axis(f, (ones, ones), x, (1.0, 1.0))[0]
+    assert curvature.thin_axis(f, (ones, spiked), x, (1.0, 1.0))[0] == loose
+    assert len(curvature.thin_axis(f, (ones, ones), x, (1.0, 1e-5))[0]) > len(loose)
 
 
 def test_nodes_outside_the_roots_band_cost_nothing(curvature):
@@ -94,4 +94,4 @@ def test_nodes_outside_the_roots_band_cost_nothing(curvature):
     x = np.linspace(0.0, 1.0, 9)
     f = np.sin(8 * x)[:, None] * np.ones((1, 2))
     nowhere = np.full(f.shape, np.nan)
-    assert len(curvature.thinned(f, (nowhere, nowhere), x, (1e-6, 1e-6))[0]) == 3
+    assert len(curvature.thin_axis(f, (nowhere, nowhere), x, (1e-6, 1e-6))[0]) == 3
